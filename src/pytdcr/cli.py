@@ -1,0 +1,225 @@
+"""The ``tdcr`` command. Nothing in the package imports this module.
+
+Exit status: 0 success (a solve converged), 1 a solve did not converge,
+2 bad input (one line on stderr naming what is wrong).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .design import ConstantFriction, ExponentialFriction, NoFriction, Robot
+from .io import RobotFileError, dump_json, load_robot, robot_to_dict, write_robot
+from .loads import Loads
+from .statics import SolverOptions, solve
+
+__all__ = ["build_parser", "main"]
+
+
+class CliError(Exception):
+    """Bad command-line input: reported on one line, exit status 2."""
+
+
+def parse_floats(text: str, name: str, count: int | None = None) -> np.ndarray:
+    """Comma-separated finite numbers, e.g. ``0.1,0.1,-0.1``."""
+    try:
+        vals = np.array([float(x) for x in text.split(",") if x.strip() != ""], dtype=float)
+    except ValueError:
+        raise CliError(f"{name}: expected comma-separated numbers, got {text!r}") from None
+    if count is not None and vals.size != count:
+        raise CliError(f"{name}: expected {count} comma-separated numbers, got {vals.size}")
+    if vals.size == 0:
+        raise CliError(f"{name}: expected comma-separated numbers, got {text!r}")
+    if not np.all(np.isfinite(vals)):
+        raise CliError(f"{name}: values must be finite, got {text!r}")
+    return vals
+
+
+def add_model_options(p: argparse.ArgumentParser) -> None:
+    """Robot and load options shared by solve, sample, optimize and reproduce."""
+    g = p.add_argument_group("robot and loads")
+    g.add_argument("--robot", default="paper", help="built-in robot (paper, rao) or a TOML file [paper]")
+    g.add_argument("--tip-force", metavar="FX,FY,FZ", help="tip force in the base frame [N]")
+    g.add_argument("--tip-moment", metavar="MX,MY,MZ", help="tip moment in the base frame [N m]")
+    grav = g.add_mutually_exclusive_group()
+    grav.add_argument("--gravity", dest="gravity", action="store_true", default=None,
+                      help="gravity -9.81 m/s^2 along base z (default: the robot's own)")
+    grav.add_argument("--no-gravity", dest="gravity", action="store_false", help="no gravity")
+    g.add_argument("--friction", help="none, paper (mu = 0.689 exp(-0.027 sigma_deg)) or a constant MU "
+                   "(default: the robot's own law)")
+    g.add_argument("--release", action="store_true", help="friction for releasing actuators (default: pulling)")
+
+
+@dataclass(frozen=True)
+class ModelSetup:
+    """What :func:`add_model_options` parsed: robot and external loads (tensions zero)."""
+
+    robot: Robot
+    loads: Loads
+
+
+def model_from_args(args: argparse.Namespace) -> ModelSetup:
+    """Build the robot and the external loads from parsed options; CliError on bad input."""
+    try:
+        robot = load_robot(args.robot)
+    except RobotFileError as err:
+        raise CliError(str(err)) from None
+    if args.gravity is True:
+        robot = robot.with_gravity((0.0, 0.0, -9.81))
+    elif args.gravity is False:
+        robot = robot.with_gravity(None)
+    if args.friction is not None:
+        f = args.friction.strip().lower()
+        if f == "none":
+            robot = robot.with_friction(NoFriction())
+        elif f == "paper":
+            robot = robot.with_friction(ExponentialFriction())
+        else:
+            mu = parse_floats(f, "--friction", 1)[0]
+            if not 0.0 <= mu <= 10.0:
+                raise CliError(f"--friction: constant mu must be in [0, 10], got {mu}")
+            robot = robot.with_friction(ConstantFriction(mu0=mu))
+    tf = parse_floats(args.tip_force, "--tip-force", 3) if args.tip_force else np.zeros(3)
+    tm = parse_floats(args.tip_moment, "--tip-moment", 3) if args.tip_moment else np.zeros(3)
+    loads = Loads(np.zeros(robot.n_tendons), tip_force=tf, tip_moment=tm, release=args.release)
+    return ModelSetup(robot, loads)
+
+
+def parse_tensions(text: str, robot: Robot) -> np.ndarray:
+    """Tensions for every tendon, finite and >= 0 [N]."""
+    t = parse_floats(text, "--tensions")
+    if t.size != robot.n_tendons:
+        raise CliError(f"--tensions: robot '{robot.name}' has {robot.n_tendons} tendons, got {t.size} values")
+    bad = np.flatnonzero(t < 0)
+    if bad.size:
+        raise CliError(f"--tensions: tension {bad[0] + 1} must be >= 0 N, got {t[bad[0]]}")
+    return t
+
+
+# ---------------------------------------------------------------- commands
+def _cmd_solve(args: argparse.Namespace) -> int:
+    setup = model_from_args(args)
+    robot = setup.robot
+    tensions = parse_tensions(args.tensions, robot)
+    loads = Loads(tensions, setup.loads.tip_force, setup.loads.tip_moment, release=setup.loads.release)
+    sol = solve(robot, loads, options=SolverOptions(atol=args.atol))
+    if args.json:
+        print(dump_json({"robot": robot.name, **sol.to_dict()}))
+    else:
+        status = "converged" if sol.converged else "NOT converged"
+        print(f"robot {robot.name}: {robot.n_disks} disks, {robot.n_tendons} tendons; {status}")
+        print(f"  max |residual| {sol.residual:.3e} N m, {sol.iterations} iterations, "
+              f"{sol.load_steps} load steps, {sol.seconds * 1e3:.2f} ms")
+        if sol.converged:
+            p = sol.tip_position
+            print(f"  tip position  [{p[0]: .6f}, {p[1]: .6f}, {p[2]: .6f}] m, |p| = {sol.reach:.6f} m")
+            z = sol.tip_rotation[:, 2]
+            print(f"  tip direction [{z[0]: .4f}, {z[1]: .4f}, {z[2]: .4f}]")
+    if args.plot:
+        if not sol.converged:
+            print("tdcr: not plotting: the solve did not converge", file=sys.stderr)
+        else:
+            _plot_solution(sol, robot, loads, Path(args.plot))
+    return 0 if sol.converged else 1
+
+
+def _plot_solution(sol, robot: Robot, loads: Loads, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .plotting import plot_robot
+
+    arrows = []
+    if np.any(loads.tip_force):
+        f = loads.tip_force
+        arrows.append((sol.tip_position, f / np.linalg.norm(f) * 0.25 * robot.length))
+    ax = plot_robot(sol, robot, loads=arrows)
+    ax.set_title(f"{robot.name}: tip at {np.array2string(sol.tip_position, precision=3)} m")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    ax.figure.savefig(path, dpi=150, bbox_inches="tight")
+    plt.close(ax.figure)
+
+
+def _cmd_robot(args: argparse.Namespace) -> int:
+    try:
+        robot = load_robot(args.robot)
+    except RobotFileError as err:
+        raise CliError(str(err)) from None
+    if args.out:
+        write_robot(robot, args.out)
+    else:
+        import tomli_w
+
+        print(tomli_w.dumps(robot_to_dict(robot)), end="")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``tdcr``."""
+    p = argparse.ArgumentParser(prog="tdcr", description="Statics and workspace of tendon-driven continuum robots.")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    s = sub.add_parser("solve", help="static equilibrium under tendon tensions and tip loads")
+    add_model_options(s)
+    s.add_argument("--tensions", required=True, metavar="T1,...,Tn", help="actuator tensions [N]")
+    s.add_argument("--atol", type=float, default=1e-9, help="convergence tolerance on max |residual| [N m]")
+    s.add_argument("--json", action="store_true", help="print one JSON object")
+    s.add_argument("--plot", metavar="FILE", help="write a 3D figure of the robot (PNG, PDF, SVG)")
+    s.set_defaults(func=_cmd_solve)
+
+    r = sub.add_parser("robot", help="print a robot as TOML (a starting point for your own)")
+    r.add_argument("--robot", default="paper", help="built-in robot or TOML file [paper]")
+    r.add_argument("--out", help="write to this file instead of stdout")
+    r.set_defaults(func=_cmd_robot)
+    return p
+
+
+
+
+_VALUE_OPTIONS = ("--tip-force", "--tip-moment", "--tensions", "--bounds", "--friction")
+
+
+def _glue_negative_values(argv: Sequence[str]) -> list[str]:
+    """Let ``--tip-moment -0.1,0.1,0.1`` through argparse (which takes ``-0.1,...`` for an option)."""
+    out: list[str] = []
+    it = iter(argv)
+    for tok in it:
+        if tok in _VALUE_OPTIONS:
+            nxt = next(it, None)
+            if nxt is None:
+                out.append(tok)
+            elif (nxt[:1] == "-" and nxt[1:2].isdigit()) or nxt[:2] == "-.":
+                out.append(f"{tok}={nxt}")
+            else:
+                out.extend([tok, nxt])
+        else:
+            out.append(tok)
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``tdcr``; returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(_glue_negative_values(sys.argv[1:] if argv is None else argv))
+    try:
+        if getattr(args, "atol", 1.0) is not None and not (np.isfinite(args.atol) and args.atol > 0):
+            raise CliError(f"--atol must be finite and > 0, got {args.atol}")
+        return int(args.func(args))
+    except CliError as err:
+        print(f"tdcr: error: {err}", file=sys.stderr)
+        return 2
+    except (ValueError, OSError) as err:
+        print(f"tdcr: error: {err}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,350 @@
+"""Robot description: backbone, segments, tendons, friction law, gravity.
+
+Every class here is an immutable, validated model (pydantic). Construction from
+Python keywords and from a TOML file goes through the same validation, so a bad
+value is reported the same way in both: the field, the value and the allowed
+range. Unknown keys are errors.
+
+All quantities are SI (m, kg, N, Pa, m/s^2) unless the name says otherwise
+(``angle_deg`` is in degrees).
+"""
+
+from __future__ import annotations
+
+import math
+from functools import cached_property
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+__all__ = [
+    "Backbone",
+    "ConstantFriction",
+    "ExponentialFriction",
+    "FrictionLaw",
+    "NoFriction",
+    "Robot",
+    "Segment",
+    "Tendon",
+    "paper_robot",
+    "rao_robot",
+]
+
+
+class _Frozen(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="forbid", ignored_types=(cached_property,))
+
+
+def _finite(value: float, name: str) -> float:
+    if not math.isfinite(value):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return value
+
+
+class Backbone(_Frozen):
+    """Elastic backbone rod (a round tube or a solid rod when ``inner_radius`` is 0).
+
+    Give either ``poissons_ratio`` or ``shear_modulus``; the other follows from
+    ``G = E / (2 (1 + nu))``.
+    """
+
+    youngs_modulus: float = Field(gt=0, allow_inf_nan=False, description="Young's modulus E [Pa]")
+    poissons_ratio: float | None = Field(
+        default=None, gt=-1.0, lt=0.5, allow_inf_nan=False, description="Poisson's ratio nu [-]"
+    )
+    shear_modulus: float | None = Field(
+        default=None, gt=0, allow_inf_nan=False, description="shear modulus G [Pa]"
+    )
+    outer_radius: float = Field(gt=0, allow_inf_nan=False, description="outer radius [m]")
+    inner_radius: float = Field(default=0.0, ge=0, allow_inf_nan=False, description="inner radius [m]")
+    mass_per_length: float = Field(
+        default=0.0, ge=0, allow_inf_nan=False, description="mass per unit length [kg/m]"
+    )
+
+    @model_validator(mode="after")
+    def _check(self) -> Backbone:
+        if (self.poissons_ratio is None) == (self.shear_modulus is None):
+            raise ValueError("backbone: give exactly one of poissons_ratio or shear_modulus")
+        if self.inner_radius >= self.outer_radius:
+            raise ValueError(
+                f"backbone.inner_radius must be smaller than outer_radius={self.outer_radius}, "
+                f"got {self.inner_radius}"
+            )
+        return self
+
+    @property
+    def shear(self) -> float:
+        """Shear modulus G [Pa]."""
+        if self.shear_modulus is not None:
+            return self.shear_modulus
+        assert self.poissons_ratio is not None
+        return self.youngs_modulus / (2.0 * (1.0 + self.poissons_ratio))
+
+    @property
+    def second_moment(self) -> float:
+        """Second moment of area I = pi (r_o^4 - r_i^4) / 4 [m^4]."""
+        return math.pi * (self.outer_radius**4 - self.inner_radius**4) / 4.0
+
+    @property
+    def bending_stiffness(self) -> float:
+        """EI [N m^2]."""
+        return self.youngs_modulus * self.second_moment
+
+    @property
+    def torsional_stiffness(self) -> float:
+        """G J = 2 G I [N m^2] (J = 2 I is the polar moment of a round section)."""
+        return self.shear * 2.0 * self.second_moment
+
+
+class Segment(_Frozen):
+    """One segment: a length of backbone carrying ``n_disks`` equally massive disks.
+
+    Disk ``k`` of the segment (1-based) sits at the end of the ``k``-th subsegment.
+    Subsegment lengths default to ``length / n_disks``.
+    """
+
+    length: float = Field(gt=0, allow_inf_nan=False, description="segment arc length [m]")
+    n_disks: int = Field(ge=1, le=10_000, description="number of disks in the segment")
+    disk_mass: float = Field(default=0.0, ge=0, allow_inf_nan=False, description="mass of one disk [kg]")
+    subsegment_lengths: tuple[float, ...] | None = Field(
+        default=None, description="backbone length before each disk [m]; sums to length"
+    )
+
+    @model_validator(mode="after")
+    def _check(self) -> Segment:
+        sl = self.subsegment_lengths
+        if sl is not None:
+            if len(sl) != self.n_disks:
+                raise ValueError(
+                    f"segment.subsegment_lengths must have n_disks={self.n_disks} entries, got {len(sl)}"
+                )
+            if any((not math.isfinite(x)) or x <= 0 for x in sl):
+                raise ValueError(f"segment.subsegment_lengths must all be finite and > 0, got {sl}")
+            if abs(sum(sl) - self.length) > 1e-9 * max(1.0, self.length):
+                raise ValueError(
+                    f"segment.subsegment_lengths must sum to length={self.length}, got {sum(sl)}"
+                )
+        return self
+
+    @property
+    def lengths(self) -> np.ndarray:
+        """Subsegment lengths, shape (n_disks,) [m]."""
+        if self.subsegment_lengths is not None:
+            return np.asarray(self.subsegment_lengths, dtype=float)
+        return np.full(self.n_disks, self.length / self.n_disks)
+
+
+class Tendon(_Frozen):
+    """A tendon routed straight through the disk holes at (radius, angle).
+
+    It passes through every disk before the last disk of segment ``segment``
+    (1-based) and is anchored at that disk.
+    """
+
+    segment: int = Field(ge=1, description="1-based index of the segment whose last disk anchors it")
+    radius: float = Field(gt=0, allow_inf_nan=False, description="routing radius [m]")
+    angle_deg: float = Field(allow_inf_nan=False, description="routing angle about z [deg]")
+
+    @property
+    def angle(self) -> float:
+        """Routing angle [rad]."""
+        return math.radians(self.angle_deg)
+
+
+class NoFriction(_Frozen):
+    """Frictionless tendon holes."""
+
+    law: Literal["none"] = "none"
+
+    def mu(self, sigma: np.ndarray | float) -> np.ndarray:
+        """Friction coefficient for deflection angle ``sigma`` [rad]."""
+        return np.zeros_like(np.asarray(sigma, dtype=float))
+
+
+class ConstantFriction(_Frozen):
+    """Coulomb friction with a constant coefficient."""
+
+    law: Literal["constant"] = "constant"
+    mu0: float = Field(ge=0, le=10, allow_inf_nan=False, description="friction coefficient [-]")
+
+    def mu(self, sigma: np.ndarray | float) -> np.ndarray:
+        """Friction coefficient for deflection angle ``sigma`` [rad]."""
+        return np.full_like(np.asarray(sigma, dtype=float), self.mu0)
+
+
+class ExponentialFriction(_Frozen):
+    """The paper's law (Eq. 16): ``mu = mu0 * exp(-decay_per_deg * sigma_deg)``.
+
+    ``sigma_deg`` is the local deflection angle of the tendon at the hole in
+    degrees, ``180 - angle(u_prev, u_next)``: 0 for a straight tendon. The paper's
+    Eq. 19 computes the angle between the two tendon directions itself (180 deg
+    when straight) while its text calls sigma the local bending angle; MODEL.md
+    reads it as the deflection, which keeps mu at 0.689 for a straight tendon
+    and lets it fall as the tendon wraps more.
+    """
+
+    law: Literal["exponential"] = "exponential"
+    mu0: float = Field(default=0.689, ge=0, le=10, allow_inf_nan=False, description="mu at sigma = 0")
+    decay_per_deg: float = Field(
+        default=0.027, ge=0, le=10, allow_inf_nan=False, description="decay rate [1/deg]"
+    )
+
+    def mu(self, sigma: np.ndarray | float) -> np.ndarray:
+        """Friction coefficient for deflection angle ``sigma`` [rad]."""
+        return self.mu0 * np.exp(-self.decay_per_deg * np.degrees(np.asarray(sigma, dtype=float)))
+
+
+FrictionLaw = Annotated[
+    NoFriction | ConstantFriction | ExponentialFriction, Field(discriminator="law")
+]
+
+
+class Robot(_Frozen):
+    """A tendon-driven continuum robot.
+
+    Frames: frame 0 is the base (world) frame; frame ``i`` is attached to disk
+    ``i`` (i = 1..N, N the total number of disks), its z-axis along the
+    backbone tangent.
+    """
+
+    name: str = Field(default="robot", min_length=1, max_length=200)
+    backbone: Backbone
+    segments: tuple[Segment, ...] = Field(min_length=1, max_length=100)
+    tendons: tuple[Tendon, ...] = Field(min_length=0, max_length=1000)
+    gravity: tuple[float, float, float] = Field(
+        default=(0.0, 0.0, -9.81), description="gravity in the base frame [m/s^2]"
+    )
+    friction: FrictionLaw = Field(default_factory=NoFriction)
+
+    @field_validator("gravity")
+    @classmethod
+    def _gravity_finite(cls, v: tuple[float, float, float]) -> tuple[float, float, float]:
+        for x in v:
+            _finite(x, "gravity")
+        return v
+
+    @model_validator(mode="after")
+    def _check(self) -> Robot:
+        for k, t in enumerate(self.tendons):
+            if t.segment > len(self.segments):
+                raise ValueError(
+                    f"tendons.{k}.segment must be between 1 and {len(self.segments)}, got {t.segment}"
+                )
+            if t.radius <= self.backbone.outer_radius:
+                raise ValueError(
+                    f"tendons.{k}.radius must exceed backbone.outer_radius="
+                    f"{self.backbone.outer_radius}, got {t.radius}"
+                )
+        seen: set[tuple[int, float, float]] = set()
+        for k, t in enumerate(self.tendons):
+            key = (t.segment, round(t.radius, 12), round(t.angle_deg % 360.0, 9))
+            if key in seen:
+                raise ValueError(f"tendons.{k} duplicates an earlier tendon of the same segment")
+            seen.add(key)
+        return self
+
+    # ----------------------------------------------------------------- derived
+    @property
+    def n_disks(self) -> int:
+        """Total number of disks N (= number of subsegments)."""
+        return sum(s.n_disks for s in self.segments)
+
+    @property
+    def n_tendons(self) -> int:
+        """Number of tendons."""
+        return len(self.tendons)
+
+    @property
+    def length(self) -> float:
+        """Total backbone length [m]."""
+        return float(sum(s.length for s in self.segments))
+
+    @property
+    def subsegment_lengths(self) -> np.ndarray:
+        """Arc length of every subsegment, shape (N,) [m]."""
+        return np.concatenate([s.lengths for s in self.segments])
+
+    @property
+    def disk_masses(self) -> np.ndarray:
+        """Mass of every disk, shape (N,) [kg]."""
+        return np.concatenate([np.full(s.n_disks, s.disk_mass) for s in self.segments])
+
+    @property
+    def segment_end_disks(self) -> np.ndarray:
+        """1-based index of the last disk of each segment, shape (M,)."""
+        return np.cumsum([s.n_disks for s in self.segments])
+
+    @property
+    def anchor_disks(self) -> np.ndarray:
+        """1-based index of the disk anchoring each tendon, shape (n_tendons,)."""
+        ends = self.segment_end_disks
+        return np.array([ends[t.segment - 1] for t in self.tendons], dtype=np.int64)
+
+    @property
+    def tendon_holes(self) -> np.ndarray:
+        """Hole position of each tendon in its disk's frame, shape (n_tendons, 3) [m]."""
+        out = np.zeros((self.n_tendons, 3))
+        for k, t in enumerate(self.tendons):
+            out[k, 0] = t.radius * math.cos(t.angle)
+            out[k, 1] = t.radius * math.sin(t.angle)
+        return out
+
+    def with_gravity(self, gravity: tuple[float, float, float] | None) -> Robot:
+        """Copy with another gravity vector (``None`` or zeros: no gravity)."""
+        g = (0.0, 0.0, 0.0) if gravity is None else tuple(float(x) for x in gravity)
+        return Robot.model_validate({**self.model_dump(), "gravity": g})
+
+    def with_friction(self, friction: NoFriction | ConstantFriction | ExponentialFriction) -> Robot:
+        """Copy with another friction law."""
+        return Robot.model_validate({**self.model_dump(), "friction": friction.model_dump()})
+
+
+# --------------------------------------------------------------------- presets
+#: Backbone of the benchmark robot of Rao et al. 2021 (the paper gives no material values).
+_RAO_BACKBONE = Backbone(
+    youngs_modulus=54e9, poissons_ratio=0.3, outer_radius=0.7e-3, inner_radius=0.0, mass_per_length=0.0115
+)
+
+
+def paper_robot(
+    friction: NoFriction | ConstantFriction | ExponentialFriction | None = None,
+) -> Robot:
+    """The two-segment, eight-tendon robot of Jabari et al. (the ``paper`` robot).
+
+    Two segments of 0.2 m with 10 disks of 0.2 g each; tendons at 10 mm, at
+    0/90/180/270 deg (segment 1) and 45/135/225/315 deg (segment 2); gravity
+    -9.81 m/s^2 along base z; the paper's exponential friction law by default.
+    The paper gives no material values: the backbone (E = 54 GPa, nu = 0.3,
+    solid, radius 0.7 mm, 0.0115 kg/m) is that of Rao et al. 2021's benchmark
+    robot, whose geometry the paper shares.
+    """
+    seg = Segment(length=0.2, n_disks=10, disk_mass=0.2e-3)
+    tendons = [Tendon(segment=1, radius=0.01, angle_deg=a) for a in (0.0, 90.0, 180.0, 270.0)]
+    tendons += [Tendon(segment=2, radius=0.01, angle_deg=a) for a in (45.0, 135.0, 225.0, 315.0)]
+    return Robot(
+        name="paper",
+        backbone=_RAO_BACKBONE,
+        segments=(seg, seg),
+        tendons=tuple(tendons),
+        gravity=(0.0, 0.0, -9.81),
+        friction=friction if friction is not None else ExponentialFriction(),
+    )
+
+
+def rao_robot() -> Robot:
+    """The two-segment benchmark robot of Rao et al. 2021 (three tendons per segment).
+
+    Tendons at 90, -30 and 210 deg in both segments, 10 mm radius; no friction
+    and no gravity (the setting of their published PCC regression values).
+    """
+    seg = Segment(length=0.2, n_disks=10, disk_mass=0.2e-3)
+    tendons = [Tendon(segment=s, radius=0.01, angle_deg=a) for s in (1, 2) for a in (90.0, -30.0, 210.0)]
+    return Robot(
+        name="rao2021",
+        backbone=_RAO_BACKBONE,
+        segments=(seg, seg),
+        tendons=tuple(tendons),
+        gravity=(0.0, 0.0, 0.0),
+        friction=NoFriction(),
+    )

@@ -1,0 +1,169 @@
+"""Robot files (TOML) and result files (JSON), with a schema version.
+
+A robot file::
+
+    schema_version = 1
+    name = "paper"
+    gravity = [0.0, 0.0, -9.81]          # m/s^2, base frame
+
+    [backbone]                           # SI units
+    youngs_modulus = 54e9
+    poissons_ratio = 0.3                 # or shear_modulus
+    outer_radius = 0.0007
+    mass_per_length = 0.0115
+
+    [friction]
+    law = "exponential"                  # "none" | "constant" (mu0) | "exponential"
+    mu0 = 0.689
+    decay_per_deg = 0.027
+
+    [[segments]]
+    length = 0.2
+    n_disks = 10
+    disk_mass = 0.0002
+
+    [[tendons]]
+    segment = 1
+    radius = 0.01
+    angle_deg = 0.0
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import tomli_w
+from pydantic import ValidationError
+
+from .design import Robot, paper_robot, rao_robot
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+__all__ = [
+    "BUILTIN_ROBOTS",
+    "SCHEMA_VERSION",
+    "RobotFileError",
+    "format_validation_error",
+    "load_robot",
+    "read_robot",
+    "robot_from_dict",
+    "robot_to_dict",
+    "to_jsonable",
+    "write_robot",
+]
+
+SCHEMA_VERSION = 1
+BUILTIN_ROBOTS = {"paper": paper_robot, "rao": rao_robot}
+
+
+_LAW_TAGS = {"none", "constant", "exponential"}  # pydantic's union tags, not user keys
+
+
+class RobotFileError(ValueError):
+    """A robot file that cannot be read, parsed or validated."""
+
+
+def format_validation_error(err: ValidationError) -> str:
+    """One line per problem: ``field.path = value: what is allowed``."""
+    parts = []
+    for e in err.errors():
+        loc = ".".join(str(x) for x in e["loc"] if x not in _LAW_TAGS)
+        msg = e["msg"].removeprefix("Value error, ")
+        if e["type"] == "extra_forbidden":
+            parts.append(f"{loc}: unknown key")
+        elif loc and "input" in e and not isinstance(e["input"], dict):
+            parts.append(f"{loc} = {e['input']!r}: {msg}")
+        elif loc:
+            parts.append(f"{loc}: {msg}")
+        else:
+            parts.append(msg)
+    return "; ".join(parts)
+
+
+def _drop_none(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {k: _drop_none(v) for k, v in obj.items() if v is not None}
+    if isinstance(obj, (list, tuple)):
+        return [_drop_none(v) for v in obj]
+    return obj
+
+
+def robot_to_dict(robot: Robot) -> dict[str, Any]:
+    """Plain dictionary of ``robot`` with ``schema_version`` (TOML-ready: no None)."""
+    return {"schema_version": SCHEMA_VERSION, **_drop_none(robot.model_dump())}
+
+
+def robot_from_dict(data: dict[str, Any], source: str = "robot") -> Robot:
+    """Validate a dictionary (as read from TOML) into a :class:`Robot`.
+
+    Raises
+    ------
+    RobotFileError
+        Naming each offending field, its value and the allowed range.
+    """
+    data = dict(data)
+    version = data.pop("schema_version", SCHEMA_VERSION)
+    if version != SCHEMA_VERSION:
+        raise RobotFileError(f"{source}: schema_version = {version!r}: only {SCHEMA_VERSION} is supported")
+    try:
+        return Robot.model_validate(data)
+    except ValidationError as err:
+        raise RobotFileError(f"{source}: {format_validation_error(err)}") from None
+
+
+def read_robot(path: str | Path) -> Robot:
+    """Read a robot TOML file."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as err:
+        raise RobotFileError(f"{path}: cannot read ({err.strerror or err})") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise RobotFileError(f"{path}: not valid TOML ({err})") from None
+    return robot_from_dict(data, str(path))
+
+
+def write_robot(robot: Robot, path: str | Path) -> None:
+    """Write ``robot`` as TOML (round-trips through :func:`read_robot`)."""
+    Path(path).write_text(tomli_w.dumps(robot_to_dict(robot)), encoding="utf-8")
+
+
+def load_robot(spec: str) -> Robot:
+    """A built-in robot by name (``paper``, ``rao``) or a TOML file path."""
+    if spec in BUILTIN_ROBOTS:
+        return BUILTIN_ROBOTS[spec]()
+    if not spec.endswith(".toml") and not Path(spec).exists():
+        raise RobotFileError(f"robot {spec!r}: not a built-in robot ({', '.join(BUILTIN_ROBOTS)}) nor a file")
+    return read_robot(spec)
+
+
+def to_jsonable(obj: Any) -> Any:
+    """Convert NumPy values inside ``obj`` to JSON-ready Python values."""
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [to_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return to_jsonable(obj.tolist())
+    if isinstance(obj, (np.floating, float)):
+        x = float(obj)
+        return x if np.isfinite(x) else None
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    return obj
+
+
+def dump_json(obj: Any) -> str:
+    """Strict JSON (non-finite numbers become null)."""
+    return json.dumps(to_jsonable(obj), allow_nan=False)

@@ -1,0 +1,89 @@
+"""Loads applied to a robot: actuator tensions and external wrenches."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+__all__ = ["Loads", "PointLoad", "check_vector"]
+
+
+def check_vector(value: ArrayLike, name: str, size: int = 3) -> np.ndarray:
+    """Return ``value`` as a finite float64 array of shape (size,) or raise ValueError."""
+    arr = np.asarray(value, dtype=float)
+    if arr.shape != (size,):
+        raise ValueError(f"{name} must have shape ({size},), got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite, got {arr.tolist()}")
+    return arr
+
+
+@dataclass(frozen=True)
+class PointLoad:
+    """A force and moment on disk ``disk`` (1-based; N is the tip), in the base frame.
+
+    Parameters
+    ----------
+    disk : int
+        Disk index, 1..N.
+    force : array-like, shape (3,)
+        Force in the base frame [N], acting at the disk's centre.
+    moment : array-like, shape (3,)
+        Moment in the base frame [N m].
+    """
+
+    disk: int
+    force: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    moment: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def __post_init__(self) -> None:
+        if isinstance(self.disk, bool) or not isinstance(self.disk, (int, np.integer)) or self.disk < 1:
+            raise ValueError(f"point load disk must be an integer >= 1, got {self.disk!r}")
+        object.__setattr__(self, "force", check_vector(self.force, "point load force"))
+        object.__setattr__(self, "moment", check_vector(self.moment, "point load moment"))
+
+
+@dataclass(frozen=True)
+class Loads:
+    """Actuation and external loads for one static solve.
+
+    Parameters
+    ----------
+    tensions : array-like, shape (n_tendons,)
+        Actuator tension of each tendon [N], finite and >= 0.
+    tip_force : array-like, shape (3,)
+        External force at the tip in the base frame [N].
+    tip_moment : array-like, shape (3,)
+        External moment at the tip in the base frame [N m].
+    point_loads : tuple of PointLoad
+        Further wrenches on any disk (base frame).
+    release : bool
+        Friction direction: False (default) when the actuators pull (tension
+        drops towards the tip), True when they release (it rises).
+    """
+
+    tensions: np.ndarray
+    tip_force: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    tip_moment: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    point_loads: tuple[PointLoad, ...] = ()
+    release: bool = False
+
+    def __post_init__(self) -> None:
+        t = np.asarray(self.tensions, dtype=float)
+        if t.ndim != 1:
+            raise ValueError(f"tensions must be a 1-D array, got shape {t.shape}")
+        bad = ~np.isfinite(t) | (t < 0)
+        if np.any(bad):
+            k = int(np.argmax(bad))
+            raise ValueError(f"tensions[{k}] must be finite and >= 0 N, got {t[k]}")
+        t = t.copy()
+        t.flags.writeable = False
+        object.__setattr__(self, "tensions", t)
+        object.__setattr__(self, "tip_force", check_vector(self.tip_force, "tip_force"))
+        object.__setattr__(self, "tip_moment", check_vector(self.tip_moment, "tip_moment"))
+        object.__setattr__(self, "point_loads", tuple(self.point_loads))
+        for p in self.point_loads:
+            if not isinstance(p, PointLoad):
+                raise TypeError(f"point_loads must hold PointLoad objects, got {type(p).__name__}")

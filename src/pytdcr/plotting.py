@@ -1,0 +1,127 @@
+"""Figures: robot shapes in 3D. Only this module (and the CLI) import matplotlib.
+
+Every function takes ``ax=None`` (a new 3D axis is made only if none is
+given), passes ``**kwargs`` to matplotlib and returns the axis.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import matplotlib.pyplot as plt
+import numpy as np
+from mpl_toolkits.mplot3d.axes3d import Axes3D
+
+from .design import Robot
+from .kinematics import backbone_curve
+from .results import StaticSolution
+
+__all__ = ["new_3d_axes", "plot_robot", "plot_robots", "set_equal_aspect"]
+
+
+def new_3d_axes(figsize: tuple[float, float] = (6.0, 6.0)) -> Axes3D:
+    """A fresh figure with one 3D axis."""
+    fig = plt.figure(figsize=figsize)
+    return fig.add_subplot(projection="3d")
+
+
+def set_equal_aspect(ax: Axes3D, points: np.ndarray, margin: float = 0.05) -> None:
+    """Equal scale on x, y, z around ``points`` (K, 3) [m]."""
+    lo = points.min(axis=0)
+    hi = points.max(axis=0)
+    centre = (lo + hi) / 2.0
+    half = max(float((hi - lo).max()) / 2.0, 1e-3) * (1.0 + margin)
+    ax.set_xlim(centre[0] - half, centre[0] + half)
+    ax.set_ylim(centre[1] - half, centre[1] + half)
+    ax.set_zlim(centre[2] - half, centre[2] + half)
+    ax.set_box_aspect((1.0, 1.0, 1.0))
+
+
+def _frame_arrows(ax: Axes3D, origin: np.ndarray, rot: np.ndarray, size: float) -> None:
+    for k, colour in enumerate(("tab:red", "tab:green", "tab:blue")):
+        ax.quiver(*origin, *(rot[:, k] * size), color=colour, linewidth=1.5, arrow_length_ratio=0.25)
+
+
+def plot_robot(
+    solution: StaticSolution,
+    robot: Robot,
+    ax: Axes3D | None = None,
+    *,
+    color: str = "k",
+    disks: bool = True,
+    tendons: bool = True,
+    frames: bool = True,
+    loads: Sequence[tuple[np.ndarray, np.ndarray]] = (),
+    label: str | None = None,
+    equal: bool = True,
+    **kwargs,
+) -> Axes3D:
+    """Draw one equilibrium shape: backbone, disks as rings, tendons, base and tip frames.
+
+    Parameters
+    ----------
+    solution : StaticSolution
+        Must be converged (a non-converged solve has no shape and raises).
+    robot : Robot
+    ax : Axes3D, optional
+    loads : sequence of (point, vector)
+        Arrows to draw (e.g. the tip force) from ``point`` (3,) along ``vector`` (3,),
+        both in the base frame, already scaled to metres.
+    **kwargs
+        Passed to the backbone's ``plot`` call.
+    """
+    if ax is None:
+        ax = new_3d_axes()
+    pos = solution.disk_positions  # raises if not converged
+    rot = solution.disk_rotations
+    curve = backbone_curve(solution.q, robot.subsegment_lengths)
+    ax.plot(curve[:, 0], curve[:, 1], curve[:, 2], color=color, linewidth=2.0, label=label, **kwargs)
+    holes = robot.tendon_holes
+    ring_r = float(np.max(np.linalg.norm(holes, axis=1))) * 1.2 if robot.n_tendons else 0.01
+    pts = [curve]
+    if disks:
+        phi = np.linspace(0.0, 2.0 * np.pi, 33)
+        circle = np.stack([np.cos(phi), np.sin(phi), np.zeros_like(phi)]) * ring_r
+        for i in range(pos.shape[0]):
+            ring = pos[i][:, None] + rot[i] @ circle
+            ax.plot(ring[0], ring[1], ring[2], color="0.45", linewidth=0.8)
+            pts.append(ring.T)
+    if tendons and robot.n_tendons:
+        anchors = robot.anchor_disks
+        cmap = plt.get_cmap("tab10")
+        for c in range(robot.n_tendons):
+            path = np.array([pos[i] + rot[i] @ holes[c] for i in range(anchors[c] + 1)])
+            ax.plot(path[:, 0], path[:, 1], path[:, 2], color=cmap(c % 10), linewidth=0.9)
+    if frames:
+        size = 0.12 * robot.length
+        _frame_arrows(ax, pos[0], rot[0], size)
+        _frame_arrows(ax, pos[-1], rot[-1], size)
+    for point, vec in loads:
+        point = np.asarray(point, dtype=float)
+        vec = np.asarray(vec, dtype=float)
+        ax.quiver(*point, *vec, color="tab:purple", linewidth=2.0, arrow_length_ratio=0.2)
+        pts.append(np.stack([point, point + vec]))
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+    if equal:
+        set_equal_aspect(ax, np.vstack(pts))
+    return ax
+
+
+def plot_robots(
+    solutions: Sequence[StaticSolution], robot: Robot, ax: Axes3D | None = None, **kwargs
+) -> Axes3D:
+    """Several converged shapes on one axis (non-converged ones are skipped)."""
+    if ax is None:
+        ax = new_3d_axes()
+    cmap = plt.get_cmap("viridis")
+    good = [s for s in solutions if s.converged]
+    pts = []
+    for k, s in enumerate(good):
+        plot_robot(s, robot, ax, color=cmap(k / max(1, len(good) - 1)), tendons=False, frames=False,
+                   equal=False, **kwargs)
+        pts.append(s.disk_positions)
+    if pts:
+        set_equal_aspect(ax, np.vstack(pts))
+    return ax

@@ -1,0 +1,100 @@
+"""Result types."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = ["NotConvergedError", "StaticSolution"]
+
+
+class NotConvergedError(RuntimeError):
+    """Raised when a shape is asked of a solve that did not converge."""
+
+
+@dataclass(frozen=True, eq=False)
+class StaticSolution:
+    """The outcome of one static solve.
+
+    Attributes
+    ----------
+    converged : bool
+        True when max |residual| <= atol and every value is finite.
+    residual : float
+        max |residual| [N m] at the returned unknowns.
+    iterations : int
+        Newton iterations in all (load steps included).
+    load_steps : int
+        Continuation steps taken (0 when the direct solve converged).
+    q : ndarray, shape (N, 3)
+        (beta [1/m], gamma [1/m], eps [rad]) per subsegment, MODEL.md's convention.
+    tensions : ndarray, shape (n_tendons, N)
+        Tension in each tendon piece i (between disk i-1 and i) [N]; 0 past the anchor.
+    seconds : float
+        Wall time of the solve [s].
+    atol : float
+        Convergence tolerance used [N m].
+    """
+
+    converged: bool
+    residual: float
+    iterations: int
+    load_steps: int
+    q: np.ndarray
+    tensions: np.ndarray
+    seconds: float
+    atol: float
+    _positions: np.ndarray
+    _rotations: np.ndarray
+
+    def _require(self) -> None:
+        if not self.converged:
+            raise NotConvergedError(
+                f"the solve did not converge (max |residual| = {self.residual:.3e} N m > atol = "
+                f"{self.atol:.1e}); it has no shape"
+            )
+
+    @property
+    def disk_positions(self) -> np.ndarray:
+        """Disk centres in the base frame, shape (N+1, 3) [m]; row 0 is the base."""
+        self._require()
+        return self._positions
+
+    @property
+    def disk_rotations(self) -> np.ndarray:
+        """Disk frame orientations in the base frame, shape (N+1, 3, 3)."""
+        self._require()
+        return self._rotations
+
+    @property
+    def tip_position(self) -> np.ndarray:
+        """Tip position ^0P_n, shape (3,) [m]."""
+        return self.disk_positions[-1]
+
+    @property
+    def tip_rotation(self) -> np.ndarray:
+        """Tip orientation ^0R_n, shape (3, 3)."""
+        return self.disk_rotations[-1]
+
+    @property
+    def reach(self) -> float:
+        """||^0P_n||_2 [m]."""
+        return float(np.linalg.norm(self.tip_position))
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dictionary; shape fields are None when not converged."""
+        ok = self.converged
+        return {
+            "converged": bool(ok),
+            "residual": float(self.residual),
+            "iterations": int(self.iterations),
+            "load_steps": int(self.load_steps),
+            "seconds": float(self.seconds),
+            "tip_position": self.tip_position.tolist() if ok else None,
+            "tip_rotation": self.tip_rotation.tolist() if ok else None,
+            "disk_positions": self.disk_positions.tolist() if ok else None,
+            "q": self.q.tolist(),
+            "tensions": self.tensions.tolist(),
+        }

@@ -1,0 +1,764 @@
+"""Compiled kernels of the PCC kineto-static model (MODEL.md).
+
+Layout of the packed model (built by :mod:`pytdcr.statics.model`):
+
+- ``sub``   (N, 5)  per subsegment i: l_i [m], EI [N m^2], GJ [N m^2],
+                    disk mass [kg], backbone mass of the piece [kg]
+- ``holes`` (nt, 2) tendon hole (x, y) in its disk's frame [m]
+- ``anchor`` (nt,)  1-based anchor disk of each tendon
+- ``fric``  (4,)    law code (0 none, 1 constant, 2 exponential), mu0,
+                    decay [1/rad], mode (+1 pull, -1 release)
+- ``tension`` (nt,) actuator tensions [N]
+- ``grav``  (3,)    gravity in the base frame [m/s^2]
+- ``pforce``, ``pmoment`` (N, 3) point wrench on disk i in the base frame [N, N m]
+
+Unknowns ``q`` (3N,) = (beta_i, gamma_i, eps_i) for i = 1..N.
+The residual is written in frame i-1 for subsegment i.
+
+The Jacobian is exact: local derivatives (of one subsegment's transform and of
+one tendon's load at one disk) come from the complex step, which has no
+truncation or cancellation error; they are chained across disks analytically
+(tensions forward, wrenches backward, base-fixed loads through the angular
+velocities of the frames), which costs O(N^2) instead of the O(N^2 * tendons)
+of a dense forward-mode pass.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from ..kinematics import frames, subsegment
+
+__all__ = ["evaluate", "frames", "make_work", "newton", "relax", "solve_batch", "solve_one", "subsegment",
+           "tendon_unit_load"]
+
+_H = 1e-30  # complex-step size
+
+
+@njit(cache=True, inline="always")
+def _deflection(u1x, u1y, u1z, u2x, u2y, u2z):
+    """Deflection angle [rad] of a tendon leaving along u2 after arriving along -u1."""
+    cs = -(u1x * u2x + u1y * u2y + u1z * u2z)
+    cx = u1y * u2z - u1z * u2y
+    cy = u1z * u2x - u1x * u2z
+    cz = u1x * u2y - u1y * u2x
+    sn = np.sqrt(cx * cx + cy * cy + cz * cz)
+    if cs.real >= sn.real:
+        return np.arctan(sn / cs)
+    return 0.5 * np.pi - np.arctan(cs / sn)
+
+
+@njit(cache=True)
+def tendon_unit_load(R, d, hn, px, py, is_anchor, fric, out):
+    """Load of one tendon of unit tension on disk i, in frame i-1.
+
+    ``R``, ``d``: transform of subsegment i; ``hn``: the hole at disk i+1 in
+    frame i (unused at the anchor). Writes ``out[0:3]`` force, ``out[3:6]``
+    moment about the origin of frame i-1 and ``out[6]`` the tension ratio
+    T_{i+1}/T_i across the disk (0 at the anchor). Real or complex.
+    """
+    bx = R[0, 0] * px + R[0, 1] * py + d[0]
+    by = R[1, 0] * px + R[1, 1] * py + d[1]
+    bz = R[2, 0] * px + R[2, 1] * py + d[2]
+    v1x = px - bx
+    v1y = py - by
+    v1z = -bz
+    n1 = np.sqrt(v1x * v1x + v1y * v1y + v1z * v1z)
+    u1x = v1x / n1
+    u1y = v1y / n1
+    u1z = v1z / n1
+    if is_anchor:
+        fx = u1x
+        fy = u1y
+        fz = u1z
+        rho = 0.0 * n1
+    else:
+        ex = R[0, 0] * hn[0] + R[0, 1] * hn[1] + R[0, 2] * hn[2] + d[0]
+        ey = R[1, 0] * hn[0] + R[1, 1] * hn[1] + R[1, 2] * hn[2] + d[1]
+        ez = R[2, 0] * hn[0] + R[2, 1] * hn[1] + R[2, 2] * hn[2] + d[2]
+        v2x = ex - bx
+        v2y = ey - by
+        v2z = ez - bz
+        n2 = np.sqrt(v2x * v2x + v2y * v2y + v2z * v2z)
+        u2x = v2x / n2
+        u2y = v2y / n2
+        u2z = v2z / n2
+        zx = R[0, 2]
+        zy = R[1, 2]
+        zz = R[2, 2]
+        law = int(fric[0])
+        if law == 0 or fric[1] == 0.0:
+            yx = u1x + u2x
+            yy = u1y + u2y
+            yz = u1z + u2z
+            zy_ = zx * yx + zy * yy + zz * yz
+            fx = yx - zx * zy_
+            fy = yy - zy * zy_
+            fz = yz - zz * zy_
+            rho = 1.0 + 0.0 * n1
+        else:
+            if law == 1:
+                mu = fric[1] + 0.0 * n1
+            else:
+                sig = _deflection(u1x, u1y, u1z, u2x, u2y, u2z)
+                mu = fric[1] * np.exp(-fric[2] * sig)
+            yx = u1x + u2x
+            yy = u1y + u2y
+            yz = u1z + u2z
+            zy_ = zx * yx + zy * yy + zz * yz
+            nx = yx - zx * zy_
+            ny = yy - zy * zy_
+            nz = yz - zz * zy_
+            hmag = np.sqrt(nx * nx + ny * ny + nz * nz)
+            rho = 1.0 - fric[3] * mu * hmag
+            if rho.real < 0.0:
+                rho = 0.0 * rho
+            xx = u1x + rho * u2x
+            xy = u1y + rho * u2y
+            xz = u1z + rho * u2z
+            zx_ = zx * xx + zy * xy + zz * xz
+            tx = u1x - u2x
+            ty = u1y - u2y
+            tz = u1z - u2z
+            tn = np.sqrt(tx * tx + ty * ty + tz * tz)
+            w = (1.0 - rho) / tn
+            fx = xx - zx * zx_ + w * tx
+            fy = xy - zy * zx_ + w * ty
+            fz = xz - zz * zx_ + w * tz
+    out[0] = fx
+    out[1] = fy
+    out[2] = fz
+    out[3] = by * fz - bz * fy
+    out[4] = bz * fx - bx * fz
+    out[5] = bx * fy - by * fx
+    out[6] = rho
+
+
+@njit(cache=True)
+def make_work(n, nt):
+    """Allocate the scratch arrays of :func:`evaluate` for N = n disks, nt tendons."""
+    m = 3 * n
+    return (
+        np.zeros((n + 2, 3, 3)),  # 0 R[i] (index 1..N, N+1 = identity pad)
+        np.zeros((n + 2, 3)),  # 1 d[i]
+        np.zeros((n + 2, 3)),  # 2 pg[i]
+        np.zeros((n + 2, 3, 3, 3)),  # 3 dR[i, a]
+        np.zeros((n + 2, 3, 3)),  # 4 dd[i, a]
+        np.zeros((n + 2, 3, 3)),  # 5 dpg[i, a]
+        np.zeros((n + 1, 3, 3)),  # 6 G[i] = R_{0,i}^T
+        np.zeros((n + 1, 3, m)),  # 7 Omega[i] (body angular velocity per lane)
+        np.zeros((n + 2, nt)),  # 8 T[i, c]: tension in piece i
+        np.zeros((n + 2, nt, m)),  # 9 dT
+        np.zeros((n + 1, nt, 7)),  # 10 unit load and ratio at disk i
+        np.zeros((n + 1, nt, 7, 6)),  # 11 its local derivative
+        np.zeros((3, m)),  # 12 dF
+        np.zeros((3, m)),  # 13 dM
+        np.zeros((6, m)),  # 14 dL
+        np.zeros((n + 1, 3)),  # 15 hole scratch / positions
+    )
+
+
+@njit(cache=True)
+def evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, want_jac, r, J, work):
+    """Residual ``r`` (3N,) and, if ``want_jac``, its Jacobian ``J`` (3N, 3N).
+
+    ``lam`` scales every load (tensions, gravity, point wrenches): load stepping.
+    """
+    n = sub.shape[0]
+    nt = holes.shape[0]
+    m = 3 * n
+    Rs, ds, pgs, dRs, dds, dpgs, G, Om, T, dT, W, dW, dF, dM, dL, _ = work
+    Rc = np.empty((3, 3), dtype=np.complex128)
+    dc = np.empty(3, dtype=np.complex128)
+    pgc = np.empty(3, dtype=np.complex128)
+    hc = np.empty(3, dtype=np.complex128)
+    outc = np.empty(7, dtype=np.complex128)
+    hn = np.empty(3)
+    out = np.empty(7)
+    h = _H
+
+    # ---- subsegment transforms (and their derivatives by complex step)
+    for i in range(1, n + 1):
+        k = 3 * (i - 1)
+        subsegment(q[k], q[k + 1], q[k + 2], sub[i - 1, 0], Rs[i], ds[i], pgs[i])
+        if want_jac:
+            for a in range(3):
+                qc0 = q[k] + 0j
+                qc1 = q[k + 1] + 0j
+                qc2 = q[k + 2] + 0j
+                if a == 0:
+                    qc0 += 1j * h
+                elif a == 1:
+                    qc1 += 1j * h
+                else:
+                    qc2 += 1j * h
+                subsegment(qc0, qc1, qc2, sub[i - 1, 0] + 0j, Rc, dc, pgc)
+                for u in range(3):
+                    for v in range(3):
+                        dRs[i, a, u, v] = Rc[u, v].imag / h
+                    dds[i, a, u] = dc[u].imag / h
+                    dpgs[i, a, u] = pgc[u].imag / h
+
+    # ---- base-to-frame rotations and angular velocities per lane
+    for u in range(3):
+        for v in range(3):
+            G[0, u, v] = 1.0 if u == v else 0.0
+    for i in range(1, n + 1):
+        R = Rs[i]
+        for u in range(3):
+            for v in range(3):
+                G[i, u, v] = R[0, u] * G[i - 1, 0, v] + R[1, u] * G[i - 1, 1, v] + R[2, u] * G[i - 1, 2, v]
+        if want_jac:
+            k = 3 * (i - 1)
+            for j in range(k):
+                o0 = Om[i - 1, 0, j]
+                o1 = Om[i - 1, 1, j]
+                o2 = Om[i - 1, 2, j]
+                Om[i, 0, j] = R[0, 0] * o0 + R[1, 0] * o1 + R[2, 0] * o2
+                Om[i, 1, j] = R[0, 1] * o0 + R[1, 1] * o1 + R[2, 1] * o2
+                Om[i, 2, j] = R[0, 2] * o0 + R[1, 2] * o1 + R[2, 2] * o2
+            for a in range(3):
+                # vee(R^T dR)
+                dRa = dRs[i, a]
+                s21 = R[0, 2] * dRa[0, 1] + R[1, 2] * dRa[1, 1] + R[2, 2] * dRa[2, 1]
+                s02 = R[0, 0] * dRa[0, 2] + R[1, 0] * dRa[1, 2] + R[2, 0] * dRa[2, 2]
+                s10 = R[0, 1] * dRa[0, 0] + R[1, 1] * dRa[1, 0] + R[2, 1] * dRa[2, 0]
+                Om[i, 0, k + a] = s21
+                Om[i, 1, k + a] = s02
+                Om[i, 2, k + a] = s10
+            for j in range(k + 3, m):
+                Om[i, 0, j] = 0.0
+                Om[i, 1, j] = 0.0
+                Om[i, 2, j] = 0.0
+
+    # ---- tendons, base to tip: unit loads, tension ratios, tensions
+    for c in range(nt):
+        T[1, c] = lam * tension[c]
+        if want_jac:
+            for j in range(m):
+                dT[1, c, j] = 0.0
+    for i in range(1, n + 1):
+        k = 3 * (i - 1)
+        for c in range(nt):
+            anc = anchor[c]
+            if i > anc:
+                W[i, c, :] = 0.0
+                T[i + 1, c] = 0.0
+                if want_jac:
+                    dW[i, c, :, :] = 0.0
+                    for j in range(m):
+                        dT[i + 1, c, j] = 0.0
+                continue
+            is_anchor = i == anc
+            px = holes[c, 0]
+            py = holes[c, 1]
+            if not is_anchor:
+                Rn = Rs[i + 1]
+                dn = ds[i + 1]
+                for u in range(3):
+                    hn[u] = Rn[u, 0] * px + Rn[u, 1] * py + dn[u]
+            tendon_unit_load(Rs[i], ds[i], hn, px, py, is_anchor, fric, out)
+            for u in range(7):
+                W[i, c, u] = out[u]
+            rho = out[6]
+            T[i + 1, c] = rho * T[i, c] if not is_anchor else 0.0
+            if want_jac:
+                nl = 3 if is_anchor else 6
+                for a in range(nl):
+                    if a < 3:
+                        for u in range(3):
+                            for v in range(3):
+                                Rc[u, v] = Rs[i, u, v] + 1j * h * dRs[i, a, u, v]
+                            dc[u] = ds[i, u] + 1j * h * dds[i, a, u]
+                            hc[u] = hn[u] + 0j
+                    else:
+                        b = a - 3
+                        for u in range(3):
+                            for v in range(3):
+                                Rc[u, v] = Rs[i, u, v] + 0j
+                            dc[u] = ds[i, u] + 0j
+                            hc[u] = hn[u] + 1j * h * (
+                                dRs[i + 1, b, u, 0] * px + dRs[i + 1, b, u, 1] * py + dds[i + 1, b, u]
+                            )
+                    tendon_unit_load(Rc, dc, hc, px, py, is_anchor, fric, outc)
+                    for u in range(7):
+                        dW[i, c, u, a] = outc[u].imag / h
+                for a in range(nl, 6):
+                    for u in range(7):
+                        dW[i, c, u, a] = 0.0
+                if is_anchor:
+                    for j in range(m):
+                        dT[i + 1, c, j] = 0.0
+                else:
+                    Ti = T[i, c]
+                    for j in range(m):
+                        dT[i + 1, c, j] = rho * dT[i, c, j]
+                    for a in range(6):
+                        dT[i + 1, c, k + a] += Ti * dW[i, c, 6, a]
+
+    # ---- wrenches, tip to base
+    Fx = 0.0
+    Fy = 0.0
+    Fz = 0.0
+    Mx = 0.0
+    My = 0.0
+    Mz = 0.0
+    if want_jac:
+        dF[:, :] = 0.0
+        dM[:, :] = 0.0
+    for i in range(n, 0, -1):
+        k = 3 * (i - 1)
+        R = Rs[i]
+        d = ds[i]
+        pg = pgs[i]
+        ell = sub[i - 1, 0]
+        md = sub[i - 1, 3]
+        mb = sub[i - 1, 4]
+        Gp = G[i - 1]
+        # base-fixed loads in frame i-1
+        glx = lam * (Gp[0, 0] * grav[0] + Gp[0, 1] * grav[1] + Gp[0, 2] * grav[2])
+        gly = lam * (Gp[1, 0] * grav[0] + Gp[1, 1] * grav[1] + Gp[1, 2] * grav[2])
+        glz = lam * (Gp[2, 0] * grav[0] + Gp[2, 1] * grav[1] + Gp[2, 2] * grav[2])
+        pfx = lam * (Gp[0, 0] * pforce[i - 1, 0] + Gp[0, 1] * pforce[i - 1, 1] + Gp[0, 2] * pforce[i - 1, 2])
+        pfy = lam * (Gp[1, 0] * pforce[i - 1, 0] + Gp[1, 1] * pforce[i - 1, 1] + Gp[1, 2] * pforce[i - 1, 2])
+        pfz = lam * (Gp[2, 0] * pforce[i - 1, 0] + Gp[2, 1] * pforce[i - 1, 1] + Gp[2, 2] * pforce[i - 1, 2])
+        pmx = lam * (Gp[0, 0] * pmoment[i - 1, 0] + Gp[0, 1] * pmoment[i - 1, 1] + Gp[0, 2] * pmoment[i - 1, 2])
+        pmy = lam * (Gp[1, 0] * pmoment[i - 1, 0] + Gp[1, 1] * pmoment[i - 1, 1] + Gp[1, 2] * pmoment[i - 1, 2])
+        pmz = lam * (Gp[2, 0] * pmoment[i - 1, 0] + Gp[2, 1] * pmoment[i - 1, 1] + Gp[2, 2] * pmoment[i - 1, 2])
+        mass = md + mb
+        cmx = md * d[0] + mb * pg[0]
+        cmy = md * d[1] + mb * pg[1]
+        cmz = md * d[2] + mb * pg[2]
+        LFx = mass * glx + pfx
+        LFy = mass * gly + pfy
+        LFz = mass * glz + pfz
+        LMx = cmy * glz - cmz * gly + d[1] * pfz - d[2] * pfy + pmx
+        LMy = cmz * glx - cmx * glz + d[2] * pfx - d[0] * pfz + pmy
+        LMz = cmx * gly - cmy * glx + d[0] * pfy - d[1] * pfx + pmz
+        for c in range(nt):
+            if i <= anchor[c]:
+                Tc = T[i, c]
+                LFx += Tc * W[i, c, 0]
+                LFy += Tc * W[i, c, 1]
+                LFz += Tc * W[i, c, 2]
+                LMx += Tc * W[i, c, 3]
+                LMy += Tc * W[i, c, 4]
+                LMz += Tc * W[i, c, 5]
+        # propagate F_{i+1}, M_{i+1} (frame i) into frame i-1
+        RFx = R[0, 0] * Fx + R[0, 1] * Fy + R[0, 2] * Fz
+        RFy = R[1, 0] * Fx + R[1, 1] * Fy + R[1, 2] * Fz
+        RFz = R[2, 0] * Fx + R[2, 1] * Fy + R[2, 2] * Fz
+        RMx = R[0, 0] * Mx + R[0, 1] * My + R[0, 2] * Mz
+        RMy = R[1, 0] * Mx + R[1, 1] * My + R[1, 2] * Mz
+        RMz = R[2, 0] * Mx + R[2, 1] * My + R[2, 2] * Mz
+        nFx = LFx + RFx
+        nFy = LFy + RFy
+        nFz = LFz + RFz
+        nMx = LMx + RMx + d[1] * RFz - d[2] * RFy
+        nMy = LMy + RMy + d[2] * RFx - d[0] * RFz
+        nMz = LMz + RMz + d[0] * RFy - d[1] * RFx
+        # residual
+        EI = sub[i - 1, 1]
+        tau = sub[i - 1, 2] * q[k + 2] / ell
+        r[k] = -EI * q[k + 1] + R[0, 2] * tau - nMx
+        r[k + 1] = EI * q[k] + R[1, 2] * tau - nMy
+        r[k + 2] = R[2, 2] * tau - nMz
+
+        if want_jac:
+            dL[:, :] = 0.0
+            # tendons: through tensions (all upstream lanes) and local geometry
+            for c in range(nt):
+                if i <= anchor[c]:
+                    Tc = T[i, c]
+                    for j in range(k + 3):
+                        g = dT[i, c, j]
+                        if g != 0.0:
+                            for u in range(6):
+                                dL[u, j] += W[i, c, u] * g
+                    la = 6 if k + 6 <= m else 3
+                    for a in range(la):
+                        for u in range(6):
+                            dL[u, k + a] += Tc * dW[i, c, u, a]
+            # base-fixed loads: upstream lanes rotate them, local lanes move the points
+            for j in range(k):
+                ox = Om[i - 1, 0, j]
+                oy = Om[i - 1, 1, j]
+                oz = Om[i - 1, 2, j]
+                # d(v) = v x omega for each base-fixed vector v in frame i-1
+                dgx = gly * oz - glz * oy
+                dgy = glz * ox - glx * oz
+                dgz = glx * oy - gly * ox
+                dfx = pfy * oz - pfz * oy
+                dfy = pfz * ox - pfx * oz
+                dfz = pfx * oy - pfy * ox
+                dmx = pmy * oz - pmz * oy
+                dmy = pmz * ox - pmx * oz
+                dmz = pmx * oy - pmy * ox
+                dL[0, j] += mass * dgx + dfx
+                dL[1, j] += mass * dgy + dfy
+                dL[2, j] += mass * dgz + dfz
+                dL[3, j] += cmy * dgz - cmz * dgy + d[1] * dfz - d[2] * dfy + dmx
+                dL[4, j] += cmz * dgx - cmx * dgz + d[2] * dfx - d[0] * dfz + dmy
+                dL[5, j] += cmx * dgy - cmy * dgx + d[0] * dfy - d[1] * dfx + dmz
+            for a in range(3):
+                ddx = dds[i, a, 0]
+                ddy = dds[i, a, 1]
+                ddz = dds[i, a, 2]
+                dcx = md * ddx + mb * dpgs[i, a, 0]
+                dcy = md * ddy + mb * dpgs[i, a, 1]
+                dcz = md * ddz + mb * dpgs[i, a, 2]
+                dL[3, k + a] += dcy * glz - dcz * gly + ddy * pfz - ddz * pfy
+                dL[4, k + a] += dcz * glx - dcx * glz + ddz * pfx - ddx * pfz
+                dL[5, k + a] += dcx * gly - dcy * glx + ddx * pfy - ddy * pfx
+            # dF_i, dM_i from dF_{i+1}, dM_{i+1} (in place, lane by lane)
+            for j in range(m):
+                ax = dF[0, j]
+                ay = dF[1, j]
+                az = dF[2, j]
+                bx_ = dM[0, j]
+                by_ = dM[1, j]
+                bz_ = dM[2, j]
+                rfx = R[0, 0] * ax + R[0, 1] * ay + R[0, 2] * az
+                rfy = R[1, 0] * ax + R[1, 1] * ay + R[1, 2] * az
+                rfz = R[2, 0] * ax + R[2, 1] * ay + R[2, 2] * az
+                rmx = R[0, 0] * bx_ + R[0, 1] * by_ + R[0, 2] * bz_
+                rmy = R[1, 0] * bx_ + R[1, 1] * by_ + R[1, 2] * bz_
+                rmz = R[2, 0] * bx_ + R[2, 1] * by_ + R[2, 2] * bz_
+                dF[0, j] = dL[0, j] + rfx
+                dF[1, j] = dL[1, j] + rfy
+                dF[2, j] = dL[2, j] + rfz
+                dM[0, j] = dL[3, j] + rmx + d[1] * rfz - d[2] * rfy
+                dM[1, j] = dL[4, j] + rmy + d[2] * rfx - d[0] * rfz
+                dM[2, j] = dL[5, j] + rmz + d[0] * rfy - d[1] * rfx
+            for a in range(3):
+                dRa = dRs[i, a]
+                ddx = dds[i, a, 0]
+                ddy = dds[i, a, 1]
+                ddz = dds[i, a, 2]
+                gfx = dRa[0, 0] * Fx + dRa[0, 1] * Fy + dRa[0, 2] * Fz
+                gfy = dRa[1, 0] * Fx + dRa[1, 1] * Fy + dRa[1, 2] * Fz
+                gfz = dRa[2, 0] * Fx + dRa[2, 1] * Fy + dRa[2, 2] * Fz
+                gmx = dRa[0, 0] * Mx + dRa[0, 1] * My + dRa[0, 2] * Mz
+                gmy = dRa[1, 0] * Mx + dRa[1, 1] * My + dRa[1, 2] * Mz
+                gmz = dRa[2, 0] * Mx + dRa[2, 1] * My + dRa[2, 2] * Mz
+                dF[0, k + a] += gfx
+                dF[1, k + a] += gfy
+                dF[2, k + a] += gfz
+                dM[0, k + a] += gmx + ddy * RFz - ddz * RFy + d[1] * gfz - d[2] * gfy
+                dM[1, k + a] += gmy + ddz * RFx - ddx * RFz + d[2] * gfx - d[0] * gfz
+                dM[2, k + a] += gmz + ddx * RFy - ddy * RFx + d[0] * gfy - d[1] * gfx
+            # Jacobian rows of subsegment i
+            for j in range(m):
+                J[k, j] = -dM[0, j]
+                J[k + 1, j] = -dM[1, j]
+                J[k + 2, j] = -dM[2, j]
+            GJl = sub[i - 1, 2] / ell
+            for a in range(3):
+                for u in range(3):
+                    J[k + u, k + a] += dRs[i, a, u, 2] * tau
+            J[k, k + 1] += -EI
+            J[k + 1, k] += EI
+            for u in range(3):
+                J[k + u, k + 2] += R[u, 2] * GJl
+        Fx = nFx
+        Fy = nFy
+        Fz = nFz
+        Mx = nMx
+        My = nMy
+        Mz = nMz
+
+
+@njit(cache=True, inline="always")
+def _maxabs(r):
+    s = 0.0
+    for x in r:
+        ax = abs(x)
+        if not ax <= s:  # also catches NaN
+            s = ax if ax == ax else np.inf
+    return s
+
+
+@njit(cache=True, inline="always")
+def _sumsq(r):
+    s = 0.0
+    for x in r:
+        s += x * x
+    return s
+
+
+@njit(cache=True)
+def _step_scale(dx, sub, max_dtheta):
+    """Largest factor <= 1 keeping every subsegment's bend and twist change <= max_dtheta."""
+    n = sub.shape[0]
+    big = 0.0
+    for i in range(n):
+        dth = np.sqrt(dx[3 * i] ** 2 + dx[3 * i + 1] ** 2) * sub[i, 0]
+        if dth > big:
+            big = dth
+        if abs(dx[3 * i + 2]) > big:
+            big = abs(dx[3 * i + 2])
+    if big > max_dtheta:
+        return max_dtheta / big
+    return 1.0
+
+
+@njit(cache=True)
+def newton(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, work):
+    """Quasi-Newton iteration from ``q`` (modified in place) at load factor ``lam``.
+
+    The exact Jacobian is inverted once; later steps update the inverse with
+    Broyden's rank-one formula and the exact Jacobian is recomputed only when a
+    step stops making good progress. Steps are scaled so that no subsegment's
+    bend angle or twist changes by more than ``max_dtheta`` [rad] and
+    backtracked on ||r||^2. Where the Newton direction fails on a fresh
+    Jacobian (near a fold), Levenberg-Marquardt steps take over.
+    Returns ``(converged, max|r|, iterations, jacobian evaluations)``.
+    """
+    m = q.shape[0]
+    r = np.empty(m)
+    rt = np.empty(m)
+    J = np.empty((m, m))
+    qt = np.empty(m)
+    evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, True, r, J, work)
+    njac = 1
+    fresh = True
+    H = np.zeros((m, m))
+    try:
+        H[:, :] = np.linalg.inv(J)
+    except Exception:
+        H[:, :] = 0.0
+    res = _maxabs(r)
+    it = 0
+    while it < max_iter:
+        if res <= atol:
+            return True, res, it, njac
+        if not np.isfinite(res):
+            return False, res, it, njac
+        it += 1
+        dx = -(H @ r)
+        alpha = _step_scale(dx, sub, max_dtheta)
+        f0 = _sumsq(r)
+        accepted = False
+        nls = 8 if not fresh else 30
+        for _ls in range(nls):
+            for u in range(m):
+                qt[u] = q[u] + alpha * dx[u]
+            evaluate(qt, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, False, rt, J, work)
+            f1 = _sumsq(rt)
+            if f1 <= (1.0 - 1e-4 * alpha) * f0:
+                accepted = True
+                break
+            alpha *= 0.5
+        if not accepted and fresh:
+            # Levenberg-Marquardt on the exact Jacobian (robust where J is near singular)
+            A = J.T @ J
+            g = J.T @ r
+            mu = 1e-6
+            dmax = 0.0
+            for u in range(m):
+                if A[u, u] > dmax:
+                    dmax = A[u, u]
+            for _lm in range(16):
+                B = A.copy()
+                for u in range(m):
+                    B[u, u] += mu * dmax
+                try:
+                    dx = -np.linalg.solve(B, g)
+                except Exception:
+                    mu *= 10.0
+                    continue
+                alpha = _step_scale(dx, sub, max_dtheta)
+                for u in range(m):
+                    qt[u] = q[u] + alpha * dx[u]
+                evaluate(qt, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, False, rt, J, work)
+                f1 = _sumsq(rt)
+                if f1 < f0:
+                    accepted = True
+                    break
+                mu *= 10.0
+            if not accepted:
+                return False, res, it, njac
+        if not accepted:
+            # stale Broyden inverse: recompute the exact Jacobian here and retry
+            evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, True, r, J, work)
+            njac += 1
+            fresh = True
+            try:
+                H[:, :] = np.linalg.inv(J)
+            except Exception:
+                H[:, :] = 0.0
+            continue
+        # Broyden update of the inverse with s = qt - q, y = rt - r
+        s = qt - q
+        y = rt - r
+        Hy = H @ y
+        sHy = s @ Hy
+        if abs(sHy) > 1e-300:
+            sH = s @ H
+            H += np.outer(s - Hy, sH) / sHy
+        for u in range(m):
+            q[u] = qt[u]
+            r[u] = rt[u]
+        res = _maxabs(r)
+        fresh = False
+        if f1 > 0.25 * f0 and res > atol:
+            evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, True, r, J, work)
+            njac += 1
+            fresh = True
+            try:
+                H[:, :] = np.linalg.inv(J)
+            except Exception:
+                H[:, :] = 0.0
+    return res <= atol, res, it, njac
+
+
+@njit(cache=True)
+def relax(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, work):
+    """Pseudo-transient continuation from ``q`` (in place): implicit Euler on dq/dt = -D^-1 r.
+
+    Used where Newton fails at a fold: the pseudo-time flow follows the
+    snap-through to a neighbouring stable equilibrium; the time step grows as
+    the residual falls (switched evolution relaxation), ending in Newton steps.
+    Returns ``(converged, max|r|, iterations, jacobian evaluations)``.
+    """
+    m = q.shape[0]
+    r = np.empty(m)
+    J = np.empty((m, m))
+    D = np.empty(m)
+    evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, True, r, J, work)
+    for u in range(m):
+        D[u] = abs(J[u, u]) + 1e-12
+    r0 = np.sqrt(_sumsq(r))
+    rprev = r0
+    dt = 0.05
+    res = _maxabs(r)
+    for it in range(max_iter):
+        if res <= atol:
+            return True, res, it, it + 1
+        A = J.copy()
+        for u in range(m):
+            A[u, u] += D[u] / dt
+        try:
+            dx = -np.linalg.solve(A, r)
+        except Exception:
+            return False, res, it, it + 1
+        alpha = _step_scale(dx, sub, max_dtheta)
+        for u in range(m):
+            q[u] += alpha * dx[u]
+        evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, True, r, J, work)
+        res = _maxabs(r)
+        if not np.isfinite(res):
+            return False, res, it + 1, it + 2
+        rn = np.sqrt(_sumsq(r))
+        grow = dt * 1.5 if rn < rprev else dt * 0.5
+        dt = min(1e12, max(grow, 0.05 * r0 / max(rn, 1e-300)))
+        rprev = rn
+    return res <= atol, res, max_iter, max_iter + 1
+
+
+@njit(cache=True)
+def solve_one(q0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, stepping, work):
+    """Solve at full load: quasi-Newton from ``q0``, then load stepping if that fails.
+
+    ``stepping``: 0 never step, 1 step only if the direct solve fails,
+    2 always step from the unloaded straight robot. Continuation ramps every
+    load by a factor lam from 0 to 1 with a secant predictor and adaptive
+    steps; where it stalls at a fold (snap-through), it jumps ahead from the
+    last equilibrium, as the robot would.
+    Returns ``(q, converged, max|r|, iterations, jacobian evaluations, load steps)``.
+    """
+    m = q0.shape[0]
+    q = q0.copy()
+    iters = 0
+    nj = 0
+    if stepping != 2:
+        ok, res, it, ne = newton(
+            q, 1.0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, work
+        )
+        iters += it
+        nj += ne
+        if ok or stepping == 0:
+            return q, ok, res, iters, nj, 0
+    q[:] = 0.0
+    qprev = np.zeros(m)
+    lprev = 0.0
+    qs = np.zeros(m)
+    lam = 0.0
+    dlam = 0.25
+    steps = 0
+    ok = False
+    res = np.inf
+    while lam < 1.0 and steps < 400:
+        lt = min(1.0, lam + dlam)
+        # secant predictor from the last two equilibria
+        if lam > lprev:
+            w = (lt - lam) / (lam - lprev)
+            for u in range(m):
+                qs[u] = q[u] + w * (q[u] - qprev[u])
+        else:
+            qs[:] = q
+        ok, res, it, ne = newton(
+            qs, lt, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, work
+        )
+        if not ok and lam > lprev:  # retry without the predictor
+            qs[:] = q
+            ok, res, it2, ne2 = newton(
+                qs, lt, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, work
+            )
+            it += it2
+            ne += ne2
+        iters += it
+        nj += ne
+        steps += 1
+        if ok:
+            qprev[:] = q
+            lprev = lam
+            q[:] = qs
+            lam = lt
+            dlam = min(2.0 * dlam, 1.0)
+        else:
+            dlam *= 0.5
+            if dlam < 1.0 / 512.0:
+                # a fold: relax from the last equilibrium at full load (the snap-through)
+                qs[:] = q
+                lt = 1.0
+                ok, res, it, ne = relax(
+                    qs, lt, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, 20 * max_iter,
+                    max_dtheta, work,
+                )
+                iters += it
+                nj += ne
+                steps += 1
+                if not ok:
+                    break
+                qprev[:] = qs
+                q[:] = qs
+                lprev = lt  # no secant across the jump
+                lam = lt
+                dlam = 1.0 / 16.0
+    if lam < 1.0:
+        r = np.empty(m)
+        J = np.empty((1, 1))
+        evaluate(q, 1.0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, False, r, J, work)
+        return q, False, _maxabs(r), iters, nj, steps
+    return q, ok, res, iters, nj, steps
+
+
+@njit(cache=True, parallel=True)
+def solve_batch(q0, sub, holes, anchor, fric, tensions, grav, pforce, pmoment, atol, max_iter, max_dtheta, stepping,
+                out_q, out_ok, out_res, out_it):
+    """Solve many tension vectors ``tensions`` (B, nt) in parallel (one thread per case)."""
+    nb = tensions.shape[0]
+    n = sub.shape[0]
+    nt = holes.shape[0]
+    for b in prange(nb):
+        work = make_work(n, nt)
+        q, ok, res, it, _ne, _st = solve_one(
+            q0[b], sub, holes, anchor, fric, tensions[b], grav, pforce, pmoment, atol, max_iter, max_dtheta,
+            stepping, work,
+        )
+        out_q[b, :] = q
+        out_ok[b] = ok
+        out_res[b] = res
+        out_it[b] = it

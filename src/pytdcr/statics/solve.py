@@ -1,0 +1,223 @@
+"""Solving the equilibrium equations: damped Newton with an exact Jacobian.
+
+Strategy: Newton from the straight robot (or a warm start), each step limited
+to ``max_dtheta`` of bend or twist per subsegment and backtracked on the
+residual norm. If that fails, and ``load_stepping`` allows, the loads are
+ramped from zero (the straight robot is then exact) in adaptive steps, which
+follows the branch of equilibria that quasi-static loading reaches.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from ..design import Robot
+from ..loads import Loads
+from ..results import StaticSolution
+from . import _kernels as K
+from .model import StaticModel
+
+__all__ = ["BatchSolution", "SolverOptions", "solve", "solve_batch", "solve_model", "warmup"]
+
+_STEPPING = {"never": 0, "auto": 1, "always": 2}
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Options of the static solver.
+
+    Parameters
+    ----------
+    atol : float
+        Converged when max |residual| <= atol [N m].
+    max_iter : int
+        Newton iterations per attempt (per load step when stepping).
+    max_dtheta : float
+        Largest change of bend angle or twist of one subsegment per step [rad].
+    load_stepping : {'auto', 'never', 'always'}
+        'auto' ramps the loads only when the direct solve fails.
+    """
+
+    atol: float = 1e-9
+    max_iter: int = 50
+    max_dtheta: float = 0.5
+    load_stepping: Literal["auto", "never", "always"] = "auto"
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.atol) and self.atol > 0):
+            raise ValueError(f"atol must be finite and > 0, got {self.atol}")
+        if self.max_iter < 1:
+            raise ValueError(f"max_iter must be >= 1, got {self.max_iter}")
+        if not (np.isfinite(self.max_dtheta) and self.max_dtheta > 0):
+            raise ValueError(f"max_dtheta must be finite and > 0, got {self.max_dtheta}")
+        if self.load_stepping not in _STEPPING:
+            raise ValueError(f"load_stepping must be one of {sorted(_STEPPING)}, got {self.load_stepping!r}")
+
+    def _kernel(self) -> tuple[float, int, float, int]:
+        return float(self.atol), int(self.max_iter), float(self.max_dtheta), _STEPPING[self.load_stepping]
+
+
+def _start(model: StaticModel, q0: np.ndarray | None) -> np.ndarray:
+    if q0 is None:
+        return np.zeros(model.n_unknowns)
+    q = np.array(q0, dtype=float).reshape(-1)
+    if q.shape != (model.n_unknowns,):
+        raise ValueError(f"q0 must have shape ({model.n_unknowns // 3}, 3), got {np.shape(q0)}")
+    if not np.all(np.isfinite(q)):
+        raise ValueError("q0 must be finite")
+    return q
+
+
+def solve_model(
+    model: StaticModel, q0: np.ndarray | None = None, options: SolverOptions | None = None
+) -> StaticSolution:
+    """Solve a packed :class:`StaticModel`; see :func:`solve`."""
+    opts = options or SolverOptions()
+    qs = _start(model, q0)
+    n = model.sub.shape[0]
+    t0 = time.perf_counter()
+    work = K.make_work(n, model.holes.shape[0])
+    q, ok, res, iters, _nev, steps = K.solve_one(qs, *model._args(), *opts._kernel(), work)
+    seconds = time.perf_counter() - t0
+    pos = np.empty((n + 1, 3))
+    rot = np.empty((n + 1, 3, 3))
+    K.frames(q, model.sub, pos, rot)
+    ok = bool(ok) and bool(np.all(np.isfinite(q)))
+    return StaticSolution(
+        converged=ok,
+        residual=float(res),
+        iterations=int(iters),
+        load_steps=int(steps),
+        q=q.reshape(n, 3),
+        tensions=model.tensions(q),
+        seconds=seconds,
+        atol=opts.atol,
+        _positions=pos,
+        _rotations=rot,
+    )
+
+
+def solve(
+    robot: Robot,
+    loads: Loads,
+    *,
+    q0: np.ndarray | None = None,
+    options: SolverOptions | None = None,
+) -> StaticSolution:
+    """Static equilibrium of ``robot`` under ``loads``.
+
+    Parameters
+    ----------
+    robot : Robot
+    loads : Loads
+    q0 : array-like, shape (N, 3), optional
+        Warm start; default the straight robot (zeros).
+    options : SolverOptions, optional
+
+    Returns
+    -------
+    StaticSolution
+        Check ``converged``: a non-converged solution carries its residual and
+        refuses to give a shape.
+    """
+    return solve_model(StaticModel.build(robot, loads), q0, options)
+
+
+@dataclass(frozen=True, eq=False)
+class BatchSolution:
+    """Solutions of many tension vectors under the same external loads.
+
+    Attributes
+    ----------
+    tensions : ndarray, shape (B, n_tendons)
+    converged : ndarray of bool, shape (B,)
+    residual : ndarray, shape (B,)
+        max |residual| [N m].
+    iterations : ndarray of int, shape (B,)
+    q : ndarray, shape (B, N, 3)
+    tip_position : ndarray, shape (B, 3)
+        [m]; NaN where not converged.
+    seconds : float
+        Wall time of the whole batch [s].
+    """
+
+    tensions: np.ndarray
+    converged: np.ndarray
+    residual: np.ndarray
+    iterations: np.ndarray
+    q: np.ndarray
+    tip_position: np.ndarray
+    seconds: float
+
+    @property
+    def reach(self) -> np.ndarray:
+        """||tip|| [m], shape (B,); NaN where not converged."""
+        return np.linalg.norm(self.tip_position, axis=1)
+
+
+def solve_batch(
+    robot: Robot,
+    tensions: np.ndarray,
+    loads: Loads | None = None,
+    *,
+    q0: np.ndarray | None = None,
+    options: SolverOptions | None = None,
+) -> BatchSolution:
+    """Solve every row of ``tensions`` (B, n_tendons) in parallel (all cores).
+
+    ``loads`` gives the external wrenches and friction direction shared by all
+    cases (its own tensions are ignored). ``q0`` is one warm start (N, 3) or
+    one per case (B, N, 3).
+    """
+    opts = options or SolverOptions()
+    T = np.ascontiguousarray(tensions, dtype=float)
+    if T.ndim != 2 or T.shape[1] != robot.n_tendons:
+        raise ValueError(f"tensions must have shape (B, {robot.n_tendons}), got {T.shape}")
+    for b in range(T.shape[0]):
+        Loads(tensions=T[b])  # validates: finite, >= 0
+    base = loads if loads is not None else Loads(tensions=np.zeros(robot.n_tendons))
+    model = StaticModel.build(robot, Loads(np.zeros(robot.n_tendons), base.tip_force, base.tip_moment,
+                                           base.point_loads, base.release))
+    nb = T.shape[0]
+    m = model.n_unknowns
+    if q0 is None:
+        Q0 = np.zeros((nb, m))
+    else:
+        Q0 = np.asarray(q0, dtype=float)
+        Q0 = np.ascontiguousarray(np.broadcast_to(Q0.reshape(-1, m) if Q0.ndim == 3 else Q0.reshape(1, m), (nb, m)))
+    out_q = np.empty((nb, m))
+    out_ok = np.empty(nb, dtype=np.bool_)
+    out_res = np.empty(nb)
+    out_it = np.empty(nb, dtype=np.int64)
+    t0 = time.perf_counter()
+    K.solve_batch(Q0, model.sub, model.holes, model.anchor, model.fric, T, model.grav, model.pforce,
+                  model.pmoment, *opts._kernel(), out_q, out_ok, out_res, out_it)
+    seconds = time.perf_counter() - t0
+    n = m // 3
+    tips = np.full((nb, 3), np.nan)
+    pos = np.empty((n + 1, 3))
+    rot = np.empty((n + 1, 3, 3))
+    ok = out_ok & np.all(np.isfinite(out_q), axis=1)
+    for b in np.flatnonzero(ok):
+        K.frames(out_q[b], model.sub, pos, rot)
+        tips[b] = pos[-1]
+    return BatchSolution(
+        tensions=T, converged=ok, residual=out_res, iterations=out_it, q=out_q.reshape(nb, n, 3),
+        tip_position=tips, seconds=seconds,
+    )
+
+
+def warmup() -> float:
+    """Compile (or load from the on-disk cache) every kernel; returns the seconds it took."""
+    from ..design import rao_robot
+
+    t0 = time.perf_counter()
+    robot = rao_robot()
+    loads = Loads(np.full(robot.n_tendons, 1.0), tip_force=np.array([0.0, 0.01, 0.0]))
+    solve(robot, loads)
+    solve_batch(robot, np.ones((2, robot.n_tendons)), loads)
+    return time.perf_counter() - t0
