@@ -104,6 +104,8 @@ def parse_tensions(text: str, robot: Robot) -> np.ndarray:
 
 # ---------------------------------------------------------------- commands
 def _cmd_solve(args: argparse.Namespace) -> int:
+    if not (np.isfinite(args.atol) and args.atol > 0):
+        raise CliError(f"--atol must be finite and > 0, got {args.atol}")
     setup = model_from_args(args)
     robot = setup.robot
     tensions = parse_tensions(args.tensions, robot)
@@ -210,8 +212,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(_glue_negative_values(sys.argv[1:] if argv is None else argv))
     try:
-        if getattr(args, "atol", 1.0) is not None and not (np.isfinite(args.atol) and args.atol > 0):
-            raise CliError(f"--atol must be finite and > 0, got {args.atol}")
         return int(args.func(args))
     except CliError as err:
         print(f"tdcr: error: {err}", file=sys.stderr)

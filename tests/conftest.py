@@ -1,0 +1,51 @@
+"""Shared fixtures and the tolerances of the validation tests (set in one place)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pytdcr import Backbone, Robot, Segment, paper_robot, rao_robot
+
+#: solver tolerance on max |residual| [N m] (the library default)
+ATOL = 1e-9
+#: agreement expected between two converged solves of the same equilibrium [m]
+SAME_SHAPE = 1e-9
+#: finite-difference step and agreement for Jacobian checks (central differences)
+FD_STEP = 1e-6
+FD_AGREE = 1e-7
+
+
+@pytest.fixture(scope="session")
+def paper() -> Robot:
+    return paper_robot()
+
+
+@pytest.fixture(scope="session")
+def rao() -> Robot:
+    return rao_robot()
+
+
+@pytest.fixture(scope="session")
+def backbone() -> Backbone:
+    return Backbone(youngs_modulus=54e9, poissons_ratio=0.3, outer_radius=0.7e-3)
+
+
+def rod(backbone: Backbone, n: int, length: float = 0.4, **kw) -> Robot:
+    """A single-segment robot without tendons or gravity (for closed-form checks)."""
+    kw.setdefault("gravity", (0.0, 0.0, 0.0))
+    kw.setdefault("tendons", ())
+    return Robot(backbone=backbone, segments=(Segment(length=length, n_disks=n),), **kw)
+
+
+def fd_jacobian(model, q: np.ndarray, h: float = FD_STEP) -> np.ndarray:
+    """Central finite differences of ``model.residual`` at ``q`` (3N,)."""
+    q = np.asarray(q, dtype=float).ravel()
+    J = np.empty((q.size, q.size))
+    for j in range(q.size):
+        qp = q.copy()
+        qm = q.copy()
+        qp[j] += h
+        qm[j] -= h
+        J[:, j] = (model.residual(qp).ravel() - model.residual(qm).ravel()) / (2 * h)
+    return J

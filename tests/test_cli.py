@@ -1,0 +1,113 @@
+"""The ``tdcr`` command: JSON equals the Python API, errors are one line, exit codes honest."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from pytdcr import Loads, NoFriction, solve
+from pytdcr.cli import main
+from pytdcr.io import write_robot
+
+
+def run(capsys, *args: str) -> tuple[int, str, str]:
+    code = main(list(args))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_solve_json_matches_python_api(capsys, paper):
+    code, out, _ = run(capsys, "solve", "--tensions", "4,0,0,0,2,0,0,0", "--tip-force", "0.01,0,-0.02",
+                       "--tip-moment", "-0.001,0.002,0", "--json")
+    assert code == 0
+    data = json.loads(out)
+    sol = solve(paper, Loads(np.array([4.0, 0, 0, 0, 2, 0, 0, 0]), tip_force=[0.01, 0, -0.02],
+                             tip_moment=[-0.001, 0.002, 0]))
+    assert data["converged"] is True
+    for key in ("residual", "iterations", "tip_position", "tip_rotation", "disk_positions", "q", "tensions"):
+        assert key in data
+    assert np.allclose(data["tip_position"], sol.tip_position, atol=1e-15)
+    assert np.allclose(data["tip_rotation"], sol.tip_rotation, atol=1e-15)
+    assert np.allclose(data["q"], sol.q, atol=0)
+    assert np.shape(data["disk_positions"]) == (21, 3)
+    assert np.allclose(data["tensions"], sol.tensions)
+
+
+def test_model_options(capsys, tmp_path, paper):
+    code, out, _ = run(capsys, "solve", "--tensions", "4,0,0,0,2,0,0,0", "--no-gravity", "--friction", "none",
+                       "--json")
+    ref = solve(paper.with_gravity(None).with_friction(NoFriction()), Loads(np.array([4.0, 0, 0, 0, 2, 0, 0, 0])))
+    assert code == 0 and np.allclose(json.loads(out)["tip_position"], ref.tip_position)
+    code, out, _ = run(capsys, "solve", "--tensions", "4,0,0,0,2,0,0,0", "--friction", "0.1", "--release", "--json")
+    t = json.loads(out)["tensions"]
+    assert code == 0 and t[0][9] > 4.0  # tension rises towards the anchor when releasing
+    path = tmp_path / "r.toml"
+    write_robot(paper, path)
+    code, out2, _ = run(capsys, "solve", "--robot", str(path), "--tensions", "4,0,0,0,2,0,0,0", "--friction", "0.1",
+                        "--release", "--json")
+    assert code == 0 and json.loads(out2)["tip_position"] == json.loads(out)["tip_position"]
+
+
+def test_human_summary_and_plot(capsys, tmp_path):
+    png = tmp_path / "robot.png"
+    code, out, _ = run(capsys, "solve", "--robot", "rao", "--tensions", "4,0,0,0,2,0", "--plot", str(png))
+    assert code == 0
+    assert "converged" in out and "0.127542" in out
+    assert png.stat().st_size > 10_000
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["--tensions", "1,2"], ["--tensions", "8 tendons", "got 2"]),
+        (["--tensions", "1,2,3,4,5,6,7,-8"], ["tension 8 must be >= 0"]),
+        (["--tensions", "1,2,3,4,5,6,7,nan"], ["finite"]),
+        (["--tensions", "1,2,3,4,5,6,7,x"], ["comma-separated numbers"]),
+        (["--tensions", "0,0,0,0,0,0,0,0", "--tip-force", "1,2"], ["--tip-force", "3"]),
+        (["--tensions", "0,0,0,0,0,0,0,0", "--friction", "-1"], ["--friction", "[0, 10]"]),
+        (["--tensions", "0,0,0,0,0,0,0,0", "--robot", "nope.toml"], ["nope.toml", "cannot read"]),
+    ],
+)
+def test_bad_input_is_one_line_exit_2(capsys, args, words):
+    code, out, err = run(capsys, "solve", *args)
+    assert code == 2
+    assert out == ""
+    line = err.strip()
+    assert "\n" not in line and line.startswith("tdcr: error:")
+    for w in words:
+        assert w in line
+
+
+def test_bad_robot_file(capsys, tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text('name = "x"\nwheels = 4\n')
+    code, _, err = run(capsys, "solve", "--robot", str(path), "--tensions", "1")
+    assert code == 2 and "wheels: unknown key" in err
+
+
+def test_not_converged_exit_status(capsys):
+    code, out, _ = run(capsys, "solve", "--tensions", "19.2,14.5,10.8,5.5,3.2,19.4,10.3,2.3", "--tip-force",
+                       "0.1,0.1,-0.1", "--tip-moment", "-0.1,0.1,0.1", "--atol", "1e-30", "--json")
+    data = json.loads(out)
+    assert code == 1 and data["converged"] is False and data["tip_position"] is None
+
+
+def test_console_script_no_traceback():
+    proc = subprocess.run([sys.executable, "-m", "pytdcr.cli", "solve", "--tensions", "-1,0"],
+                          capture_output=True, text=True, check=False)
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr
+
+
+def test_robot_command_round_trips(capsys, tmp_path, paper):
+    code, out, _ = run(capsys, "robot", "--robot", "paper")
+    assert code == 0 and "youngs_modulus" in out
+    path = tmp_path / "p.toml"
+    path.write_text(out)
+    from pytdcr.io import read_robot
+
+    assert read_robot(path) == paper

@@ -1,0 +1,87 @@
+"""Solver behaviour: honest convergence reports, warm starts, load stepping, batches."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import SAME_SHAPE
+
+from pytdcr import Loads, NotConvergedError, SolverOptions, StaticModel, solve, solve_batch
+
+PAPER_LOAD = {"tip_force": [0.1, 0.1, -0.1], "tip_moment": [-0.1, 0.1, 0.1]}
+
+
+def test_non_convergence_is_reported_and_has_no_shape(paper):
+    loads = Loads(np.array([19.2, 14.5, 10.8, 5.5, 3.2, 19.4, 10.3, 2.3]), **PAPER_LOAD)
+    sol = solve(paper, loads, options=SolverOptions(max_iter=1, load_stepping="never"))
+    assert not sol.converged
+    assert sol.residual > sol.atol
+    assert np.isfinite(sol.residual)
+    for attr in ("tip_position", "disk_positions", "disk_rotations", "reach"):
+        with pytest.raises(NotConvergedError, match="did not converge"):
+            getattr(sol, attr)
+    d = sol.to_dict()
+    assert d["converged"] is False and d["tip_position"] is None and d["residual"] == sol.residual
+
+
+def test_paper_load_needs_and_gets_load_stepping(paper):
+    loads = Loads(np.array([19.2, 14.5, 10.8, 5.5, 3.2, 19.4, 10.3, 2.3]), **PAPER_LOAD)
+    direct = solve(paper, loads, options=SolverOptions(load_stepping="never"))
+    stepped = solve(paper, loads)
+    assert stepped.converged
+    assert stepped.residual <= stepped.atol
+    if not direct.converged:
+        assert stepped.load_steps > 0
+    assert stepped.reach <= paper.length
+
+
+def test_warm_start_reaches_the_same_equilibrium_faster(paper):
+    t = np.array([4.0, 0.0, 1.0, 0.0, 2.0, 0.0, 0.0, 3.0])
+    cold = solve(paper, Loads(t))
+    warm = solve(paper, Loads(t * 1.02), q0=cold.q)
+    again = solve(paper, Loads(t * 1.02))
+    assert warm.converged and again.converged
+    assert np.allclose(warm.disk_positions, again.disk_positions, atol=SAME_SHAPE)
+    assert warm.iterations <= again.iterations
+    with pytest.raises(ValueError, match="q0 must have shape"):
+        solve(paper, Loads(t), q0=np.zeros((3, 3)))
+
+
+def test_stepping_and_direct_agree_when_unique(paper):
+    t = np.array([6.0, 2.0, 0.0, 0.0, 1.0, 0.0, 5.0, 0.0])
+    a = solve(paper, Loads(t), options=SolverOptions(load_stepping="never"))
+    b = solve(paper, Loads(t), options=SolverOptions(load_stepping="always"))
+    assert a.converged and b.converged and b.load_steps > 0
+    assert np.allclose(a.disk_positions, b.disk_positions, atol=SAME_SHAPE)
+
+
+def test_batch_matches_single_solves(paper):
+    rng = np.random.default_rng(5)
+    T = rng.uniform(0, 20, (12, 8))
+    base = Loads(np.zeros(8), **PAPER_LOAD)
+    batch = solve_batch(paper, T, base)
+    for b in range(T.shape[0]):
+        one = solve(paper, Loads(T[b], **PAPER_LOAD))
+        assert one.converged == batch.converged[b]
+        if one.converged:
+            assert np.allclose(batch.tip_position[b], one.tip_position, atol=1e-12)
+        else:
+            assert np.all(np.isnan(batch.tip_position[b]))
+    with pytest.raises(ValueError, match=r"tensions must have shape \(B, 8\)"):
+        solve_batch(paper, T[:, :4])
+    bad = T.copy()
+    bad[3, 2] = -1.0
+    with pytest.raises(ValueError, match=r"tensions\[2\] must be finite and >= 0"):
+        solve_batch(paper, bad)
+
+
+def test_model_checks_its_inputs(paper, rao):
+    with pytest.raises(ValueError, match="tensions must have 8 entries"):
+        StaticModel.build(paper, Loads(np.zeros(6)))
+    model = StaticModel.build(rao, Loads(np.zeros(6)))
+    with pytest.raises(ValueError, match="q must have 60 entries"):
+        model.residual(np.zeros(5))
+    with pytest.raises(ValueError, match="atol must be finite"):
+        SolverOptions(atol=-1)
+    with pytest.raises(ValueError, match="load_stepping"):
+        SolverOptions(load_stepping="sometimes")  # type: ignore[arg-type]
