@@ -28,6 +28,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+# fast-math that keeps NaN/Inf semantics (non-convergence must stay detectable)
+_FM = {"contract", "reassoc", "arcp", "nsz"}
+
 from ..kinematics import frames, subsegment
 
 __all__ = ["evaluate", "frames", "make_work", "newton", "relax", "solve_batch", "solve_one", "subsegment",
@@ -49,7 +52,7 @@ def _deflection(u1x, u1y, u1z, u2x, u2y, u2z):
     return 0.5 * np.pi - np.arctan(cs / sn)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
 def tendon_unit_load(R, d, hn, px, py, is_anchor, fric, out):
     """Load of one tendon of unit tension on disk i, in frame i-1.
 
@@ -135,6 +138,175 @@ def tendon_unit_load(R, d, hn, px, py, is_anchor, fric, out):
     out[6] = rho
 
 
+@njit(cache=True, fastmath=_FM)
+def tendon_unit_load_jvp(R, d, hn, dR, dd, dh, nl, px, py, is_anchor, fric, out, dout):
+    """:func:`tendon_unit_load` (real) with its derivatives along ``nl`` tangent lanes.
+
+    Lane ``a`` moves the subsegment transform by ``dR[a]`` (3, 3), ``dd[a]`` (3,)
+    and the next hole by ``dh[a]`` (3,). Writes ``dout[u, a]`` (7, nl). At the
+    non-smooth points of the friction law (a straight tendon: zero deflection,
+    zero normal force) the derivative of the norm is taken as 0.
+    """
+    bx = R[0, 0] * px + R[0, 1] * py + d[0]
+    by = R[1, 0] * px + R[1, 1] * py + d[1]
+    bz = R[2, 0] * px + R[2, 1] * py + d[2]
+    v1x = px - bx
+    v1y = py - by
+    v1z = -bz
+    n1 = np.sqrt(v1x * v1x + v1y * v1y + v1z * v1z)
+    u1x = v1x / n1
+    u1y = v1y / n1
+    u1z = v1z / n1
+    law = int(fric[0])
+    fr = not is_anchor and law != 0 and fric[1] != 0.0
+    # primal
+    ex = ey = ez = n2 = u2x = u2y = u2z = 0.0
+    zx = R[0, 2]
+    zy = R[1, 2]
+    zz = R[2, 2]
+    cs = sn = crx = cry = crz = 0.0
+    mu = 0.0
+    yx = yy = yz = zy_ = nx = ny = nz = hm = 0.0
+    rho = 0.0
+    clipped = False
+    xx = xy = xz = zx_ = tx = ty = tz = tn = w = 0.0
+    if is_anchor:
+        fx = u1x
+        fy = u1y
+        fz = u1z
+    else:
+        ex = R[0, 0] * hn[0] + R[0, 1] * hn[1] + R[0, 2] * hn[2] + d[0]
+        ey = R[1, 0] * hn[0] + R[1, 1] * hn[1] + R[1, 2] * hn[2] + d[1]
+        ez = R[2, 0] * hn[0] + R[2, 1] * hn[1] + R[2, 2] * hn[2] + d[2]
+        v2x = ex - bx
+        v2y = ey - by
+        v2z = ez - bz
+        n2 = np.sqrt(v2x * v2x + v2y * v2y + v2z * v2z)
+        u2x = v2x / n2
+        u2y = v2y / n2
+        u2z = v2z / n2
+        yx = u1x + u2x
+        yy = u1y + u2y
+        yz = u1z + u2z
+        zy_ = zx * yx + zy * yy + zz * yz
+        if not fr:
+            rho = 1.0
+            fx = yx - zx * zy_
+            fy = yy - zy * zy_
+            fz = yz - zz * zy_
+        else:
+            if law == 1:
+                mu = fric[1]
+            else:
+                cs = -(u1x * u2x + u1y * u2y + u1z * u2z)
+                crx = u1y * u2z - u1z * u2y
+                cry = u1z * u2x - u1x * u2z
+                crz = u1x * u2y - u1y * u2x
+                sn = np.sqrt(crx * crx + cry * cry + crz * crz)
+                mu = fric[1] * np.exp(-fric[2] * np.arctan2(sn, cs))
+            nx = yx - zx * zy_
+            ny = yy - zy * zy_
+            nz = yz - zz * zy_
+            hm = np.sqrt(nx * nx + ny * ny + nz * nz)
+            rho = 1.0 - fric[3] * mu * hm
+            if rho < 0.0:
+                rho = 0.0
+                clipped = True
+            xx = u1x + rho * u2x
+            xy = u1y + rho * u2y
+            xz = u1z + rho * u2z
+            zx_ = zx * xx + zy * xy + zz * xz
+            tx = u1x - u2x
+            ty = u1y - u2y
+            tz = u1z - u2z
+            tn = np.sqrt(tx * tx + ty * ty + tz * tz)
+            w = (1.0 - rho) / tn
+            fx = xx - zx * zx_ + w * tx
+            fy = xy - zy * zx_ + w * ty
+            fz = xz - zz * zx_ + w * tz
+    out[0] = fx
+    out[1] = fy
+    out[2] = fz
+    out[3] = by * fz - bz * fy
+    out[4] = bz * fx - bx * fz
+    out[5] = bx * fy - by * fx
+    out[6] = rho
+    # tangents
+    for a in range(nl):
+        A = dR[a]
+        dbx = A[0, 0] * px + A[0, 1] * py + dd[a, 0]
+        dby = A[1, 0] * px + A[1, 1] * py + dd[a, 1]
+        dbz = A[2, 0] * px + A[2, 1] * py + dd[a, 2]
+        p1 = (u1x * dbx + u1y * dby + u1z * dbz)
+        du1x = (-dbx + u1x * p1) / n1
+        du1y = (-dby + u1y * p1) / n1
+        du1z = (-dbz + u1z * p1) / n1
+        drho = 0.0
+        if is_anchor:
+            dfx = du1x
+            dfy = du1y
+            dfz = du1z
+        else:
+            dex = A[0, 0] * hn[0] + A[0, 1] * hn[1] + A[0, 2] * hn[2] + dd[a, 0]
+            dey = A[1, 0] * hn[0] + A[1, 1] * hn[1] + A[1, 2] * hn[2] + dd[a, 1]
+            dez = A[2, 0] * hn[0] + A[2, 1] * hn[1] + A[2, 2] * hn[2] + dd[a, 2]
+            dex += R[0, 0] * dh[a, 0] + R[0, 1] * dh[a, 1] + R[0, 2] * dh[a, 2]
+            dey += R[1, 0] * dh[a, 0] + R[1, 1] * dh[a, 1] + R[1, 2] * dh[a, 2]
+            dez += R[2, 0] * dh[a, 0] + R[2, 1] * dh[a, 1] + R[2, 2] * dh[a, 2]
+            dvx = dex - dbx
+            dvy = dey - dby
+            dvz = dez - dbz
+            p2 = u2x * dvx + u2y * dvy + u2z * dvz
+            du2x = (dvx - u2x * p2) / n2
+            du2y = (dvy - u2y * p2) / n2
+            du2z = (dvz - u2z * p2) / n2
+            dzx = A[0, 2]
+            dzy = A[1, 2]
+            dzz = A[2, 2]
+            dyx = du1x + du2x
+            dyy = du1y + du2y
+            dyz = du1z + du2z
+            dzy_ = dzx * yx + dzy * yy + dzz * yz + zx * dyx + zy * dyy + zz * dyz
+            if not fr:
+                dfx = dyx - dzx * zy_ - zx * dzy_
+                dfy = dyy - dzy * zy_ - zy * dzy_
+                dfz = dyz - dzz * zy_ - zz * dzy_
+            else:
+                dmu = 0.0
+                if law == 2:
+                    dcs = -(du1x * u2x + du1y * u2y + du1z * u2z + u1x * du2x + u1y * du2y + u1z * du2z)
+                    dcrx = du1y * u2z - du1z * u2y + u1y * du2z - u1z * du2y
+                    dcry = du1z * u2x - du1x * u2z + u1z * du2x - u1x * du2z
+                    dcrz = du1x * u2y - du1y * u2x + u1x * du2y - u1y * du2x
+                    dsn = (crx * dcrx + cry * dcry + crz * dcrz) / sn if sn > 0.0 else 0.0
+                    dsig = (cs * dsn - sn * dcs) / (cs * cs + sn * sn)
+                    dmu = -fric[2] * mu * dsig
+                dnx = dyx - dzx * zy_ - zx * dzy_
+                dny = dyy - dzy * zy_ - zy * dzy_
+                dnz = dyz - dzz * zy_ - zz * dzy_
+                dhm = (nx * dnx + ny * dny + nz * dnz) / hm if hm > 0.0 else 0.0
+                drho = 0.0 if clipped else -fric[3] * (dmu * hm + mu * dhm)
+                dxx = du1x + drho * u2x + rho * du2x
+                dxy = du1y + drho * u2y + rho * du2y
+                dxz = du1z + drho * u2z + rho * du2z
+                dzx_ = dzx * xx + dzy * xy + dzz * xz + zx * dxx + zy * dxy + zz * dxz
+                dtx = du1x - du2x
+                dty = du1y - du2y
+                dtz = du1z - du2z
+                dtn = (tx * dtx + ty * dty + tz * dtz) / tn
+                dw = (-drho * tn - (1.0 - rho) * dtn) / (tn * tn)
+                dfx = dxx - dzx * zx_ - zx * dzx_ + dw * tx + w * dtx
+                dfy = dxy - dzy * zx_ - zy * dzx_ + dw * ty + w * dty
+                dfz = dxz - dzz * zx_ - zz * dzx_ + dw * tz + w * dtz
+        dout[0, a] = dfx
+        dout[1, a] = dfy
+        dout[2, a] = dfz
+        dout[3, a] = dby * fz - dbz * fy + by * dfz - bz * dfy
+        dout[4, a] = dbz * fx - dbx * fz + bz * dfx - bx * dfz
+        dout[5, a] = dbx * fy - dby * fx + bx * dfy - by * dfx
+        dout[6, a] = drho
+
+
 @njit(cache=True)
 def make_work(n, nt):
     """Allocate the scratch arrays of :func:`evaluate` for N = n disks, nt tendons."""
@@ -159,7 +331,7 @@ def make_work(n, nt):
     )
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
 def evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, want_jac, r, J, work):
     """Residual ``r`` (3N,) and, if ``want_jac``, its Jacobian ``J`` (3N, 3N).
 
@@ -172,9 +344,10 @@ def evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, w
     Rc = np.empty((3, 3), dtype=np.complex128)
     dc = np.empty(3, dtype=np.complex128)
     pgc = np.empty(3, dtype=np.complex128)
-    hc = np.empty(3, dtype=np.complex128)
-    outc = np.empty(7, dtype=np.complex128)
-    hn = np.empty(3)
+    lR = np.zeros((6, 3, 3))
+    ld = np.zeros((6, 3))
+    lh = np.zeros((6, 3))
+    hn = np.zeros(3)
     out = np.empty(7)
     h = _H
 
@@ -240,6 +413,12 @@ def evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, w
                 dT[1, c, j] = 0.0
     for i in range(1, n + 1):
         k = 3 * (i - 1)
+        if want_jac:  # tangent lanes 0-2 move subsegment i, lanes 3-5 the hole on disk i+1
+            for a in range(3):
+                for u in range(3):
+                    for v in range(3):
+                        lR[a, u, v] = dRs[i, a, u, v]
+                    ld[a, u] = dds[i, a, u]
         for c in range(nt):
             anc = anchor[c]
             if i > anc:
@@ -258,35 +437,23 @@ def evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, w
                 dn = ds[i + 1]
                 for u in range(3):
                     hn[u] = Rn[u, 0] * px + Rn[u, 1] * py + dn[u]
-            tendon_unit_load(Rs[i], ds[i], hn, px, py, is_anchor, fric, out)
+            if want_jac:
+                nl = 3 if is_anchor else 6
+                if not is_anchor:
+                    for a in range(3):
+                        for u in range(3):
+                            lh[a + 3, u] = dRs[i + 1, a, u, 0] * px + dRs[i + 1, a, u, 1] * py + dds[i + 1, a, u]
+                tendon_unit_load_jvp(Rs[i], ds[i], hn, lR, ld, lh, nl, px, py, is_anchor, fric, out, dW[i, c])
+                for a in range(nl, 6):
+                    for u in range(7):
+                        dW[i, c, u, a] = 0.0
+            else:
+                tendon_unit_load(Rs[i], ds[i], hn, px, py, is_anchor, fric, out)
             for u in range(7):
                 W[i, c, u] = out[u]
             rho = out[6]
             T[i + 1, c] = rho * T[i, c] if not is_anchor else 0.0
             if want_jac:
-                nl = 3 if is_anchor else 6
-                for a in range(nl):
-                    if a < 3:
-                        for u in range(3):
-                            for v in range(3):
-                                Rc[u, v] = Rs[i, u, v] + 1j * h * dRs[i, a, u, v]
-                            dc[u] = ds[i, u] + 1j * h * dds[i, a, u]
-                            hc[u] = hn[u] + 0j
-                    else:
-                        b = a - 3
-                        for u in range(3):
-                            for v in range(3):
-                                Rc[u, v] = Rs[i, u, v] + 0j
-                            dc[u] = ds[i, u] + 0j
-                            hc[u] = hn[u] + 1j * h * (
-                                dRs[i + 1, b, u, 0] * px + dRs[i + 1, b, u, 1] * py + dds[i + 1, b, u]
-                            )
-                    tendon_unit_load(Rc, dc, hc, px, py, is_anchor, fric, outc)
-                    for u in range(7):
-                        dW[i, c, u, a] = outc[u].imag / h
-                for a in range(nl, 6):
-                    for u in range(7):
-                        dW[i, c, u, a] = 0.0
                 if is_anchor:
                     for j in range(m):
                         dT[i + 1, c, j] = 0.0
@@ -371,11 +538,10 @@ def evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, w
             for c in range(nt):
                 if i <= anchor[c]:
                     Tc = T[i, c]
-                    for j in range(k + 3):
-                        g = dT[i, c, j]
-                        if g != 0.0:
-                            for u in range(6):
-                                dL[u, j] += W[i, c, u] * g
+                    for u in range(6):
+                        wu = W[i, c, u]
+                        for j in range(k + 3):
+                            dL[u, j] += wu * dT[i, c, j]
                     la = 6 if k + 6 <= m else 3
                     for a in range(la):
                         for u in range(6):
@@ -724,7 +890,7 @@ def solve_one(q0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol
                 qs[:] = q
                 lt = 1.0
                 ok, res, it, ne = relax(
-                    qs, lt, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, 20 * max_iter,
+                    qs, lt, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, 8 * max_iter,
                     max_dtheta, work,
                 )
                 iters += it
