@@ -28,10 +28,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from ..kinematics import frames, subsegment
+
 # fast-math that keeps NaN/Inf semantics (non-convergence must stay detectable)
 _FM = {"contract", "reassoc", "arcp", "nsz"}
-
-from ..kinematics import frames, subsegment
 
 __all__ = ["evaluate", "frames", "make_work", "newton", "relax", "solve_batch", "solve_one", "subsegment",
            "tendon_unit_load"]
