@@ -15,9 +15,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	MPLBACKEND=Agg $(BIN)/tdcr solve --robot paper --tensions 4,0,0,0,2,0,0,0 --plot out/demo/robot.png
-	MPLBACKEND=Agg $(BIN)/tdcr solve --robot paper --tensions 4,0,0,0,2,0,0,0 \
-		--tip-force 0.1,0.1,-0.1 --tip-moment=-0.1,0.1,0.1 --plot out/demo/robot_loaded.png
+	MPLBACKEND=Agg $(BIN)/tdcr reproduce --robot paper --out out/reproduce
 
 test: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python -m pytest -q

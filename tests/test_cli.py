@@ -111,3 +111,48 @@ def test_robot_command_round_trips(capsys, tmp_path, paper):
     from pytdcr.io import read_robot
 
     assert read_robot(path) == paper
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["--bounds", "5,1"], ["--bounds", "lower 5.0 > upper 1.0"]),
+        (["--bounds", "-1,3"], ["--bounds", "lower[0] must be finite and >= 0"]),
+        (["--bounds", "0,inf"], ["--bounds", "finite"]),
+        (["--bounds", "1"], ["--bounds", "expected 2"]),
+    ],
+)
+def test_bad_bounds(capsys, args, words, tmp_path):
+    for cmd in ("sample", "optimize"):
+        code, out, err = run(capsys, cmd, "--robot", "rao", *args, "--out", str(tmp_path))
+        assert code == 2 and out == ""
+        for w in words:
+            assert w in err
+
+
+def test_bounds_file_errors(capsys, tmp_path):
+    f = tmp_path / "b.toml"
+    f.write_text("lower = [0, 0]\nupper = [1, 1]\n")
+    code, _, err = run(capsys, "sample", "--robot", "rao", "--bounds-file", str(f), "--out", str(tmp_path))
+    assert code == 2 and "has 6 tendons" in err
+    f.write_text("lower = [0, 0, 0, 0, 0, 0]\nupper = [1, 1, 1, 1, 1, 1]\nstep = 2\n")
+    code, _, err = run(capsys, "sample", "--robot", "rao", "--bounds-file", str(f), "--out", str(tmp_path))
+    assert code == 2 and "unknown key" in err
+    f.write_text("lower = [0, 0, ")
+    code, _, err = run(capsys, "sample", "--robot", "rao", "--bounds-file", str(f), "--out", str(tmp_path))
+    assert code == 2 and "not valid TOML" in err
+
+
+def test_sample_and_optimize_commands(capsys, tmp_path):
+    code, out, _ = run(capsys, "sample", "--robot", "rao", "--n", "6", "--bounds", "0,3", "--seed", "2",
+                       "--out", str(tmp_path / "s"))
+    assert code == 0 and "6 samples" in out
+    assert (tmp_path / "s" / "fig3a_samples.png").exists() and (tmp_path / "s" / "fig4_configurations.pdf").exists()
+    code, out, _ = run(capsys, "optimize", "--robot", "rao", "--pop", "6", "--max-gen", "2", "--bounds", "0,3",
+                       "--tip-force", "0,0.02,0", "--json", "--no-polish")
+    data = json.loads(out)
+    assert code == 0
+    for key in ("tensions", "tip_position", "reach", "cost", "generations", "evaluations", "nonconverged",
+                "seconds", "seed", "history"):
+        assert key in data
+    assert data["reach"] <= 0.4 and len(data["history"]["best"]) == data["generations"]

@@ -102,6 +102,125 @@ def parse_tensions(text: str, robot: Robot) -> np.ndarray:
     return t
 
 
+def add_bounds_options(p: argparse.ArgumentParser) -> None:
+    """--bounds LO,HI or --bounds-file F (TOML with lists ``lower`` and ``upper``, one entry per tendon)."""
+    b = p.add_mutually_exclusive_group()
+    b.add_argument("--bounds", metavar="LO,HI", help="tension bounds for every tendon [N] (default 0,20)")
+    b.add_argument("--bounds-file", metavar="F", help="TOML file: lower = [...], upper = [...] (per tendon, N)")
+
+
+def bounds_from_args(args: argparse.Namespace, robot: Robot):
+    """Tension bounds from the options; CliError naming the problem."""
+    from .workspace import TensionBounds
+
+    nt = robot.n_tendons
+    try:
+        if args.bounds_file:
+            import tomllib
+
+            try:
+                data = tomllib.loads(Path(args.bounds_file).read_text(encoding="utf-8"))
+            except OSError as err:
+                raise CliError(f"--bounds-file {args.bounds_file}: cannot read ({err.strerror or err})") from None
+            except tomllib.TOMLDecodeError as err:
+                raise CliError(f"--bounds-file {args.bounds_file}: not valid TOML ({err})") from None
+            unknown = set(data) - {"lower", "upper"}
+            if unknown:
+                raise CliError(f"--bounds-file: unknown key(s) {sorted(unknown)}; allowed: lower, upper")
+            if "lower" not in data or "upper" not in data:
+                raise CliError("--bounds-file: needs both 'lower' and 'upper' lists")
+            try:
+                lo = np.asarray(data["lower"], dtype=float).reshape(-1)
+                hi = np.asarray(data["upper"], dtype=float).reshape(-1)
+            except (TypeError, ValueError):
+                raise CliError("--bounds-file: 'lower' and 'upper' must be lists of numbers") from None
+            if lo.size != nt or hi.size != nt:
+                raise CliError(f"--bounds-file: robot '{robot.name}' has {nt} tendons; lower has {lo.size} "
+                               f"entries, upper {hi.size}")
+            return TensionBounds(lo, hi)
+        lo_hi = parse_floats(args.bounds, "--bounds", 2) if args.bounds else np.array([0.0, 20.0])
+        return TensionBounds.uniform(nt, lo_hi[0], lo_hi[1])
+    except ValueError as err:
+        raise CliError(str(err).replace("bounds:", "--bounds:", 1)) from None
+
+
+def _tqdm_progress(desc: str, total: int):
+    from tqdm import tqdm
+
+    bar = tqdm(total=total, desc=desc, unit="gen", leave=False, file=sys.stderr)
+
+    def update(gen: int, best: float, mean: float) -> None:
+        bar.update(1)
+        bar.set_postfix(best=f"{best:.6f}")
+
+    return update
+
+
+def _cmd_sample(args: argparse.Namespace) -> int:
+    from .study import run_sample
+
+    if args.n < 1:
+        raise CliError(f"--n must be >= 1, got {args.n}")
+    setup = model_from_args(args)
+    bounds = bounds_from_args(args, setup.robot)
+    out = Path(args.out)
+    run = run_sample(setup.robot, setup.loads, bounds, args.n, args.seed, out)
+    s = run.samples
+    print(f"{args.n} samples of robot '{setup.robot.name}' (seed {args.seed}): {int(s.converged.sum())} converged, "
+          f"{int((~s.converged).sum())} not; reach {np.nanmin(s.reach):.4f} to {np.nanmax(s.reach):.4f} m; "
+          f"{s.seconds:.2f} s")
+    print(f"wrote {', '.join(run.files)} in {out}")
+    return 0
+
+
+def _cmd_optimize(args: argparse.Namespace) -> int:
+    from .study import run_optimize
+
+    for name, val, lo in (("--pop", args.pop, 2), ("--max-gen", args.max_gen, 1), ("--window", args.window, 1)):
+        if val < lo:
+            raise CliError(f"{name} must be >= {lo}, got {val}")
+    if not (np.isfinite(args.tol) and args.tol > 0):
+        raise CliError(f"--tol must be finite and > 0, got {args.tol}")
+    setup = model_from_args(args)
+    bounds = bounds_from_args(args, setup.robot)
+    out = Path(args.out) if args.out else None
+    res, files = run_optimize(setup.robot, setup.loads, bounds, pop=args.pop, tol=args.tol, window=args.window,
+                              max_gen=args.max_gen, seed=args.seed, polish=not args.no_polish, out=out,
+                              progress=None if args.json else _tqdm_progress("GA", args.max_gen))
+    if args.json:
+        print(dump_json(res.to_dict()))
+    else:
+        print(f"GA (population {args.pop}, seed {args.seed}): {res.generations} generations"
+              f"{'' if res.converged else ' (generation cap)'}, {res.evaluations} solves, "
+              f"{res.nonconverged} not converged, {res.seconds:.1f} s")
+        print(f"  tensions {np.round(res.tensions, 4).tolist()} N")
+        print(f"  reach {res.reach:.6f} m, cost {res.cost:.6f} 1/m, tip {np.round(res.tip_position, 6).tolist()} m")
+        if res.polish is not None:
+            p = res.polish
+            print(f"  polished: reach {p.reach:.6f} m (cost {p.cost:.6f}, gain {p.cost_change:.2e}), "
+                  f"tensions {np.round(p.tensions, 4).tolist()} N")
+        if files:
+            print(f"wrote {', '.join(files)} in {out}")
+    return 0
+
+
+def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from .study import run_reproduce
+
+    setup = model_from_args(args)
+    if np.any(setup.loads.tip_force) or np.any(setup.loads.tip_moment):
+        raise CliError("reproduce: the study sets its own tip loads; drop --tip-force/--tip-moment")
+    out = Path(args.out)
+
+    def progress(stage: str, total: int):
+        return _tqdm_progress(stage, total)
+
+    summary = run_reproduce(setup.robot, out, seed=args.seed, progress=progress)
+    print(f"reproduced the study on robot '{setup.robot.name}' in {summary['seconds']:.1f} s; "
+          f"report: {out / 'report.md'}")
+    return 0
+
+
 # ---------------------------------------------------------------- commands
 def _cmd_solve(args: argparse.Namespace) -> int:
     if not (np.isfinite(args.atol) and args.atol > 0):
@@ -176,6 +295,33 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.add_argument("--plot", metavar="FILE", help="write a 3D figure of the robot (PNG, PDF, SVG)")
     s.set_defaults(func=_cmd_solve)
+
+    sm = sub.add_parser("sample", help="random tension samples: CSV, Fig. 3(a) and Fig. 4")
+    add_model_options(sm)
+    add_bounds_options(sm)
+    sm.add_argument("--n", type=int, default=100, help="number of samples [100]")
+    sm.add_argument("--seed", type=int, default=0, help="random seed [0]")
+    sm.add_argument("--out", default="out/sample", help="output folder [out/sample]")
+    sm.set_defaults(func=_cmd_sample)
+
+    op = sub.add_parser("optimize", help="GA maximising the tip's distance from the base (paper Eq. 29)")
+    add_model_options(op)
+    add_bounds_options(op)
+    op.add_argument("--pop", type=int, default=50, help="population size [50]")
+    op.add_argument("--tol", type=float, default=1e-6, help="stop when the best cost improves by less [1e-6]")
+    op.add_argument("--window", type=int, default=5, help="... over this many generations [5]")
+    op.add_argument("--max-gen", type=int, default=100, help="generation cap [100]")
+    op.add_argument("--seed", type=int, default=0, help="random seed [0]")
+    op.add_argument("--no-polish", action="store_true", help="skip the gradient polish of the GA's best")
+    op.add_argument("--json", action="store_true", help="print one JSON object")
+    op.add_argument("--out", help="write figures and data to this folder")
+    op.set_defaults(func=_cmd_optimize)
+
+    rp = sub.add_parser("reproduce", help="the paper's whole study: figures, data and report.md")
+    add_model_options(rp)
+    rp.add_argument("--seed", type=int, default=0, help="random seed [0]")
+    rp.add_argument("--out", default="out/reproduce", help="output folder [out/reproduce]")
+    rp.set_defaults(func=_cmd_reproduce)
 
     r = sub.add_parser("robot", help="print a robot as TOML (a starting point for your own)")
     r.add_argument("--robot", default="paper", help="built-in robot or TOML file [paper]")

@@ -125,3 +125,50 @@ def plot_robots(
     if pts:
         set_equal_aspect(ax, np.vstack(pts))
     return ax
+
+
+def plot_reach_samples(reach: np.ndarray, converged: np.ndarray, ax=None, **kwargs):
+    """The paper's Fig. 3(a): ||^0P_n|| against sample number.
+
+    Converged samples are drawn as points with a smoothing spline through
+    them; non-converged samples are marked apart along the bottom axis and
+    never enter the spline.
+
+    Parameters
+    ----------
+    reach : array-like, shape (n,)
+        [m]; ignored where not converged.
+    converged : array-like of bool, shape (n,)
+    """
+    from scipy.interpolate import make_smoothing_spline
+
+    if ax is None:
+        ax = plt.figure(figsize=(7.0, 4.0)).add_subplot()
+    reach = np.asarray(reach, dtype=float)
+    ok = np.asarray(converged, dtype=bool)
+    idx = np.arange(1, reach.size + 1)
+    ax.plot(idx[ok], reach[ok], "o", mfc="none", color="tab:blue", label="converged samples", **kwargs)
+    if ok.sum() >= 5:
+        spline = make_smoothing_spline(idx[ok].astype(float), reach[ok])
+        xs = np.linspace(idx[ok][0], idx[ok][-1], 400)
+        ax.plot(xs, spline(xs), "-", color="tab:red", label="smoothing spline")
+    if np.any(~ok):
+        lo = np.nanmin(reach[ok]) if np.any(ok) else 0.0
+        ax.plot(idx[~ok], np.full((~ok).sum(), lo), "x", color="k", label=f"not converged ({(~ok).sum()})")
+    ax.set_xlabel("sample number")
+    ax.set_ylabel(r"$\|{}^0P_n\|_2$ [m]")
+    ax.legend(loc="best", fontsize=8)
+    return ax
+
+
+def plot_convergence(best: Sequence[float], mean: Sequence[float], ax=None, **kwargs):
+    """The paper's Fig. 5: best and mean feasible cost (1/reach) per generation."""
+    if ax is None:
+        ax = plt.figure(figsize=(6.0, 4.0)).add_subplot()
+    gens = np.arange(1, len(best) + 1)
+    ax.plot(gens, best, "o-", color="tab:blue", markersize=4, label="best cost", **kwargs)
+    ax.plot(gens, mean, "s", color="tab:red", markersize=3, label="mean cost (feasible)")
+    ax.set_xlabel("generation")
+    ax.set_ylabel(r"cost $1/\|{}^0P_n\|_2$ [1/m]")
+    ax.legend(loc="best", fontsize=8)
+    return ax

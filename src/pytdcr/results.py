@@ -28,6 +28,11 @@ class StaticSolution:
         Newton iterations in all (load steps included).
     load_steps : int
         Continuation steps taken (0 when the direct solve converged).
+    path : str
+        How the equilibrium was reached: ``"loading"`` (followed the loading
+        path from the unloaded robot), ``"snap"`` (that path, relaxed through
+        a fold), ``"direct"`` (Newton at full load from the start point) or
+        ``"fallback"`` (the loading path failed; another equilibrium).
     q : ndarray, shape (N, 3)
         (beta [1/m], gamma [1/m], eps [rad]) per subsegment, MODEL.md's convention.
     tensions : ndarray, shape (n_tendons, N)
@@ -42,6 +47,7 @@ class StaticSolution:
     residual: float
     iterations: int
     load_steps: int
+    path: str
     q: np.ndarray
     tensions: np.ndarray
     seconds: float
@@ -91,6 +97,7 @@ class StaticSolution:
             "residual": float(self.residual),
             "iterations": int(self.iterations),
             "load_steps": int(self.load_steps),
+            "path": self.path,
             "seconds": float(self.seconds),
             "tip_position": self.tip_position.tolist() if ok else None,
             "tip_rotation": self.tip_rotation.tolist() if ok else None,

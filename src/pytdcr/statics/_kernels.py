@@ -37,6 +37,8 @@ __all__ = ["evaluate", "frames", "make_work", "newton", "relax", "solve_batch", 
            "tendon_unit_load"]
 
 _H = 1e-30  # complex-step size
+_STALL = 15  # Newton gives up after this many iterations without halving the residual
+_STEP_ITER = 30  # Newton iterations allowed per load step
 
 
 @njit(cache=True, inline="always")
@@ -696,17 +698,27 @@ def newton(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, ato
         H[:, :] = 0.0
     res = _maxabs(r)
     it = 0
+    best = res
+    since = 0
     while it < max_iter:
         if res <= atol:
             return True, res, it, njac
         if not np.isfinite(res):
             return False, res, it, njac
+        # give up on stagnation: no halving of the residual in _STALL iterations
+        if res < 0.5 * best:
+            best = res
+            since = 0
+        else:
+            since += 1
+            if since > _STALL:
+                return False, res, it, njac
         it += 1
         dx = -(H @ r)
         alpha = _step_scale(dx, sub, max_dtheta)
         f0 = _sumsq(r)
         accepted = False
-        nls = 8 if not fresh else 30
+        nls = 8 if not fresh else 12
         for _ls in range(nls):
             for u in range(m):
                 qt[u] = q[u] + alpha * dx[u]
@@ -720,12 +732,12 @@ def newton(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, ato
             # Levenberg-Marquardt on the exact Jacobian (robust where J is near singular)
             A = J.T @ J
             g = J.T @ r
-            mu = 1e-6
+            mu = 1e-5
             dmax = 0.0
             for u in range(m):
                 if A[u, u] > dmax:
                     dmax = A[u, u]
-            for _lm in range(16):
+            for _lm in range(8):
                 B = A.copy()
                 for u in range(m):
                     B[u, u] += mu * dmax
@@ -817,22 +829,31 @@ def relax(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol
         if not np.isfinite(res):
             return False, res, it + 1, it + 2
         rn = np.sqrt(_sumsq(r))
-        grow = dt * 1.5 if rn < rprev else dt * 0.5
+        grow = dt * 2.0 if rn < rprev else dt * 0.5
         dt = min(1e12, max(grow, 0.05 * r0 / max(rn, 1e-300)))
         rprev = rn
     return res <= atol, res, max_iter, max_iter + 1
 
 
+PATH_DIRECT = 0  # Newton from the start point at full load
+PATH_LOADING = 1  # continuation along the loading path from the unloaded robot
+PATH_SNAP = 2  # the loading path, relaxed through a fold (snap-through)
+PATH_FALLBACK = 3  # the loading path failed; Newton at full load found another equilibrium
+
+
 @njit(cache=True)
 def solve_one(q0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, stepping, work):
-    """Solve at full load: quasi-Newton from ``q0``, then load stepping if that fails.
+    """Solve at full load.
 
-    ``stepping``: 0 never step, 1 step only if the direct solve fails,
-    2 always step from the unloaded straight robot. Continuation ramps every
-    load by a factor lam from 0 to 1 with a secant predictor and adaptive
-    steps; where it stalls at a fold (snap-through), it jumps ahead from the
-    last equilibrium, as the robot would.
-    Returns ``(q, converged, max|r|, iterations, jacobian evaluations, load steps)``.
+    ``stepping``: 0 Newton from ``q0`` only; 1 Newton from ``q0``, then the
+    loading path if that fails; 2 the loading path from the unloaded,
+    straight robot. The loading path ramps every load by a factor lam from 0
+    to 1 (secant predictor, adaptive steps): the branch quasi-static loading
+    follows. Where it stalls at a fold it relaxes at full load from the last
+    equilibrium (the snap-through); if that fails too, Newton at full load
+    from the last equilibrium and then from ``q0`` gives another equilibrium
+    (path code 3).
+    Returns ``(q, converged, max|r|, iterations, jacobian evaluations, load steps, path code)``.
     """
     m = q0.shape[0]
     q = q0.copy()
@@ -845,7 +866,8 @@ def solve_one(q0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol
         iters += it
         nj += ne
         if ok or stepping == 0:
-            return q, ok, res, iters, nj, 0
+            return q, ok, res, iters, nj, 0, PATH_DIRECT
+    path = PATH_LOADING
     q[:] = 0.0
     qprev = np.zeros(m)
     lprev = 0.0
@@ -855,6 +877,7 @@ def solve_one(q0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol
     steps = 0
     ok = False
     res = np.inf
+    step_iter = min(max_iter, _STEP_ITER)
     while lam < 1.0 and steps < 400:
         lt = min(1.0, lam + dlam)
         # secant predictor from the last two equilibria
@@ -865,12 +888,12 @@ def solve_one(q0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol
         else:
             qs[:] = q
         ok, res, it, ne = newton(
-            qs, lt, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, work
+            qs, lt, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, step_iter, max_dtheta, work
         )
         if not ok and lam > lprev:  # retry without the predictor
             qs[:] = q
             ok, res, it2, ne2 = newton(
-                qs, lt, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, work
+                qs, lt, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, step_iter, max_dtheta, work
             )
             it += it2
             ne += ne2
@@ -885,42 +908,52 @@ def solve_one(q0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol
             dlam = min(2.0 * dlam, 1.0)
         else:
             dlam *= 0.5
-            if dlam < 1.0 / 512.0:
+            if dlam < 1.0 / 128.0:
                 # a fold: relax from the last equilibrium at full load (the snap-through)
                 qs[:] = q
-                lt = 1.0
                 ok, res, it, ne = relax(
-                    qs, lt, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, 8 * max_iter,
+                    qs, 1.0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, 4 * max_iter,
                     max_dtheta, work,
                 )
                 iters += it
                 nj += ne
                 steps += 1
-                if not ok:
-                    break
-                qprev[:] = qs
-                q[:] = qs
-                lprev = lt  # no secant across the jump
-                lam = lt
-                dlam = 1.0 / 16.0
+                if ok:
+                    q[:] = qs
+                    lam = 1.0
+                    path = PATH_SNAP
+                break
     if lam < 1.0:
+        # last resort: any equilibrium at full load, from the last equilibrium, then from q0
+        for start in range(2):
+            if start == 0:
+                qs[:] = q
+            else:
+                qs[:] = q0
+            ok, res, it, ne = newton(
+                qs, 1.0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, work
+            )
+            iters += it
+            nj += ne
+            if ok:
+                return qs, True, res, iters, nj, steps, PATH_FALLBACK
         r = np.empty(m)
         J = np.empty((1, 1))
         evaluate(q, 1.0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, False, r, J, work)
-        return q, False, _maxabs(r), iters, nj, steps
-    return q, ok, res, iters, nj, steps
+        return q, False, _maxabs(r), iters, nj, steps, PATH_LOADING
+    return q, ok, res, iters, nj, steps, path
 
 
 @njit(cache=True, parallel=True)
 def solve_batch(q0, sub, holes, anchor, fric, tensions, grav, pforce, pmoment, atol, max_iter, max_dtheta, stepping,
-                out_q, out_ok, out_res, out_it):
+                out_q, out_ok, out_res, out_it, out_path):
     """Solve many tension vectors ``tensions`` (B, nt) in parallel (one thread per case)."""
     nb = tensions.shape[0]
     n = sub.shape[0]
     nt = holes.shape[0]
     for b in prange(nb):
         work = make_work(n, nt)
-        q, ok, res, it, _ne, _st = solve_one(
+        q, ok, res, it, _ne, _st, pth = solve_one(
             q0[b], sub, holes, anchor, fric, tensions[b], grav, pforce, pmoment, atol, max_iter, max_dtheta,
             stepping, work,
         )
@@ -928,3 +961,4 @@ def solve_batch(q0, sub, holes, anchor, fric, tensions, grav, pforce, pmoment, a
         out_ok[b] = ok
         out_res[b] = res
         out_it[b] = it
+        out_path[b] = pth

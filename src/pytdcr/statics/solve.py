@@ -1,10 +1,17 @@
 """Solving the equilibrium equations: damped Newton with an exact Jacobian.
 
-Strategy: Newton from the straight robot (or a warm start), each step limited
-to ``max_dtheta`` of bend or twist per subsegment and backtracked on the
-residual norm. If that fails, and ``load_stepping`` allows, the loads are
-ramped from zero (the straight robot is then exact) in adaptive steps, which
-follows the branch of equilibria that quasi-static loading reaches.
+Which equilibrium? A robot under large loads can have several. By default
+(``load_stepping="always"``) the solver follows the loading path: every load
+(tensions, gravity, external wrenches) is ramped from zero, where the straight
+robot is exact, to its full value in adaptive steps, which is the branch that
+quasi-static loading reaches. At a fold of that path (a snap-through) it
+relaxes to the equilibrium the robot snaps to. Only if that fails does it
+settle for any equilibrium at full load (path ``"fallback"``). Each step is a
+quasi-Newton iteration with the exact Jacobian, steps limited to
+``max_dtheta`` of bend or twist per subsegment and backtracked on the residual
+norm. ``"auto"`` tries Newton at full load first (faster, but the branch it
+lands on is whichever Newton reaches); a warm start ``q0`` is always followed
+directly first.
 """
 
 from __future__ import annotations
@@ -24,6 +31,7 @@ from .model import StaticModel
 __all__ = ["BatchSolution", "SolverOptions", "solve", "solve_batch", "solve_model", "warmup"]
 
 _STEPPING = {"never": 0, "auto": 1, "always": 2}
+PATHS = ("direct", "loading", "snap", "fallback")
 
 
 @dataclass(frozen=True)
@@ -38,14 +46,16 @@ class SolverOptions:
         Newton iterations per attempt (per load step when stepping).
     max_dtheta : float
         Largest change of bend angle or twist of one subsegment per step [rad].
-    load_stepping : {'auto', 'never', 'always'}
-        'auto' ramps the loads only when the direct solve fails.
+    load_stepping : {'always', 'auto', 'never'}
+        'always' (default) follows the loading path from the unloaded robot;
+        'auto' tries Newton at full load first and ramps only if it fails;
+        'never' is Newton alone.
     """
 
     atol: float = 1e-9
     max_iter: int = 50
     max_dtheta: float = 0.5
-    load_stepping: Literal["auto", "never", "always"] = "auto"
+    load_stepping: Literal["always", "auto", "never"] = "always"
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.atol) and self.atol > 0):
@@ -57,8 +67,11 @@ class SolverOptions:
         if self.load_stepping not in _STEPPING:
             raise ValueError(f"load_stepping must be one of {sorted(_STEPPING)}, got {self.load_stepping!r}")
 
-    def _kernel(self) -> tuple[float, int, float, int]:
-        return float(self.atol), int(self.max_iter), float(self.max_dtheta), _STEPPING[self.load_stepping]
+    def _kernel(self, warm: bool = False) -> tuple[float, int, float, int]:
+        mode = _STEPPING[self.load_stepping]
+        if warm and mode == 2:
+            mode = 1  # a warm start is followed directly first
+        return float(self.atol), int(self.max_iter), float(self.max_dtheta), mode
 
 
 def _start(model: StaticModel, q0: np.ndarray | None) -> np.ndarray:
@@ -81,7 +94,7 @@ def solve_model(
     n = model.sub.shape[0]
     t0 = time.perf_counter()
     work = K.make_work(n, model.holes.shape[0])
-    q, ok, res, iters, _nev, steps = K.solve_one(qs, *model._args(), *opts._kernel(), work)
+    q, ok, res, iters, _nev, steps, path = K.solve_one(qs, *model._args(), *opts._kernel(q0 is not None), work)
     seconds = time.perf_counter() - t0
     pos = np.empty((n + 1, 3))
     rot = np.empty((n + 1, 3, 3))
@@ -92,6 +105,7 @@ def solve_model(
         residual=float(res),
         iterations=int(iters),
         load_steps=int(steps),
+        path=PATHS[path],
         q=q.reshape(n, 3),
         tensions=model.tensions(q),
         seconds=seconds,
@@ -139,6 +153,8 @@ class BatchSolution:
         max |residual| [N m].
     iterations : ndarray of int, shape (B,)
     q : ndarray, shape (B, N, 3)
+    path : ndarray of str, shape (B,)
+        How each equilibrium was reached (see :class:`StaticSolution`).
     tip_position : ndarray, shape (B, 3)
         [m]; NaN where not converged.
     seconds : float
@@ -152,6 +168,7 @@ class BatchSolution:
     q: np.ndarray
     tip_position: np.ndarray
     seconds: float
+    path: np.ndarray
 
     @property
     def reach(self) -> np.ndarray:
@@ -188,14 +205,23 @@ def solve_batch(
         Q0 = np.zeros((nb, m))
     else:
         Q0 = np.asarray(q0, dtype=float)
-        Q0 = np.ascontiguousarray(np.broadcast_to(Q0.reshape(-1, m) if Q0.ndim == 3 else Q0.reshape(1, m), (nb, m)))
+        if Q0.size == m:
+            Q0 = np.broadcast_to(Q0.reshape(1, m), (nb, m))
+        elif Q0.size == nb * m:
+            Q0 = Q0.reshape(nb, m)
+        else:
+            raise ValueError(f"q0 must have shape ({m // 3}, 3) or ({nb}, {m // 3}, 3), got {Q0.shape}")
+        if not np.all(np.isfinite(Q0)):
+            raise ValueError("q0 must be finite")
+        Q0 = np.ascontiguousarray(Q0)
     out_q = np.empty((nb, m))
     out_ok = np.empty(nb, dtype=np.bool_)
     out_res = np.empty(nb)
     out_it = np.empty(nb, dtype=np.int64)
+    out_path = np.empty(nb, dtype=np.int64)
     t0 = time.perf_counter()
     K.solve_batch(Q0, model.sub, model.holes, model.anchor, model.fric, T, model.grav, model.pforce,
-                  model.pmoment, *opts._kernel(), out_q, out_ok, out_res, out_it)
+                  model.pmoment, *opts._kernel(q0 is not None), out_q, out_ok, out_res, out_it, out_path)
     seconds = time.perf_counter() - t0
     n = m // 3
     tips = np.full((nb, 3), np.nan)
@@ -207,7 +233,7 @@ def solve_batch(
         tips[b] = pos[-1]
     return BatchSolution(
         tensions=T, converged=ok, residual=out_res, iterations=out_it, q=out_q.reshape(nb, n, 3),
-        tip_position=tips, seconds=seconds,
+        tip_position=tips, seconds=seconds, path=np.array(PATHS, dtype=object)[out_path],
     )
 
 
