@@ -139,6 +139,7 @@ def test_sample_and_optimize_runs_write_their_inputs(tmp_path, small):
     assert all((tmp_path / "s" / f).stat().st_size > 1000 for f in run.files if f.endswith(".png"))
     res, files = run_optimize(small, LOAD, b, pop=8, tol=1e-6, window=2, max_gen=3, seed=0, polish=True,
                               out=tmp_path / "o")
+    assert {"fig5_convergence.png", "fig6_optimum.pdf", "history.csv"} <= set(files)
     data = json.loads((tmp_path / "o" / "optimize.json").read_text())
     assert data["result"]["reach"] == res.reach and data["inputs"]["pop"] == 8
     assert len((tmp_path / "o" / "history.csv").read_text().strip().splitlines()) == res.generations + 1
