@@ -71,7 +71,7 @@ def test_batch_matches_single_solves(paper):
         solve_batch(paper, T[:, :4])
     bad = T.copy()
     bad[3, 2] = -1.0
-    with pytest.raises(ValueError, match=r"tensions\[2\] must be finite and >= 0"):
+    with pytest.raises(ValueError, match=r"tensions\[3, 2\] must be finite and >= 0"):
         solve_batch(paper, bad)
 
 

@@ -15,9 +15,10 @@ Layout of the packed model (built by :mod:`pytdcr.statics.model`):
 Unknowns ``q`` (3N,) = (beta_i, gamma_i, eps_i) for i = 1..N.
 The residual is written in frame i-1 for subsegment i.
 
-The Jacobian is exact: local derivatives (of one subsegment's transform and of
-one tendon's load at one disk) come from the complex step, which has no
-truncation or cancellation error; they are chained across disks analytically
+The Jacobian is exact: local derivatives come from the complex step for one
+subsegment's transform (no truncation or cancellation error) and from a
+hand-derived tangent (forward-mode) kernel for one tendon's load at one disk;
+they are chained across disks analytically
 (tensions forward, wrenches backward, base-fixed loads through the angular
 velocities of the frames), which costs O(N^2) instead of the O(N^2 * tendons)
 of a dense forward-mode pass.
@@ -34,117 +35,24 @@ from ..kinematics import frames, subsegment
 _FM = {"contract", "reassoc", "arcp", "nsz"}
 
 __all__ = ["evaluate", "frames", "make_work", "newton", "relax", "solve_batch", "solve_one", "subsegment",
-           "tendon_unit_load"]
+           "tendon_unit_load_jvp"]
 
 _H = 1e-30  # complex-step size
 _STALL = 15  # Newton gives up after this many iterations without halving the residual
 _STEP_ITER = 30  # Newton iterations allowed per load step
 
 
-@njit(cache=True, inline="always")
-def _deflection(u1x, u1y, u1z, u2x, u2y, u2z):
-    """Deflection angle [rad] of a tendon leaving along u2 after arriving along -u1."""
-    cs = -(u1x * u2x + u1y * u2y + u1z * u2z)
-    cx = u1y * u2z - u1z * u2y
-    cy = u1z * u2x - u1x * u2z
-    cz = u1x * u2y - u1y * u2x
-    sn = np.sqrt(cx * cx + cy * cy + cz * cz)
-    if cs.real >= sn.real:
-        return np.arctan(sn / cs)
-    return 0.5 * np.pi - np.arctan(cs / sn)
-
-
 @njit(cache=True, fastmath=_FM)
-def tendon_unit_load(R, d, hn, px, py, is_anchor, fric, out):
-    """Load of one tendon of unit tension on disk i, in frame i-1.
+def tendon_unit_load_jvp(R, d, hn, dR, dd, dh, nl, px, py, is_anchor, fric, out, dout):
+    """Load of one tendon of unit tension on disk i, in frame i-1, and its derivatives.
 
     ``R``, ``d``: transform of subsegment i; ``hn``: the hole at disk i+1 in
     frame i (unused at the anchor). Writes ``out[0:3]`` force, ``out[3:6]``
     moment about the origin of frame i-1 and ``out[6]`` the tension ratio
-    T_{i+1}/T_i across the disk (0 at the anchor). Real or complex.
-    """
-    bx = R[0, 0] * px + R[0, 1] * py + d[0]
-    by = R[1, 0] * px + R[1, 1] * py + d[1]
-    bz = R[2, 0] * px + R[2, 1] * py + d[2]
-    v1x = px - bx
-    v1y = py - by
-    v1z = -bz
-    n1 = np.sqrt(v1x * v1x + v1y * v1y + v1z * v1z)
-    u1x = v1x / n1
-    u1y = v1y / n1
-    u1z = v1z / n1
-    if is_anchor:
-        fx = u1x
-        fy = u1y
-        fz = u1z
-        rho = 0.0 * n1
-    else:
-        ex = R[0, 0] * hn[0] + R[0, 1] * hn[1] + R[0, 2] * hn[2] + d[0]
-        ey = R[1, 0] * hn[0] + R[1, 1] * hn[1] + R[1, 2] * hn[2] + d[1]
-        ez = R[2, 0] * hn[0] + R[2, 1] * hn[1] + R[2, 2] * hn[2] + d[2]
-        v2x = ex - bx
-        v2y = ey - by
-        v2z = ez - bz
-        n2 = np.sqrt(v2x * v2x + v2y * v2y + v2z * v2z)
-        u2x = v2x / n2
-        u2y = v2y / n2
-        u2z = v2z / n2
-        zx = R[0, 2]
-        zy = R[1, 2]
-        zz = R[2, 2]
-        law = int(fric[0])
-        if law == 0 or fric[1] == 0.0:
-            yx = u1x + u2x
-            yy = u1y + u2y
-            yz = u1z + u2z
-            zy_ = zx * yx + zy * yy + zz * yz
-            fx = yx - zx * zy_
-            fy = yy - zy * zy_
-            fz = yz - zz * zy_
-            rho = 1.0 + 0.0 * n1
-        else:
-            if law == 1:
-                mu = fric[1] + 0.0 * n1
-            else:
-                sig = _deflection(u1x, u1y, u1z, u2x, u2y, u2z)
-                mu = fric[1] * np.exp(-fric[2] * sig)
-            yx = u1x + u2x
-            yy = u1y + u2y
-            yz = u1z + u2z
-            zy_ = zx * yx + zy * yy + zz * yz
-            nx = yx - zx * zy_
-            ny = yy - zy * zy_
-            nz = yz - zz * zy_
-            hmag = np.sqrt(nx * nx + ny * ny + nz * nz)
-            rho = 1.0 - fric[3] * mu * hmag
-            if rho.real < 0.0:
-                rho = 0.0 * rho
-            xx = u1x + rho * u2x
-            xy = u1y + rho * u2y
-            xz = u1z + rho * u2z
-            zx_ = zx * xx + zy * xy + zz * xz
-            tx = u1x - u2x
-            ty = u1y - u2y
-            tz = u1z - u2z
-            tn = np.sqrt(tx * tx + ty * ty + tz * tz)
-            w = (1.0 - rho) / tn
-            fx = xx - zx * zx_ + w * tx
-            fy = xy - zy * zx_ + w * ty
-            fz = xz - zz * zx_ + w * tz
-    out[0] = fx
-    out[1] = fy
-    out[2] = fz
-    out[3] = by * fz - bz * fy
-    out[4] = bz * fx - bx * fz
-    out[5] = bx * fy - by * fx
-    out[6] = rho
+    T_{i+1}/T_i across the disk (0 at the anchor); the deflection angle of the
+    paper's friction law is ``atan2(|u_prev x u_next|, -u_prev . u_next)``.
 
-
-@njit(cache=True, fastmath=_FM)
-def tendon_unit_load_jvp(R, d, hn, dR, dd, dh, nl, px, py, is_anchor, fric, out, dout):
-    """:func:`tendon_unit_load` (real) with its derivatives along ``nl`` tangent lanes.
-
-    Lane ``a`` moves the subsegment transform by ``dR[a]`` (3, 3), ``dd[a]`` (3,)
+    Lane ``a`` (of ``nl``, 0 for the load alone) moves the subsegment transform by ``dR[a]`` (3, 3), ``dd[a]`` (3,)
     and the next hole by ``dh[a]`` (3,). Writes ``dout[u, a]`` (7, nl). At the
     non-smooth points of the friction law (a straight tendon: zero deflection,
     zero normal force) the derivative of the norm is taken as 0.
@@ -449,8 +357,8 @@ def evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, w
                 for a in range(nl, 6):
                     for u in range(7):
                         dW[i, c, u, a] = 0.0
-            else:
-                tendon_unit_load(Rs[i], ds[i], hn, px, py, is_anchor, fric, out)
+            else:  # the same kernel with no tangent lanes: the load alone
+                tendon_unit_load_jvp(Rs[i], ds[i], hn, lR, ld, lh, 0, px, py, is_anchor, fric, out, dW[i, c])
             for u in range(7):
                 W[i, c, u] = out[u]
             rho = out[6]

@@ -194,8 +194,10 @@ def solve_batch(
     T = np.ascontiguousarray(tensions, dtype=float)
     if T.ndim != 2 or T.shape[1] != robot.n_tendons:
         raise ValueError(f"tensions must have shape (B, {robot.n_tendons}), got {T.shape}")
-    for b in range(T.shape[0]):
-        Loads(tensions=T[b])  # validates: finite, >= 0
+    bad = ~np.isfinite(T) | (T < 0)
+    if np.any(bad):
+        b, c = np.argwhere(bad)[0]
+        raise ValueError(f"tensions[{b}, {c}] must be finite and >= 0 N, got {T[b, c]}")
     base = loads if loads is not None else Loads(tensions=np.zeros(robot.n_tendons))
     model = StaticModel.build(robot, Loads(np.zeros(robot.n_tendons), base.tip_force, base.tip_moment,
                                            base.point_loads, base.release))
