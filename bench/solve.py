@@ -7,7 +7,8 @@ b  cold solve with the paper's friction law, gravity and the paper's tip load
    (force (0.1, 0.1, -0.1) N, moment (-0.1, 0.1, 0.1) N m), load stepping included
 c  warm-started solve: tensions moved by 2 % from a solved neighbour (case b's model)
 d  throughput: many random tension vectors in [0, 20] N solved in parallel on all
-   cores, with friction and gravity (d) and also under the paper's tip load (d_load)
+   cores, with friction and gravity (d), also under the paper's tip load (d_load), and
+   with ``load_stepping="auto"`` (Newton at full load first; faster, branch not guaranteed)
 
 Prints a table, writes ``bench/results/solve.json`` and, with ``--json``, prints one
 JSON object as the last line. Medians are quoted: these machines are noisy.
@@ -50,7 +51,7 @@ def main() -> None:
 
     startup = [startup_seconds() for _ in range(3)]
     import pytdcr
-    from pytdcr import Loads, NoFriction, paper_robot, solve, solve_batch
+    from pytdcr import Loads, NoFriction, SolverOptions, paper_robot, solve, solve_batch
 
     pytdcr.statics.warmup()
     rng = np.random.default_rng(args.seed)
@@ -82,11 +83,13 @@ def main() -> None:
     c_ms, c_conv, _ = timed(paper, neighbour)
 
     T = rng.uniform(0, 20, (args.batch, 8))
-    thr, thr_load, conv_d, conv_dl = [], [], [], []
+    thr, thr_load, thr_auto, conv_d, conv_dl = [], [], [], [], []
     for _ in range(3):
         res = solve_batch(paper, T)
         thr.append(args.batch / res.seconds)
         conv_d.append(res.converged.mean())
+        res = solve_batch(paper, T, options=SolverOptions(load_stepping="auto"))
+        thr_auto.append(args.batch / res.seconds)
         res = solve_batch(paper, T, Loads(np.zeros(8), **tip))
         thr_load.append(args.batch / res.seconds)
         conv_dl.append(res.converged.mean())
@@ -98,12 +101,13 @@ def main() -> None:
         "warm_ms": float(np.median(c_ms)),
         "throughput_per_s": float(np.median(thr)),
         "throughput_paper_load_per_s": float(np.median(thr_load)),
+        "throughput_auto_per_s": float(np.median(thr_auto)),
         "converged_fraction": {"a": a_conv, "b": b_conv, "c": c_conv, "d": float(np.median(conv_d)),
                                "d_load": float(np.median(conv_dl))},
         "load_stepped_fraction_b": b_step,
         "detail": {"startup_s": stats(startup), "cold_tendons_ms": stats(a_ms), "cold_full_ms": stats(b_ms),
                    "warm_ms": stats(c_ms), "throughput_per_s": stats(thr),
-                   "throughput_paper_load_per_s": stats(thr_load)},
+                   "throughput_paper_load_per_s": stats(thr_load), "throughput_auto_per_s": stats(thr_auto)},
         "config": {"runs": args.runs, "batch": args.batch, "seed": args.seed, "cpus": os.cpu_count(),
                    "python": platform.python_version(), "numpy": np.__version__, "pytdcr": pytdcr.__version__},
     }
@@ -114,6 +118,7 @@ def main() -> None:
         print(f"{label:34s}  median {d['median']:.3f} ms  (min {d['min']:.3f}, max {d['max']:.3f})")
     print(f"d throughput (friction+gravity)     {result['throughput_per_s']:.0f} solves/s")
     print(f"d throughput under the paper load   {result['throughput_paper_load_per_s']:.0f} solves/s")
+    print(f"d throughput, load_stepping='auto'  {result['throughput_auto_per_s']:.0f} solves/s")
     print(f"converged: {result['converged_fraction']}")
     out = Path(__file__).resolve().parent / "results"
     out.mkdir(exist_ok=True)

@@ -85,3 +85,32 @@ def test_model_checks_its_inputs(paper, rao):
         SolverOptions(atol=-1)
     with pytest.raises(ValueError, match="load_stepping"):
         SolverOptions(load_stepping="sometimes")  # type: ignore[arg-type]
+
+
+def test_default_follows_the_loading_branch(paper):
+    """A tension vector with two equilibria under the paper's load (found by the GA).
+
+    Ramping the loads in 100 small steps reaches the near-straight one (reach 0.39281 m); Newton at full
+    load from the straight robot lands on a curled one. The default solve must give the loading branch.
+    """
+    t = np.array([15.111, 1.571, 20.0, 16.559, 20.0, 20.0, 12.737, 11.946])
+    loads = Loads(t, **PAPER_LOAD)
+    from pytdcr.kinematics import forward_kinematics
+
+    q = np.zeros(3 * paper.n_disks)
+    for lam in np.linspace(0.01, 1.0, 100):  # the loading path, by hand
+        robot = paper.with_gravity(tuple(lam * np.array(paper.gravity)))
+        q = solve(robot, loads_at(loads, lam), q0=q.reshape(-1, 3),
+                  options=SolverOptions(load_stepping="never")).q.ravel()
+    ref = np.linalg.norm(forward_kinematics(q, paper.subsegment_lengths)[0][-1])
+    default = solve(paper, loads)
+    direct = solve(paper, loads, options=SolverOptions(load_stepping="never"))
+    assert default.converged and direct.converged
+    assert default.path == "loading"
+    assert default.reach == pytest.approx(ref, abs=1e-8)
+    assert abs(direct.reach - ref) > 0.05  # the other equilibrium
+
+
+def loads_at(loads: Loads, lam: float) -> Loads:
+    """Tensions and tip wrench scaled by ``lam``."""
+    return Loads(loads.tensions * lam, loads.tip_force * lam, loads.tip_moment * lam)

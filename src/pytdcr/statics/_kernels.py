@@ -40,6 +40,10 @@ __all__ = ["evaluate", "frames", "make_work", "newton", "relax", "solve_batch", 
 _H = 1e-30  # complex-step size
 _STALL = 15  # Newton gives up after this many iterations without halving the residual
 _STEP_ITER = 30  # Newton iterations allowed per load step
+_STEP_ATOL = 1e-6  # tolerance [N m] of intermediate load steps (they only track the branch)
+_MAX_DLAM = 0.25  # largest load step
+_STEP_TARGET = 0.05  # [rad] bend/twist change of a subsegment that a load step aims at
+_MAX_STEP_CHANGE = 0.1  # [rad] largest bend/twist change of a subsegment in one load step (else: a branch jump)
 
 
 @njit(cache=True, fastmath=_FM)
@@ -580,10 +584,13 @@ def _step_scale(dx, sub, max_dtheta):
 
 
 @njit(cache=True)
-def newton(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, work):
+def newton(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, work,
+           H, reuse):
     """Quasi-Newton iteration from ``q`` (modified in place) at load factor ``lam``.
 
-    The exact Jacobian is inverted once; later steps update the inverse with
+    ``H`` (3N, 3N) holds the inverse Jacobian: computed from the exact
+    Jacobian unless ``reuse`` (then the caller's ``H``, e.g. from the last load
+    step, is the start), and left updated on return. Later steps update the inverse with
     Broyden's rank-one formula and the exact Jacobian is recomputed only when a
     step stops making good progress. Steps are scaled so that no subsegment's
     bend angle or twist changes by more than ``max_dtheta`` [rad] and
@@ -596,14 +603,18 @@ def newton(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, ato
     rt = np.empty(m)
     J = np.empty((m, m))
     qt = np.empty(m)
-    evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, True, r, J, work)
-    njac = 1
-    fresh = True
-    H = np.zeros((m, m))
-    try:
-        H[:, :] = np.linalg.inv(J)
-    except Exception:
-        H[:, :] = 0.0
+    if reuse:
+        evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, False, r, J, work)
+        njac = 0
+        fresh = False
+    else:
+        evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, True, r, J, work)
+        njac = 1
+        fresh = True
+        try:
+            H[:, :] = np.linalg.inv(J)
+        except Exception:
+            H[:, :] = 0.0
     res = _maxabs(r)
     it = 0
     best = res
@@ -743,6 +754,16 @@ def relax(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol
     return res <= atol, res, max_iter, max_iter + 1
 
 
+@njit(cache=True)
+def _change(qa, qb, sub):
+    """Largest change of bend angle or twist of one subsegment between ``qa`` and ``qb`` [rad]."""
+    big = 0.0
+    for i in range(sub.shape[0]):
+        dth = np.sqrt((qa[3 * i] - qb[3 * i]) ** 2 + (qa[3 * i + 1] - qb[3 * i + 1]) ** 2) * sub[i, 0]
+        big = max(big, dth, abs(qa[3 * i + 2] - qb[3 * i + 2]))
+    return big
+
+
 PATH_DIRECT = 0  # Newton from the start point at full load
 PATH_LOADING = 1  # continuation along the loading path from the unloaded robot
 PATH_SNAP = 2  # the loading path, relaxed through a fold (snap-through)
@@ -765,11 +786,13 @@ def solve_one(q0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol
     """
     m = q0.shape[0]
     q = q0.copy()
+    H = np.zeros((m, m))
     iters = 0
     nj = 0
     if stepping != 2:
         ok, res, it, ne = newton(
-            q, 1.0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, work
+            q, 1.0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, work,
+            H, False,
         )
         iters += it
         nj += ne
@@ -786,6 +809,7 @@ def solve_one(q0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol
     ok = False
     res = np.inf
     step_iter = min(max_iter, _STEP_ITER)
+    have_h = False  # an inverse Jacobian from the last converged load step
     while lam < 1.0 and steps < 400:
         lt = min(1.0, lam + dlam)
         # secant predictor from the last two equilibria
@@ -795,25 +819,33 @@ def solve_one(q0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol
                 qs[u] = q[u] + w * (q[u] - qprev[u])
         else:
             qs[:] = q
+        tol = atol if lt >= 1.0 else max(atol, _STEP_ATOL)
         ok, res, it, ne = newton(
-            qs, lt, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, step_iter, max_dtheta, work
+            qs, lt, sub, holes, anchor, fric, tension, grav, pforce, pmoment, tol, step_iter, max_dtheta, work,
+            H, have_h,
         )
-        if not ok and lam > lprev:  # retry without the predictor
+        if not ok and lam > lprev:  # retry without the predictor, from a fresh Jacobian
             qs[:] = q
             ok, res, it2, ne2 = newton(
-                qs, lt, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, step_iter, max_dtheta, work
+                qs, lt, sub, holes, anchor, fric, tension, grav, pforce, pmoment, tol, step_iter, max_dtheta, work,
+                H, False,
             )
             it += it2
             ne += ne2
         iters += it
         nj += ne
         steps += 1
+        if ok and dlam >= 1.0 / 64.0 and _change(qs, q, sub) > _MAX_STEP_CHANGE:
+            ok = False  # a converged step that moved far has jumped to another branch: take a smaller step
+        have_h = ok
         if ok:
             qprev[:] = q
             lprev = lam
             q[:] = qs
             lam = lt
-            dlam = min(2.0 * dlam, 1.0)
+            # next step from the secant rate of change: aim at _STEP_TARGET per subsegment
+            rate = _change(q, qprev, sub) / (lam - lprev)
+            dlam = min(2.0 * dlam, _MAX_DLAM, _STEP_TARGET / rate if rate > 0.0 else _MAX_DLAM)
         else:
             dlam *= 0.5
             if dlam < 1.0 / 128.0:
@@ -839,7 +871,8 @@ def solve_one(q0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol
             else:
                 qs[:] = q0
             ok, res, it, ne = newton(
-                qs, 1.0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, work
+                qs, 1.0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, work,
+                H, False,
             )
             iters += it
             nj += ne
