@@ -228,7 +228,7 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     setup = model_from_args(args)
     robot = setup.robot
     tensions = parse_tensions(args.tensions, robot)
-    loads = Loads(tensions, setup.loads.tip_force, setup.loads.tip_moment, release=setup.loads.release)
+    loads = setup.loads.with_tensions(tensions)
     sol = solve(robot, loads, options=SolverOptions(atol=args.atol))
     if args.json:
         print(dump_json({"robot": robot.name, **sol.to_dict()}))

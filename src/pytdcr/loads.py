@@ -87,3 +87,7 @@ class Loads:
         for p in self.point_loads:
             if not isinstance(p, PointLoad):
                 raise TypeError(f"point_loads must hold PointLoad objects, got {type(p).__name__}")
+
+    def with_tensions(self, tensions: np.ndarray) -> Loads:
+        """The same external loads and friction direction with other actuator tensions [N]."""
+        return Loads(tensions, self.tip_force, self.tip_moment, self.point_loads, self.release)

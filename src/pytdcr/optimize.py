@@ -167,8 +167,7 @@ def reach_gradient(robot: Robot, loads: Loads, q: np.ndarray) -> tuple[np.ndarra
     for c in range(nt):
         t = np.array(loads.tensions)
         t[c] += 1.0
-        shifted = StaticModel.build(robot, Loads(t, loads.tip_force, loads.tip_moment, loads.point_loads,
-                                                 loads.release))
+        shifted = StaticModel.build(robot, loads.with_tensions(t))
         dr[:, c] = shifted.residual(q).reshape(-1) - r0
     dq = -np.linalg.solve(J, dr)
     lengths = robot.subsegment_lengths
@@ -213,7 +212,7 @@ def polish_reach(
 
     def fun(x: np.ndarray) -> tuple[float, np.ndarray]:
         t = full(np.clip(x, bounds.lower[free], bounds.upper[free]))
-        lds = Loads(t, loads.tip_force, loads.tip_moment, loads.point_loads, loads.release)
+        lds = loads.with_tensions(t)
         sol = solve(robot, lds, q0=state["q"] if warm else None, options=opts)
         state["n"] += 1
         if not sol.converged:
@@ -234,7 +233,7 @@ def polish_reach(
                           options={"maxiter": max_iter, "ftol": 1e-15, "gtol": 1e-12})
         res_x, msg = res.x, str(res.message)
     t = full(np.clip(res_x, bounds.lower[free], bounds.upper[free]))
-    final = solve(robot, Loads(t, loads.tip_force, loads.tip_moment, loads.point_loads, loads.release),
+    final = solve(robot, loads.with_tensions(t),
                   q0=state["q"] if warm else None, options=opts)
     state["n"] += 1
     if not final.converged:  # pragma: no cover - the optimiser only accepts converged points
@@ -375,7 +374,7 @@ def maximize_reach(
     T = base.copy()
     T[free] = opt.get("X")
     # the optimum is re-solved cold, from the straight robot, independent of the warm-start history
-    sol = solve(robot, Loads(T, loads.tip_force, loads.tip_moment, loads.point_loads, loads.release),
+    sol = solve(robot, loads.with_tensions(T),
                 options=opts)
     if not sol.converged:
         raise RuntimeError("the GA's best does not converge when solved cold from the straight robot")

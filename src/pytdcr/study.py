@@ -123,8 +123,7 @@ def run_sample(robot: Robot, loads: Loads, bounds: TensionBounds, n: int, seed: 
     ax.set_title(f"{robot.name}: reach of {n} random tension samples (seed {seed})")
     files += _save(ax.figure, out, "fig3a_samples")
     ok = np.flatnonzero(samples.converged)[:n_shapes]
-    sols = [solve(robot, Loads(samples.tensions[k], loads.tip_force, loads.tip_moment, loads.point_loads,
-                               loads.release), q0=samples.q[k], options=options) for k in ok]
+    sols = [solve(robot, loads.with_tensions(samples.tensions[k]), q0=samples.q[k], options=options) for k in ok]
     ax = plot_robots(sols, robot)
     ax.set_title(f"{len(sols)} sampled configurations")
     files += _save(ax.figure, out, "fig4_configurations")
@@ -155,7 +154,7 @@ def run_optimize(robot: Robot, loads: Loads, bounds: TensionBounds, *, pop: int,
     ax.set_title(f"GA, population {pop}: {res.generations} generations, {res.evaluations} solves")
     files += _save(ax.figure, out, f"fig5_convergence{sfx}")
     final_t = res.polish.tensions if res.polish is not None else res.tensions
-    sol = solve(robot, Loads(final_t, loads.tip_force, loads.tip_moment, loads.point_loads, loads.release),
+    sol = solve(robot, loads.with_tensions(final_t),
                 options=SolverOptions(atol=1e-12))
     ax = plot_robot(sol, robot, loads=_load_arrows(sol, loads, robot))
     ax.set_title(f"optimal robot: reach {sol.reach:.4f} m")

@@ -199,8 +199,7 @@ def solve_batch(
         b, c = np.argwhere(bad)[0]
         raise ValueError(f"tensions[{b}, {c}] must be finite and >= 0 N, got {T[b, c]}")
     base = loads if loads is not None else Loads(tensions=np.zeros(robot.n_tendons))
-    model = StaticModel.build(robot, Loads(np.zeros(robot.n_tendons), base.tip_force, base.tip_moment,
-                                           base.point_loads, base.release))
+    model = StaticModel.build(robot, base.with_tensions(np.zeros(robot.n_tendons)))
     nb = T.shape[0]
     m = model.n_unknowns
     if q0 is None:
