@@ -51,7 +51,7 @@ def plot_robot(
     disks: bool = True,
     tendons: bool = True,
     frames: bool = True,
-    loads: Sequence[tuple[np.ndarray, np.ndarray]] = (),
+    loads: Sequence[tuple] = (),
     label: str | None = None,
     equal: bool = True,
     **kwargs,
@@ -64,9 +64,9 @@ def plot_robot(
         Must be converged (a non-converged solve has no shape and raises).
     robot : Robot
     ax : Axes3D, optional
-    loads : sequence of (point, vector)
+    loads : sequence of (point, vector) or (point, vector, colour)
         Arrows to draw (e.g. the tip force) from ``point`` (3,) along ``vector`` (3,),
-        both in the base frame, already scaled to metres.
+        both in the base frame, already scaled to metres (default colour purple).
     **kwargs
         Passed to the backbone's ``plot`` call.
     """
@@ -96,10 +96,11 @@ def plot_robot(
         size = 0.12 * robot.length
         _frame_arrows(ax, pos[0], rot[0], size)
         _frame_arrows(ax, pos[-1], rot[-1], size)
-    for point, vec in loads:
-        point = np.asarray(point, dtype=float)
-        vec = np.asarray(vec, dtype=float)
-        ax.quiver(*point, *vec, color="tab:purple", linewidth=2.0, arrow_length_ratio=0.2)
+    for arrow in loads:
+        point = np.asarray(arrow[0], dtype=float)
+        vec = np.asarray(arrow[1], dtype=float)
+        colour = arrow[2] if len(arrow) > 2 else "tab:purple"
+        ax.quiver(*point, *vec, color=colour, linewidth=2.0, arrow_length_ratio=0.2)
         pts.append(np.stack([point, point + vec]))
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")

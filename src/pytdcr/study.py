@@ -87,8 +87,9 @@ def _load_arrows(sol: StaticSolution, loads: Loads, robot: Robot) -> list[tuple[
     scale = 0.25 * robot.length
     if np.any(loads.tip_force):
         arrows.append((sol.tip_position, loads.tip_force / np.linalg.norm(loads.tip_force) * scale))
-    if np.any(loads.tip_moment):  # the moment's axis, drawn from the tip
-        arrows.append((sol.tip_position, loads.tip_moment / np.linalg.norm(loads.tip_moment) * scale * 0.6))
+    if np.any(loads.tip_moment):  # the moment's axis, drawn from the tip in another colour
+        arrows.append((sol.tip_position, loads.tip_moment / np.linalg.norm(loads.tip_moment) * scale * 0.6,
+                       "tab:orange"))
     return arrows
 
 
@@ -157,7 +158,8 @@ def run_optimize(robot: Robot, loads: Loads, bounds: TensionBounds, *, pop: int,
     sol = solve(robot, loads.with_tensions(final_t),
                 options=SolverOptions(atol=1e-12))
     ax = plot_robot(sol, robot, loads=_load_arrows(sol, loads, robot))
-    ax.set_title(f"optimal robot: reach {sol.reach:.4f} m")
+    ax.set_title(f"optimal robot: reach {sol.reach:.4f} m\n(purple: tip force, orange: tip moment axis)"
+                 if np.any(loads.tip_moment) else f"optimal robot: reach {sol.reach:.4f} m (purple: tip force)")
     files += _save(ax.figure, out, f"fig6_optimum{sfx}")
     with open(out / f"history{sfx}.csv", "w", newline="") as fh:
         w = csv.writer(fh)
@@ -212,7 +214,7 @@ def run_reproduce(robot: Robot, out: Path, *, seed: int = 0, progress: Progress 
     passive = solve(robot, paper_loads)
     if passive.converged:
         ax = plot_robot(passive, robot, loads=_load_arrows(passive, paper_loads, robot))
-        ax.set_title("no tension; tip force (0.1, 0.1, -0.1) N, moment (-0.1, 0.1, 0.1) N m")
+        ax.set_title("no tension; tip force (0.1, 0.1, -0.1) N (purple),\nmoment (-0.1, 0.1, 0.1) N m (orange: axis)")
         summary["files"] += _save(ax.figure, out, "fig3b_loaded")
     summary["passive"] = {"converged": passive.converged,
                           "tip": passive.tip_position.tolist() if passive.converged else None,
