@@ -216,7 +216,7 @@ def polish_reach(
         sol = solve(robot, lds, q0=state["q"] if warm else None, options=opts)
         state["n"] += 1
         if not sol.converged:
-            return 1e3, np.zeros_like(x)
+            return _INFEASIBLE_COST, np.zeros_like(x)
         state["q"] = sol.q
         tip, dtip = reach_gradient(robot, lds, sol.q)
         r = float(np.linalg.norm(tip))

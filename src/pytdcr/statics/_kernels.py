@@ -241,7 +241,6 @@ def make_work(n, nt):
         np.zeros((3, m)),  # 12 dF
         np.zeros((3, m)),  # 13 dM
         np.zeros((6, m)),  # 14 dL
-        np.zeros((n + 1, 3)),  # 15 hole scratch / positions
     )
 
 
@@ -254,7 +253,7 @@ def evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, w
     n = sub.shape[0]
     nt = holes.shape[0]
     m = 3 * n
-    Rs, ds, pgs, dRs, dds, dpgs, G, Om, T, dT, W, dW, dF, dM, dL, _ = work
+    Rs, ds, pgs, dRs, dds, dpgs, G, Om, T, dT, W, dW, dF, dM, dL = work
     Rc = np.empty((3, 3), dtype=np.complex128)
     dc = np.empty(3, dtype=np.complex128)
     pgc = np.empty(3, dtype=np.complex128)

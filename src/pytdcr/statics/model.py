@@ -118,6 +118,16 @@ class StaticModel:
             raise ValueError(f"q must have {self.n_unknowns} entries (N x 3), got {q.size}")
         return q
 
+    def _evaluate(self, q: np.ndarray, load_factor: float, want_jac: bool) -> tuple[np.ndarray, np.ndarray, tuple]:
+        """Run the kernel once: residual (3N,), Jacobian (3N, 3N) or a dummy, and the work arrays."""
+        q = self._check_q(q)
+        m = self.n_unknowns
+        r = np.empty(m)
+        J = np.empty((m, m)) if want_jac else np.empty((1, 1))
+        work = K.make_work(self.sub.shape[0], self.holes.shape[0])
+        K.evaluate(q, float(load_factor), *self._args(), want_jac, r, J, work)
+        return r, J, work
+
     def residual(self, q: np.ndarray, load_factor: float = 1.0) -> np.ndarray:
         """Equilibrium residual [N m], shape (N, 3): row i in frame i-1.
 
@@ -128,27 +138,13 @@ class StaticModel:
         load_factor : float
             Scale on every load (1: the full loads).
         """
-        q = self._check_q(q)
-        r = np.empty(self.n_unknowns)
-        work = K.make_work(self.sub.shape[0], self.holes.shape[0])
-        K.evaluate(q, float(load_factor), *self._args(), False, r, np.empty((1, 1)), work)
-        return r.reshape(-1, 3)
+        return self._evaluate(q, load_factor, False)[0].reshape(-1, 3)
 
     def jacobian(self, q: np.ndarray, load_factor: float = 1.0) -> np.ndarray:
         """Exact Jacobian of the flattened residual, shape (3N, 3N) [N m per unit of q]."""
-        q = self._check_q(q)
-        m = self.n_unknowns
-        r = np.empty(m)
-        J = np.empty((m, m))
-        work = K.make_work(self.sub.shape[0], self.holes.shape[0])
-        K.evaluate(q, float(load_factor), *self._args(), True, r, J, work)
-        return J
+        return self._evaluate(q, load_factor, True)[1]
 
     def tensions(self, q: np.ndarray) -> np.ndarray:
         """Tension in every tendon piece [N], shape (n_tendons, N); 0 past the anchor."""
-        q = self._check_q(q)
-        r = np.empty(self.n_unknowns)
-        work = K.make_work(self.sub.shape[0], self.holes.shape[0])
-        K.evaluate(q, 1.0, *self._args(), False, r, np.empty((1, 1)), work)
-        T = work[8]
+        T = self._evaluate(q, 1.0, False)[2][8]
         return np.ascontiguousarray(T[1 : self.sub.shape[0] + 1].T)
