@@ -156,3 +156,70 @@ def test_sample_and_optimize_commands(capsys, tmp_path):
                 "seconds", "seed", "history"):
         assert key in data
     assert data["reach"] <= 0.4 and len(data["history"]["best"]) == data["generations"]
+
+
+def test_solve_with_the_cosserat_model_matches_the_api(capsys, rao):
+    from pytdcr import CosseratOptions
+
+    code, out, _ = run(capsys, "solve", "--robot", "rao", "--tensions", "4,0,0,0,2,0", "--model", "cosserat",
+                       "--shear-extension", "--json")
+    assert code == 0
+    data = json.loads(out)
+    sol = solve(rao, Loads([4.0, 0, 0, 0, 2, 0]), model="cosserat", options=CosseratOptions(shear_extension=True))
+    assert data["model"] == "cosserat" and data["converged"] is True
+    assert np.allclose(data["tip_position"], sol.tip_position, atol=1e-15)
+    assert np.shape(data["q"]) == (3,)
+
+
+def test_cosserat_refuses_friction_in_one_line(capsys):
+    code, _, err = run(capsys, "solve", "--tensions", "1,0,0,0,0,0,0,0", "--model", "cosserat")
+    assert code == 2
+    assert "--friction none" in err and len(err.strip().splitlines()) == 1
+    code, _, err = run(capsys, "solve", "--tensions", "1,0,0,0,0,0,0,0", "--shear-extension")
+    assert code == 2 and "--model cosserat" in err
+
+
+def test_compare_writes_table_and_figure(capsys, tmp_path):
+    out = tmp_path / "cmp"
+    code, text, _ = run(capsys, "compare", "--robot", "rao", "--n", "3", "--bounds", "0,4", "--seed", "2",
+                        "--out", str(out))
+    assert code == 0 and "both converged on 3" in text
+    rows = (out / "compare.csv").read_text().strip().splitlines()
+    assert len(rows) == 4
+    header = rows[0].split(",")
+    for key in ("pcc_x_m", "cosserat_z_m", "difference_mm", "difference_pct_length", "pcc_ms", "cosserat_ms"):
+        assert key in header
+    diff = [float(r.split(",")[header.index("difference_mm")]) for r in rows[1:]]
+    assert all(0.0 <= d < 0.015 * 400 for d in diff)  # within the tendon-only bound (mm)
+    md = (out / "compare.md").read_text()
+    assert md.count("\n| ") >= 4 and "median" in md
+    data = json.loads((out / "compare.json").read_text())
+    assert data["summary"]["both_converged"] == 3 and data["inputs"]["seed"] == 2
+    assert (out / "fig_compare.png").stat().st_size > 10_000
+
+
+def test_compare_reads_cases_and_rejects_bad_ones(capsys, tmp_path):
+    good = tmp_path / "cases.csv"
+    good.write_text("T1,T2,T3,T4,T5,T6\n4,0,0,0,2,0\n1,1,0,0,0,0\n")
+    code, text, _ = run(capsys, "compare", "--robot", "rao", "--cases", str(good), "--out", str(tmp_path / "o"))
+    assert code == 0 and "2 cases" in text
+    for body, msg in (("4,0,0\n", "has 6 tendons"), ("4,0,0,0,-2,0\n", ">= 0"), ("4,0,x,0,2,0\n1,2,3,4,5,6\n", "")):
+        bad = tmp_path / "bad.csv"
+        bad.write_text("1,1,1,1,1,1\n" + body)
+        code, _, err = run(capsys, "compare", "--robot", "rao", "--cases", str(bad), "--out", str(tmp_path / "o"))
+        assert code == 2 and "--cases" in err and msg in err
+    code, _, err = run(capsys, "compare", "--robot", "rao", "--friction", "paper", "--out", str(tmp_path / "o"))
+    assert code == 2 and "no tendon friction" in err
+
+
+def test_sample_and_optimize_take_the_model_option(capsys, tmp_path):
+    code, text, _ = run(capsys, "sample", "--robot", "rao", "--model", "cosserat", "--n", "4", "--bounds", "0,3",
+                        "--out", str(tmp_path / "s"))
+    assert code == 0 and "4 converged" in text
+    data = json.loads((tmp_path / "s" / "sample_run.json").read_text())
+    assert data["inputs"]["solver"]["model"] == "cosserat"
+    code, out, _ = run(capsys, "optimize", "--robot", "rao", "--model", "cosserat", "--pop", "6", "--max-gen", "2",
+                       "--bounds", "0,3", "--json")
+    assert code == 0
+    res = json.loads(out)
+    assert res["reach"] <= 0.4 and res["evaluations"] >= 12

@@ -13,7 +13,7 @@ from .design import (
 )
 from .loads import Loads, PointLoad
 from .results import NotConvergedError, StaticSolution
-from .statics import BatchSolution, SolverOptions, StaticModel, solve, solve_batch
+from .statics import BatchSolution, CosseratOptions, SolverOptions, StaticModel, solve, solve_batch
 
 __version__ = "0.1.0"
 
@@ -21,6 +21,7 @@ __all__ = [
     "Backbone",
     "BatchSolution",
     "ConstantFriction",
+    "CosseratOptions",
     "ExponentialFriction",
     "Loads",
     "NoFriction",

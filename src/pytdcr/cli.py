@@ -17,7 +17,7 @@ import numpy as np
 from .design import ConstantFriction, ExponentialFriction, NoFriction, Robot
 from .io import RobotFileError, dump_json, load_robot, robot_to_dict, write_robot
 from .loads import Loads
-from .statics import SolverOptions, solve
+from .statics import MODELS, CosseratOptions, SolverOptions, solve
 
 __all__ = ["build_parser", "main"]
 
@@ -54,6 +54,29 @@ def add_model_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--friction", help="none, paper (mu = 0.689 exp(-0.027 sigma_deg)) or a constant MU "
                    "(default: the robot's own law)")
     g.add_argument("--release", action="store_true", help="friction for releasing actuators (default: pulling)")
+
+
+def add_model_choice(p: argparse.ArgumentParser) -> None:
+    """--model pcc|cosserat and the Cosserat model's option (solve, sample, optimize)."""
+    g = p.add_argument_group("static model")
+    g.add_argument("--model", choices=MODELS, default="pcc",
+                   help="pcc: the paper's piecewise constant curvature model; cosserat: Cosserat rod (no friction) "
+                   "[pcc]")
+    g.add_argument("--shear-extension", action="store_true",
+                   help="cosserat: let the backbone shear and stretch (default inextensible)")
+
+
+def solver_from_args(args: argparse.Namespace, robot: Robot, atol: float = 1e-9
+                     ) -> tuple[str, SolverOptions | CosseratOptions]:
+    """The chosen model and its options; CliError if the robot has friction and the model has none."""
+    if args.model == "pcc":
+        if args.shear_extension:
+            raise CliError("--shear-extension: only for --model cosserat")
+        return "pcc", SolverOptions(atol=atol)
+    if not isinstance(robot.friction, NoFriction):
+        raise CliError(f"--model cosserat: the Cosserat model has no tendon friction and robot '{robot.name}' has "
+                       f"law '{robot.friction.law}'; add --friction none")
+    return "cosserat", CosseratOptions(atol=atol, shear_extension=args.shear_extension)
 
 
 @dataclass(frozen=True)
@@ -163,8 +186,9 @@ def _cmd_sample(args: argparse.Namespace) -> int:
         raise CliError(f"--n must be >= 1, got {args.n}")
     setup = model_from_args(args)
     bounds = bounds_from_args(args, setup.robot)
+    model, options = solver_from_args(args, setup.robot)
     out = Path(args.out)
-    run = run_sample(setup.robot, setup.loads, bounds, args.n, args.seed, out)
+    run = run_sample(setup.robot, setup.loads, bounds, args.n, args.seed, out, model=model, options=options)
     s = run.samples
     print(f"{args.n} samples of robot '{setup.robot.name}' (seed {args.seed}): {int(s.converged.sum())} converged, "
           f"{int((~s.converged).sum())} not; reach {np.nanmin(s.reach):.4f} to {np.nanmax(s.reach):.4f} m; "
@@ -183,9 +207,11 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
         raise CliError(f"--tol must be finite and > 0, got {args.tol}")
     setup = model_from_args(args)
     bounds = bounds_from_args(args, setup.robot)
+    model, options = solver_from_args(args, setup.robot)
     out = Path(args.out) if args.out else None
     res, files = run_optimize(setup.robot, setup.loads, bounds, pop=args.pop, tol=args.tol, window=args.window,
                               max_gen=args.max_gen, seed=args.seed, polish=not args.no_polish, out=out,
+                              model=model, options=options,
                               progress=None if args.json else _tqdm_progress("GA", args.max_gen))
     if args.json:
         print(dump_json(res.to_dict()))
@@ -221,6 +247,74 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     return 0
 
 
+def _read_cases(path: str, robot: Robot) -> np.ndarray:
+    """Tension vectors from a CSV file: one row per case, one column per tendon (a header row is allowed)."""
+    try:
+        lines = Path(path).read_text(encoding="utf-8").splitlines()
+    except OSError as err:
+        raise CliError(f"--cases {path}: cannot read ({err.strerror or err})") from None
+    rows = []
+    for k, line in enumerate(lines, 1):
+        if not line.strip() or line.lstrip().startswith("#"):
+            continue
+        try:
+            vals = [float(x) for x in line.split(",")]
+        except ValueError:
+            if not rows and k == 1:
+                continue  # header
+            raise CliError(f"--cases {path}: line {k}: expected {robot.n_tendons} numbers, got {line!r}") from None
+        if len(vals) != robot.n_tendons:
+            raise CliError(f"--cases {path}: line {k}: robot '{robot.name}' has {robot.n_tendons} tendons, "
+                           f"got {len(vals)} values")
+        if not all(np.isfinite(v) and v >= 0 for v in vals):
+            raise CliError(f"--cases {path}: line {k}: tensions must be finite and >= 0 N, got {line!r}")
+        rows.append(vals)
+    if not rows:
+        raise CliError(f"--cases {path}: no cases")
+    return np.array(rows, dtype=float)
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from .study import run_compare
+
+    explicit_friction = args.friction is not None and args.friction.strip().lower() != "none"
+    if explicit_friction:
+        raise CliError(f"--friction {args.friction}: the Cosserat model has no tendon friction; compare runs "
+                       "both models without it")
+    setup = model_from_args(args)
+    robot = setup.robot
+    note = ""
+    if not isinstance(robot.friction, NoFriction):
+        robot = robot.with_friction(NoFriction())
+        note = f" (friction of robot '{robot.name}' turned off for both models: the Cosserat model has none)"
+    if args.cases:
+        if args.bounds or args.bounds_file:
+            raise CliError("--cases: give either --cases or --n with --bounds, not both")
+        T = _read_cases(args.cases, robot)
+        source = {"cases": args.cases}
+    else:
+        if args.n < 1:
+            raise CliError(f"--n must be >= 1, got {args.n}")
+        bounds = bounds_from_args(args, robot)
+        T = bounds.sample(args.n, np.random.default_rng(args.seed))
+        source = {"cases": f"{args.n} random within bounds, seed {args.seed}", "bounds": bounds.to_dict(),
+                  "seed": args.seed}
+    out = Path(args.out)
+    with tqdm(total=T.shape[0], desc="compare", unit="case", leave=False, file=sys.stderr) as bar:
+        cmp, files = run_compare(robot, setup.loads, T, out, source=source, progress=lambda: bar.update(1),
+                                 cosserat_options=CosseratOptions(shear_extension=args.shear_extension))
+    s = cmp.summary()
+    med = s["difference_median_mm"]
+    print(f"{s['cases']} cases on robot '{robot.name}'{note}: both converged on {s['both_converged']}; tip difference "
+          f"median {med if med is None else round(med, 3)} mm, max "
+          f"{s['difference_max_mm'] if med is None else round(s['difference_max_mm'], 3)} mm; "
+          f"median solve PCC {s['pcc_ms_median']:.2f} ms, Cosserat {s['cosserat_ms_median']:.2f} ms")
+    print(f"wrote {', '.join(files)} in {out}")
+    return 0
+
+
 # ---------------------------------------------------------------- commands
 def _cmd_solve(args: argparse.Namespace) -> int:
     if not (np.isfinite(args.atol) and args.atol > 0):
@@ -229,13 +323,15 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     robot = setup.robot
     tensions = parse_tensions(args.tensions, robot)
     loads = setup.loads.with_tensions(tensions)
-    sol = solve(robot, loads, options=SolverOptions(atol=args.atol))
+    model, options = solver_from_args(args, robot, args.atol)
+    sol = solve(robot, loads, model=model, options=options)
     if args.json:
         print(dump_json({"robot": robot.name, **sol.to_dict()}))
     else:
         status = "converged" if sol.converged else "NOT converged"
-        print(f"robot {robot.name}: {robot.n_disks} disks, {robot.n_tendons} tendons; {status}")
-        print(f"  max |residual| {sol.residual:.3e} N m, {sol.iterations} iterations, "
+        print(f"robot {robot.name}: {robot.n_disks} disks, {robot.n_tendons} tendons; {model} model; {status}")
+        print(f"  max |residual| {sol.residual:.3e} N m, {sol.iterations} "
+              f"{'integrations' if model == 'cosserat' else 'iterations'}, "
               f"{sol.load_steps} load steps, {sol.seconds * 1e3:.2f} ms")
         if sol.converged:
             p = sol.tip_position
@@ -290,6 +386,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("solve", help="static equilibrium under tendon tensions and tip loads")
     add_model_options(s)
+    add_model_choice(s)
     s.add_argument("--tensions", required=True, metavar="T1,...,Tn", help="actuator tensions [N]")
     s.add_argument("--atol", type=float, default=1e-9, help="convergence tolerance on max |residual| [N m]")
     s.add_argument("--json", action="store_true", help="print one JSON object")
@@ -298,6 +395,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     sm = sub.add_parser("sample", help="random tension samples: CSV, Fig. 3(a) and Fig. 4")
     add_model_options(sm)
+    add_model_choice(sm)
     add_bounds_options(sm)
     sm.add_argument("--n", type=int, default=100, help="number of samples [100]")
     sm.add_argument("--seed", type=int, default=0, help="random seed [0]")
@@ -306,6 +404,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     op = sub.add_parser("optimize", help="GA maximising the tip's distance from the base (paper Eq. 29)")
     add_model_options(op)
+    add_model_choice(op)
     add_bounds_options(op)
     op.add_argument("--pop", type=int, default=50, help="population size [50]")
     op.add_argument("--tol", type=float, default=1e-6, help="stop when the best cost improves by less [1e-6]")
@@ -322,6 +421,16 @@ def build_parser() -> argparse.ArgumentParser:
     rp.add_argument("--seed", type=int, default=0, help="random seed [0]")
     rp.add_argument("--out", default="out/reproduce", help="output folder [out/reproduce]")
     rp.set_defaults(func=_cmd_reproduce)
+
+    c = sub.add_parser("compare", help="PCC against Cosserat rod on the same cases: table and overlay figure")
+    add_model_options(c)
+    add_bounds_options(c)
+    c.add_argument("--cases", metavar="FILE", help="CSV of tension vectors, one case per row [N]")
+    c.add_argument("--n", type=int, default=20, help="number of random cases when no --cases [20]")
+    c.add_argument("--seed", type=int, default=0, help="random seed [0]")
+    c.add_argument("--shear-extension", action="store_true", help="Cosserat backbone shears and stretches")
+    c.add_argument("--out", default="out/compare", help="output folder [out/compare]")
+    c.set_defaults(func=_cmd_compare)
 
     r = sub.add_parser("robot", help="print a robot as TOML (a starting point for your own)")
     r.add_argument("--robot", default="paper", help="built-in robot or TOML file [paper]")

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -26,7 +26,7 @@ from scipy.spatial import cKDTree
 from .design import Robot
 from .kinematics import forward_kinematics
 from .loads import Loads
-from .statics import SolverOptions, StaticModel, solve, solve_batch
+from .statics import CosseratModel, CosseratOptions, SolverOptions, StaticModel, solve, solve_batch
 from .workspace import TensionBounds
 
 __all__ = ["PolishResult", "ReachResult", "maximize_reach", "polish_reach", "reach_gradient"]
@@ -192,15 +192,20 @@ def polish_reach(
     q0: np.ndarray | None = None,
     max_iter: int = 200,
     warm: bool = False,
+    model: str = "pcc",
+    options: SolverOptions | CosseratOptions | None = None,
 ) -> PolishResult:
     """Refine a tension vector by L-BFGS-B on 1/reach with exact gradients.
 
     Every cost is a static solve at a tight tolerance (1e-12 N m), so the cost
     is smooth to the optimiser; cold (from the straight robot) unless ``warm``,
-    in which case it starts from ``q0`` and then the last equilibrium.
+    in which case it starts from ``q0`` and then the last equilibrium. The
+    gradient is the implicit-function-theorem one: exact for the PCC model
+    (:func:`reach_gradient`), from central differences of the shooting map
+    for the Cosserat model.
     """
     bounds.check_robot(robot)
-    opts = SolverOptions(atol=1e-12)
+    opts = replace(options or (CosseratOptions() if model == "cosserat" else SolverOptions()), atol=1e-12)
     state = {"q": None if q0 is None else np.asarray(q0, dtype=float), "n": 0}
     free = bounds.upper > bounds.lower
     x_fixed = np.array(tensions, dtype=float)
@@ -213,12 +218,15 @@ def polish_reach(
     def fun(x: np.ndarray) -> tuple[float, np.ndarray]:
         t = full(np.clip(x, bounds.lower[free], bounds.upper[free]))
         lds = loads.with_tensions(t)
-        sol = solve(robot, lds, q0=state["q"] if warm else None, options=opts)
+        sol = solve(robot, lds, model=model, q0=state["q"] if warm else None, options=opts)
         state["n"] += 1
         if not sol.converged:
             return _INFEASIBLE_COST, np.zeros_like(x)
         state["q"] = sol.q
-        tip, dtip = reach_gradient(robot, lds, sol.q)
+        if model == "cosserat":
+            tip, dtip = CosseratModel.build(robot, lds, opts).tip_and_gradient(sol.q)
+        else:
+            tip, dtip = reach_gradient(robot, lds, sol.q)
         r = float(np.linalg.norm(tip))
         grad = -(tip @ dtip) / r**3
         return 1.0 / r, grad[free]
@@ -233,7 +241,7 @@ def polish_reach(
                           options={"maxiter": max_iter, "ftol": 1e-15, "gtol": 1e-12})
         res_x, msg = res.x, str(res.message)
     t = full(np.clip(res_x, bounds.lower[free], bounds.upper[free]))
-    final = solve(robot, loads.with_tensions(t),
+    final = solve(robot, loads.with_tensions(t), model=model,
                   q0=state["q"] if warm else None, options=opts)
     state["n"] += 1
     if not final.converged:  # pragma: no cover - the optimiser only accepts converged points
@@ -258,7 +266,8 @@ def maximize_reach(
     n_polish: int = 3,
     warm_start: bool = False,
     extra_starts: Sequence[np.ndarray] = (),
-    options: SolverOptions | None = None,
+    model: str = "pcc",
+    options: SolverOptions | CosseratOptions | None = None,
     on_generation: Callable[[int, float, float], None] | None = None,
 ) -> ReachResult:
     """Maximise the tip's distance from the base over the tensions (the paper's Eq. 29).
@@ -291,6 +300,8 @@ def maximize_reach(
     extra_starts : sequence of array-like, shape (n_tendons,)
         Further polish starts (clipped into the bounds), e.g. a known optimum
         of tighter bounds.
+    model : {'pcc', 'cosserat'}
+        The static model (see :func:`pytdcr.solve`); ``options`` must suit it.
     on_generation : callable, optional
         Called as ``on_generation(generation, best_cost, mean_cost)``.
     """
@@ -308,7 +319,7 @@ def maximize_reach(
         raise ValueError("bounds: every tension is fixed (lower == upper); nothing to optimise")
     base = np.array(bounds.lower, dtype=float)
     counters = {"evals": 0, "nonconv": 0}
-    opts = options or SolverOptions()
+    opts = options or (CosseratOptions() if model == "cosserat" else SolverOptions())
     archive_T: list[np.ndarray] = []
     archive_q: list[np.ndarray] = []
     scale = np.maximum(bounds.upper - bounds.lower, 1e-12)
@@ -327,7 +338,7 @@ def maximize_reach(
                 AT = np.vstack(archive_T)
                 nearest = cKDTree(AT / scale).query(T / scale)[1]
                 q0 = np.vstack(archive_q)[nearest]
-            batch = solve_batch(robot, T, loads, q0=q0, options=opts)
+            batch = solve_batch(robot, T, loads, model=model, q0=q0, options=opts)
             ok = batch.converged
             archive_T.append(T[ok])
             archive_q.append(batch.q[ok])
@@ -374,8 +385,7 @@ def maximize_reach(
     T = base.copy()
     T[free] = opt.get("X")
     # the optimum is re-solved cold, from the straight robot, independent of the warm-start history
-    sol = solve(robot, loads.with_tensions(T),
-                options=opts)
+    sol = solve(robot, loads.with_tensions(T), model=model, options=opts)
     if not sol.converged:
         raise RuntimeError("the GA's best does not converge when solved cold from the straight robot")
     _check_reach(sol.reach, robot)
@@ -399,7 +409,7 @@ def maximize_reach(
         for k, start in enumerate(starts):
             try:
                 results.append(polish_reach(robot, loads, bounds, start, q0=sol.q if k == 0 else None,
-                                            warm=warm_start))
+                                            warm=warm_start, model=model, options=opts))
             except RuntimeError:
                 continue
         if results:
@@ -421,6 +431,6 @@ def maximize_reach(
         seed=int(seed),
         history={"best": best_hist, "mean": mean_hist, "evaluations": evals_hist, "nonconverged": nonconv_hist},
         polish=pol,
-        settings={"pop_size": int(pop_size), "tol": float(tol), "window": int(window), "max_gen": int(max_gen),
-                  "bounds": bounds.to_dict()},
+        settings={"model": model, "pop_size": int(pop_size), "tol": float(tol), "window": int(window),
+                  "max_gen": int(max_gen), "bounds": bounds.to_dict()},
     )

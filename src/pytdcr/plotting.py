@@ -13,10 +13,9 @@ import numpy as np
 from mpl_toolkits.mplot3d.axes3d import Axes3D
 
 from .design import Robot
-from .kinematics import backbone_curve
 from .results import StaticSolution
 
-__all__ = ["new_3d_axes", "plot_robot", "plot_robots", "set_equal_aspect"]
+__all__ = ["new_3d_axes", "plot_model_overlay", "plot_robot", "plot_robots", "set_equal_aspect"]
 
 
 def new_3d_axes(figsize: tuple[float, float] = (6.0, 6.0)) -> Axes3D:
@@ -74,7 +73,7 @@ def plot_robot(
         ax = new_3d_axes()
     pos = solution.disk_positions  # raises if not converged
     rot = solution.disk_rotations
-    curve = backbone_curve(solution.q, robot.subsegment_lengths)
+    curve = solution.backbone_points(robot)
     ax.plot(curve[:, 0], curve[:, 1], curve[:, 2], color=color, linewidth=2.0, label=label, **kwargs)
     holes = robot.tendon_holes
     ring_r = float(np.max(np.linalg.norm(holes, axis=1))) * 1.2 if robot.n_tendons else 0.01
@@ -125,6 +124,36 @@ def plot_robots(
         pts.append(s.disk_positions)
     if pts:
         set_equal_aspect(ax, np.vstack(pts))
+    return ax
+
+
+def plot_model_overlay(
+    pairs: Sequence[tuple[StaticSolution, StaticSolution]], robot: Robot, ax: Axes3D | None = None,
+    labels: Sequence[str] = ("PCC", "Cosserat"),
+    case_ids: Sequence[int] | None = None,
+) -> Axes3D:
+    """Overlay two models' shapes case by case: the first solid, the second dashed, one colour per case.
+
+    Pairs where either solve did not converge are skipped. ``case_ids`` name
+    the cases in the legend (default 1, 2, ...).
+    """
+    if ax is None:
+        ax = new_3d_axes()
+    cmap = plt.get_cmap("tab10")
+    pts = []
+    k = 0
+    for j, (a, b) in enumerate(pairs):
+        if not (a.converged and b.converged):
+            continue
+        cid = case_ids[j] if case_ids is not None else j + 1
+        for sol, style, name in ((a, "-", labels[0]), (b, "--", labels[1])):
+            plot_robot(sol, robot, ax, color=cmap(k % 10), disks=False, tendons=False, frames=False, equal=False,
+                       linestyle=style, label=f"case {cid} {name}" if k < 10 else None)
+            pts.append(sol.backbone_points(robot))
+        k += 1
+    if pts:
+        set_equal_aspect(ax, np.vstack(pts))
+        ax.legend(loc="upper left", fontsize="small")
     return ax
 
 

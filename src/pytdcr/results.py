@@ -7,6 +7,9 @@ from typing import Any
 
 import numpy as np
 
+from .design import Robot
+from .kinematics import backbone_curve
+
 __all__ = ["NotConvergedError", "StaticSolution"]
 
 
@@ -33,14 +36,18 @@ class StaticSolution:
         path from the unloaded robot), ``"snap"`` (that path, relaxed through
         a fold), ``"direct"`` (Newton at full load from the start point) or
         ``"fallback"`` (the loading path failed; another equilibrium).
-    q : ndarray, shape (N, 3)
-        (beta [1/m], gamma [1/m], eps [rad]) per subsegment, MODEL.md's convention.
+    q : ndarray
+        The model's unknowns, a warm start for a nearby solve. PCC: shape
+        (N, 3), (beta [1/m], gamma [1/m], eps [rad]) per subsegment (MODEL.md);
+        Cosserat: shape (3,), the total moment at the base [N m], base frame.
     tensions : ndarray, shape (n_tendons, N)
         Tension in each tendon piece i (between disk i-1 and i) [N]; 0 past the anchor.
     seconds : float
         Wall time of the solve [s].
     atol : float
         Convergence tolerance used [N m].
+    model : str
+        ``"pcc"`` or ``"cosserat"``.
     """
 
     converged: bool
@@ -54,6 +61,8 @@ class StaticSolution:
     atol: float
     _positions: np.ndarray
     _rotations: np.ndarray
+    model: str = "pcc"
+    _curve: np.ndarray | None = None
 
     def _require(self) -> None:
         if not self.converged:
@@ -84,6 +93,13 @@ class StaticSolution:
         """Tip orientation ^0R_n, shape (3, 3)."""
         return self.disk_rotations[-1]
 
+    def backbone_points(self, robot: Robot) -> np.ndarray:
+        """Points along the backbone in the base frame, shape (K, 3) [m], base to tip."""
+        self._require()
+        if self._curve is not None:
+            return self._curve
+        return backbone_curve(self.q, robot.subsegment_lengths)
+
     @property
     def reach(self) -> float:
         """||^0P_n||_2 [m]."""
@@ -97,6 +113,7 @@ class StaticSolution:
             "residual": float(self.residual),
             "iterations": int(self.iterations),
             "load_steps": int(self.load_steps),
+            "model": self.model,
             "path": self.path,
             "seconds": float(self.seconds),
             "tip_position": self.tip_position.tolist() if ok else None,

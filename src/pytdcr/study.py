@@ -14,7 +14,7 @@ import os
 import platform
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -25,13 +25,14 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from . import __version__
+from .compare import ModelComparison, compare_models
 from .design import Robot
 from .io import robot_to_dict, to_jsonable
 from .loads import Loads
 from .optimize import ReachResult, maximize_reach, polish_reach
-from .plotting import plot_convergence, plot_reach_samples, plot_robot, plot_robots
+from .plotting import plot_convergence, plot_model_overlay, plot_reach_samples, plot_robot, plot_robots
 from .results import StaticSolution
-from .statics import SolverOptions, solve
+from .statics import CosseratOptions, SolverOptions, solve
 from .workspace import TensionBounds, WorkspaceSamples, sample_workspace
 
 __all__ = [
@@ -101,10 +102,16 @@ class SampleRun:
     files: list[str]
 
 
+def _solver_record(model: str, options: SolverOptions | CosseratOptions | None) -> dict[str, Any]:
+    opts = options or (CosseratOptions() if model == "cosserat" else SolverOptions())
+    return {"model": model, **opts.__dict__}
+
+
 def run_sample(robot: Robot, loads: Loads, bounds: TensionBounds, n: int, seed: int, out: Path | None,
-               options: SolverOptions | None = None, n_shapes: int = 10) -> SampleRun:
+               options: SolverOptions | CosseratOptions | None = None, n_shapes: int = 10,
+               model: str = "pcc") -> SampleRun:
     """Random tension samples, the CSV of their equilibria, Fig. 3(a) and Fig. 4."""
-    samples = sample_workspace(robot, loads, bounds, n, seed=seed, options=options)
+    samples = sample_workspace(robot, loads, bounds, n, seed=seed, model=model, options=options)
     files: list[str] = []
     if out is None:
         return SampleRun(samples, files)
@@ -124,13 +131,14 @@ def run_sample(robot: Robot, loads: Loads, bounds: TensionBounds, n: int, seed: 
     ax.set_title(f"{robot.name}: reach of {n} random tension samples (seed {seed})")
     files += _save(ax.figure, out, "fig3a_samples")
     ok = np.flatnonzero(samples.converged)[:n_shapes]
-    sols = [solve(robot, loads.with_tensions(samples.tensions[k]), q0=samples.q[k], options=options) for k in ok]
+    sols = [solve(robot, loads.with_tensions(samples.tensions[k]), model=model, q0=samples.q[k], options=options)
+            for k in ok]
     ax = plot_robots(sols, robot)
     ax.set_title(f"{len(sols)} sampled configurations")
     files += _save(ax.figure, out, "fig4_configurations")
     _write_json(out / "sample_run.json", {
         "inputs": inputs_record(robot, loads, bounds=bounds.to_dict(), n=n, seed=seed,
-                                solver=(options or SolverOptions()).__dict__),
+                                solver=_solver_record(model, options)),
         "converged": int(samples.converged.sum()), "not_converged": int((~samples.converged).sum()),
         "reach_max_m": float(np.nanmax(samples.reach)) if samples.converged.any() else None,
         "seconds": samples.seconds, "files": files,
@@ -142,10 +150,11 @@ def run_sample(robot: Robot, loads: Loads, bounds: TensionBounds, n: int, seed: 
 def run_optimize(robot: Robot, loads: Loads, bounds: TensionBounds, *, pop: int, tol: float, window: int,
                  max_gen: int, seed: int, polish: bool, out: Path | None, stem: str = "",
                  progress: Callable[[int, float, float], None] | None = None,
-                 options: SolverOptions | None = None) -> tuple[ReachResult, list[str]]:
+                 options: SolverOptions | CosseratOptions | None = None,
+                 model: str = "pcc") -> tuple[ReachResult, list[str]]:
     """The GA of Eq. 29, with Fig. 5 (convergence) and Fig. 6 (the optimal robot under its load)."""
     res = maximize_reach(robot, loads, bounds, pop_size=pop, tol=tol, window=window, max_gen=max_gen, seed=seed,
-                         polish=polish, on_generation=progress, options=options)
+                         polish=polish, on_generation=progress, model=model, options=options)
     files: list[str] = []
     if out is None:
         return res, files
@@ -155,8 +164,8 @@ def run_optimize(robot: Robot, loads: Loads, bounds: TensionBounds, *, pop: int,
     ax.set_title(f"GA, population {pop}: {res.generations} generations, {res.evaluations} solves")
     files += _save(ax.figure, out, f"fig5_convergence{sfx}")
     final_t = res.polish.tensions if res.polish is not None else res.tensions
-    sol = solve(robot, loads.with_tensions(final_t),
-                options=SolverOptions(atol=1e-12))
+    tight = replace(options or (CosseratOptions() if model == "cosserat" else SolverOptions()), atol=1e-12)
+    sol = solve(robot, loads.with_tensions(final_t), model=model, options=tight)
     ax = plot_robot(sol, robot, loads=_load_arrows(sol, loads, robot))
     ax.set_title(f"optimal robot: reach {sol.reach:.4f} m\n(purple: tip force, orange: tip moment axis)"
                  if np.any(loads.tip_moment) else f"optimal robot: reach {sol.reach:.4f} m (purple: tip force)")
@@ -172,7 +181,7 @@ def run_optimize(robot: Robot, loads: Loads, bounds: TensionBounds, *, pop: int,
     _write_json(out / f"optimize{sfx}.json", {
         "inputs": inputs_record(robot, loads, bounds=bounds.to_dict(), pop=pop, tol=tol, window=window,
                                 max_gen=max_gen, seed=seed, polish=polish,
-                                solver=(options or SolverOptions()).__dict__),
+                                solver=_solver_record(model, options)),
         "result": res.to_dict(), "files": files,
     })
     files.append(f"optimize{sfx}.json")
@@ -386,3 +395,69 @@ def _report(robot: Robot, summary: dict[str, Any], ga: dict[int, ReachResult], p
         "",
     ]
     return "\n".join(lines)
+
+
+def _markdown_table(rows: list[dict[str, Any]], columns: list[tuple[str, str, str]]) -> str:
+    head = "| " + " | ".join(c[1] for c in columns) + " |"
+    sep = "|" + "|".join("---:" for _ in columns) + "|"
+    body = []
+    for r in rows:
+        cells = []
+        for key, _, fmt in columns:
+            v = r[key]
+            cells.append("n/c" if isinstance(v, float) and not np.isfinite(v) else format(v, fmt))
+        body.append("| " + " | ".join(cells) + " |")
+    return "\n".join([head, sep, *body])
+
+
+def run_compare(robot: Robot, loads: Loads, tensions: np.ndarray, out: Path, *, source: dict[str, Any],
+                n_overlay: int = 4, progress: Callable[[], None] | None = None,
+                cosserat_options: CosseratOptions | None = None) -> tuple[ModelComparison, list[str]]:
+    """Both models on every case: ``compare.csv``, ``compare.md``, ``compare.json`` and the overlay figure."""
+    cmp = compare_models(robot, loads, tensions, cosserat_options=cosserat_options, progress=progress)
+    out.mkdir(parents=True, exist_ok=True)
+    rows = cmp.rows()
+    files = ["compare.csv", "compare.md"]
+    with open(out / "compare.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: (f"{v:.12g}" if isinstance(v, float) else v) for k, v in r.items()})
+    summ = cmp.summary()
+    cols = [("case", "case", "d"), ("pcc_x_m", "PCC x [m]", ".5f"), ("pcc_y_m", "PCC y [m]", ".5f"),
+            ("pcc_z_m", "PCC z [m]", ".5f"), ("cosserat_x_m", "CR x [m]", ".5f"), ("cosserat_y_m", "CR y [m]", ".5f"),
+            ("cosserat_z_m", "CR z [m]", ".5f"), ("difference_mm", "diff [mm]", ".3f"),
+            ("difference_pct_length", "diff [% L]", ".3f"), ("pcc_ms", "PCC [ms]", ".2f"),
+            ("cosserat_ms", "CR [ms]", ".2f")]
+
+    def fmt(v: float | None, f: str) -> str:
+        return "n/a" if v is None else format(v, f)
+
+    text = [
+        f"# PCC against Cosserat rod: robot '{robot.name}'", "",
+        f"{summ['cases']} cases ({source.get('cases', 'random')}), tip force {loads.tip_force.tolist()} N, "
+        f"tip moment {loads.tip_moment.tolist()} N m, gravity {list(robot.gravity)} m/s^2, no friction. "
+        f"Both models follow the loading path from the unloaded robot.", "",
+        f"- both converged: {summ['both_converged']} of {summ['cases']} (PCC failed {summ['pcc_not_converged']}, "
+        f"Cosserat failed {summ['cosserat_not_converged']})",
+        f"- tip difference: median {fmt(summ['difference_median_mm'], '.3f')} mm "
+        f"({fmt(summ['difference_median_pct_length'], '.3f')} % of the {robot.length:g} m length), "
+        f"max {fmt(summ['difference_max_mm'], '.3f')} mm",
+        f"- median solve time: PCC {summ['pcc_ms_median']:.2f} ms, Cosserat {summ['cosserat_ms_median']:.2f} ms", "",
+        "n/c: that model did not converge on the case (its residual is in compare.csv).", "",
+        _markdown_table(rows, cols), "",
+    ]
+    (out / "compare.md").write_text("\n".join(text))
+    shown = [k for k in range(len(cmp.pcc)) if cmp.pcc[k].converged and cmp.cosserat[k].converged][:n_overlay]
+    pairs = [(cmp.pcc[k], cmp.cosserat[k]) for k in shown]
+    ax = plot_model_overlay(pairs, robot, case_ids=[k + 1 for k in shown])
+    ax.set_title(f"{robot.name}: PCC (solid) and Cosserat rod (dashed), {len(pairs)} cases")
+    files += _save(ax.figure, out, "fig_compare")
+    _write_json(out / "compare.json", {
+        "inputs": inputs_record(robot, loads, tensions=np.asarray(tensions), **source,
+                                pcc_solver=SolverOptions().__dict__,
+                                cosserat_solver=(cosserat_options or CosseratOptions()).__dict__),
+        "summary": summ, "files": files,
+    })
+    files.append("compare.json")
+    return cmp, files

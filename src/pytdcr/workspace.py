@@ -9,7 +9,7 @@ import numpy as np
 
 from .design import Robot
 from .loads import Loads
-from .statics import SolverOptions, solve_batch
+from .statics import CosseratOptions, SolverOptions, solve_batch
 
 __all__ = ["TensionBounds", "WorkspaceSamples", "sample_workspace"]
 
@@ -108,12 +108,14 @@ def sample_workspace(
     n: int = 100,
     *,
     seed: int = 0,
-    options: SolverOptions | None = None,
+    model: str = "pcc",
+    options: SolverOptions | CosseratOptions | None = None,
 ) -> WorkspaceSamples:
     """Solve ``n`` random tension vectors drawn uniformly within ``bounds``.
 
     ``loads`` supplies the external wrenches and friction direction (its
     tensions are ignored). Non-converged samples are kept and flagged.
+    ``model`` is ``"pcc"`` or ``"cosserat"`` (see :func:`pytdcr.solve`).
     """
     if n < 1:
         raise ValueError(f"n must be >= 1, got {n}")
@@ -121,7 +123,7 @@ def sample_workspace(
     rng = np.random.default_rng(seed)
     T = bounds.sample(n, rng)
     t0 = time.perf_counter()
-    batch = solve_batch(robot, T, loads, options=options)
+    batch = solve_batch(robot, T, loads, model=model, options=options)
     return WorkspaceSamples(
         tensions=T,
         tip_position=batch.tip_position,

@@ -1,6 +1,8 @@
-"""Statics: the PCC equilibrium model and its solver."""
+"""Statics: the PCC equilibrium model, the Cosserat-rod model and their solvers."""
 
+from .cosserat import CosseratModel, CosseratOptions, solve_cosserat
 from .model import StaticModel
-from .solve import BatchSolution, SolverOptions, solve, solve_batch, solve_model, warmup
+from .solve import MODELS, BatchSolution, SolverOptions, solve, solve_batch, solve_model, warmup
 
-__all__ = ["BatchSolution", "SolverOptions", "StaticModel", "solve", "solve_batch", "solve_model", "warmup"]
+__all__ = ["MODELS", "BatchSolution", "CosseratModel", "CosseratOptions", "SolverOptions", "StaticModel", "solve",
+           "solve_batch", "solve_cosserat", "solve_model", "warmup"]

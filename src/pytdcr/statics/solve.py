@@ -17,7 +17,7 @@ directly first.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
@@ -26,9 +26,10 @@ from ..design import Robot
 from ..loads import Loads
 from ..results import StaticSolution
 from . import _kernels as K
+from .cosserat import CosseratModel, CosseratOptions, solve_cosserat
 from .model import StaticModel
 
-__all__ = ["BatchSolution", "SolverOptions", "solve", "solve_batch", "solve_model", "warmup"]
+__all__ = ["MODELS", "BatchSolution", "SolverOptions", "solve", "solve_batch", "solve_model", "warmup"]
 
 _STEPPING = {"never": 0, "auto": 1, "always": 2}
 PATHS = ("direct", "loading", "snap", "fallback")
@@ -115,12 +116,24 @@ def solve_model(
     )
 
 
+MODELS = ("pcc", "cosserat")
+
+
+def _check_model(model: str, options: SolverOptions | CosseratOptions | None) -> None:
+    if model not in MODELS:
+        raise ValueError(f"model must be one of {MODELS}, got {model!r}")
+    want = SolverOptions if model == "pcc" else CosseratOptions
+    if options is not None and not isinstance(options, want):
+        raise TypeError(f"model {model!r} takes {want.__name__}, got {type(options).__name__}")
+
+
 def solve(
     robot: Robot,
     loads: Loads,
     *,
+    model: str = "pcc",
     q0: np.ndarray | None = None,
-    options: SolverOptions | None = None,
+    options: SolverOptions | CosseratOptions | None = None,
 ) -> StaticSolution:
     """Static equilibrium of ``robot`` under ``loads``.
 
@@ -128,9 +141,13 @@ def solve(
     ----------
     robot : Robot
     loads : Loads
-    q0 : array-like, shape (N, 3), optional
-        Warm start; default the straight robot (zeros).
-    options : SolverOptions, optional
+    model : {'pcc', 'cosserat'}
+        The paper's piecewise-constant-curvature model (default) or the
+        Cosserat rod (:mod:`pytdcr.statics.cosserat`; no friction).
+    q0 : array-like, optional
+        Warm start: ``solution.q`` of a nearby solve of the same model
+        (PCC: (N, 3); Cosserat: (3,)). Default: the straight robot.
+    options : SolverOptions (pcc) or CosseratOptions (cosserat), optional
 
     Returns
     -------
@@ -138,6 +155,9 @@ def solve(
         Check ``converged``: a non-converged solution carries its residual and
         refuses to give a shape.
     """
+    _check_model(model, options)
+    if model == "cosserat":
+        return solve_cosserat(CosseratModel.build(robot, loads, options), q0, options)
     return solve_model(StaticModel.build(robot, loads), q0, options)
 
 
@@ -152,7 +172,8 @@ class BatchSolution:
     residual : ndarray, shape (B,)
         max |residual| [N m].
     iterations : ndarray of int, shape (B,)
-    q : ndarray, shape (B, N, 3)
+    q : ndarray
+        The model's unknowns per case: PCC (B, N, 3), Cosserat (B, 3).
     path : ndarray of str, shape (B,)
         How each equilibrium was reached (see :class:`StaticSolution`).
     tip_position : ndarray, shape (B, 3)
@@ -176,21 +197,45 @@ class BatchSolution:
         return np.linalg.norm(self.tip_position, axis=1)
 
 
+def _batch_cosserat(robot: Robot, T: np.ndarray, base: Loads, q0: np.ndarray | None,
+                    options: CosseratOptions | None) -> BatchSolution:
+    nb = T.shape[0]
+    if q0 is not None:
+        Q0 = np.asarray(q0, dtype=float)
+        Q0 = np.broadcast_to(Q0.reshape(1, 3), (nb, 3)) if Q0.size == 3 else Q0.reshape(nb, 3)
+    model = CosseratModel.build(robot, base, options)
+    t0 = time.perf_counter()
+    sols = [solve_cosserat(replace(model, packed=replace(model.packed, tension=T[b])),
+                           None if q0 is None else Q0[b], options) for b in range(nb)]
+    seconds = time.perf_counter() - t0
+    ok = np.array([s_.converged for s_ in sols], dtype=bool)
+    tips = np.full((nb, 3), np.nan)
+    for b in np.flatnonzero(ok):
+        tips[b] = sols[b].tip_position
+    return BatchSolution(
+        tensions=T, converged=ok, residual=np.array([s_.residual for s_ in sols]),
+        iterations=np.array([s_.iterations for s_ in sols], dtype=np.int64), q=np.array([s_.q for s_ in sols]),
+        tip_position=tips, seconds=seconds, path=np.array([s_.path for s_ in sols], dtype=object),
+    )
+
+
 def solve_batch(
     robot: Robot,
     tensions: np.ndarray,
     loads: Loads | None = None,
     *,
+    model: str = "pcc",
     q0: np.ndarray | None = None,
-    options: SolverOptions | None = None,
+    options: SolverOptions | CosseratOptions | None = None,
 ) -> BatchSolution:
-    """Solve every row of ``tensions`` (B, n_tendons) in parallel (all cores).
+    """Solve every row of ``tensions`` (B, n_tendons); the PCC model in parallel (all cores).
 
     ``loads`` gives the external wrenches and friction direction shared by all
-    cases (its own tensions are ignored). ``q0`` is one warm start (N, 3) or
-    one per case (B, N, 3).
+    cases (its own tensions are ignored). ``q0`` is one warm start or one per
+    case (PCC: (N, 3) or (B, N, 3); Cosserat: (3,) or (B, 3)). ``model`` and
+    ``options`` as for :func:`solve`.
     """
-    opts = options or SolverOptions()
+    _check_model(model, options)
     T = np.ascontiguousarray(tensions, dtype=float)
     if T.ndim != 2 or T.shape[1] != robot.n_tendons:
         raise ValueError(f"tensions must have shape (B, {robot.n_tendons}), got {T.shape}")
@@ -199,6 +244,9 @@ def solve_batch(
         b, c = np.argwhere(bad)[0]
         raise ValueError(f"tensions[{b}, {c}] must be finite and >= 0 N, got {T[b, c]}")
     base = loads if loads is not None else Loads(tensions=np.zeros(robot.n_tendons))
+    if model == "cosserat":
+        return _batch_cosserat(robot, T, base.with_tensions(np.zeros(robot.n_tendons)), q0, options)
+    opts = options or SolverOptions()
     model = StaticModel.build(robot, base.with_tensions(np.zeros(robot.n_tendons)))
     nb = T.shape[0]
     m = model.n_unknowns
@@ -247,4 +295,6 @@ def warmup() -> float:
     loads = Loads(np.full(robot.n_tendons, 1.0), tip_force=np.array([0.0, 0.01, 0.0]))
     solve(robot, loads)
     solve_batch(robot, np.ones((2, robot.n_tendons)), loads)
+    for ext in (False, True):
+        solve(robot, loads, model="cosserat", options=CosseratOptions(shear_extension=ext))
     return time.perf_counter() - t0
