@@ -271,3 +271,19 @@ def test_tip_gradient_matches_finite_differences_of_solves():
         up = solve(robot, loads.with_tensions(T + e), model="cosserat", options=opts, q0=sol.q).tip_position
         dn = solve(robot, loads.with_tensions(T - e), model="cosserat", options=opts, q0=sol.q).tip_position
         assert np.allclose(grad[:, c], (up - dn) / (2 * h), atol=1e-7)
+
+
+def test_point_wrench_at_a_disk(backbone):
+    from pytdcr import PointLoad
+
+    robot = rod(backbone, 20)
+    L, ei, f = robot.length, backbone.bending_stiffness, 1e-4
+    # at the last disk it is the tip load
+    a = solve(robot, Loads(np.zeros(0), point_loads=(PointLoad(20, force=[f, 0, 0], moment=[0, 1e-4, 0]),)),
+              model="cosserat")
+    b = solve(robot, Loads(np.zeros(0), tip_force=[f, 0, 0], tip_moment=[0, 1e-4, 0]), model="cosserat")
+    assert np.allclose(a.disk_positions, b.disk_positions, atol=1e-15)
+    # at mid-length: beam theory f a^2 (3L - a) / 6EI at the tip, a = L/2 (small load: linear)
+    mid = solve(robot, Loads(np.zeros(0), point_loads=(PointLoad(10, force=[f, 0, 0]),)), model="cosserat")
+    expect = f * (L / 2) ** 2 * (3 * L - L / 2) / (6 * ei)
+    assert abs(mid.tip_position[0] / expect - 1) < 1e-4

@@ -39,7 +39,7 @@ __all__ = ["evaluate", "frames", "make_work", "newton", "relax", "solve_batch", 
 
 _H = 1e-30  # complex-step size
 _STALL = 15  # Newton gives up after this many iterations without halving the residual
-_STEP_ITER = 30  # Newton iterations allowed per load step
+_STEP_ITER = 8  # Newton iterations allowed per load step
 _STEP_ATOL = 1e-6  # tolerance [N m] of intermediate load steps (they only track the branch)
 _MAX_DLAM = 0.25  # largest load step
 _STEP_TARGET = 0.05  # [rad] bend/twist change of a subsegment that a load step aims at

@@ -192,7 +192,7 @@ class CosseratModel:
 
 
 def _root(model: CosseratModel, lam: float, x0: np.ndarray, atol: float,
-          max_eval: int) -> tuple[np.ndarray, float, int]:
+          max_eval: int, xtol: float = 1e-13) -> tuple[np.ndarray, float, int]:
     """One root solve at load factor ``lam``; returns (m0, max |residual|, integrations)."""
     scale = max(1e-6, float(np.max(np.abs(x0))), float(np.max(np.abs(model.straight_guess(lam)))))
     count = 0
@@ -207,7 +207,7 @@ def _root(model: CosseratModel, lam: float, x0: np.ndarray, atol: float,
     count += 1
     if np.all(np.isfinite(r0)) and np.max(np.abs(r0)) <= atol:
         return x0, float(np.max(np.abs(r0))), count
-    sol = root(fun, x0 / scale, method="hybr", options={"xtol": 1e-13, "maxfev": max_eval})
+    sol = root(fun, x0 / scale, method="hybr", options={"xtol": xtol, "maxfev": max_eval})
     m0 = sol.x * scale
     r = model._shoot(m0, lam)[0]
     count += 1
@@ -228,7 +228,8 @@ def _ramp(model: CosseratModel, opts: CosseratOptions) -> tuple[np.ndarray, floa
         target = min(1.0, lam + dlam)
         guess = x if x_prev is None else x + (x - x_prev) * (target - lam) / (lam - lam_prev)
         tol = opts.atol if target == 1.0 else step_atol
-        m0, res, c = _root(model, target, guess, tol, opts.max_eval)
+        # intermediate steps only track the branch: a looser step tolerance
+        m0, res, c = _root(model, target, guess, tol, opts.max_eval, 1e-13 if target == 1.0 else 1e-7)
         count += c
         steps += 1
         if res <= tol:
