@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["backbone_curve", "forward_kinematics", "frames", "subsegment", "subsegment_transform"]
+__all__ = ["backbone_curve", "forward_kinematics", "frames", "subsegment", "subsegment_transform", "tip_jacobian"]
 
 _SERIES_T2 = 1e-2  # use series for theta^2 below this
 
@@ -109,6 +109,27 @@ def subsegment_transform(beta: float, gamma: float, eps: float, length: float) -
     pg = np.empty(3)
     subsegment(float(beta), float(gamma), float(eps), float(length), R, d, pg)
     return R, d
+
+
+@njit(cache=True)
+def tip_jacobian(q, sub, h):
+    """Derivative of the tip position by q (3N,), shape (3, 3N), by central differences of step ``h``."""
+    m = q.shape[0]
+    n = sub.shape[0]
+    pos = np.empty((n + 1, 3))
+    rot = np.empty((n + 1, 3, 3))
+    out = np.empty((3, m))
+    qq = q.copy()
+    for j in range(m):
+        qq[j] = q[j] + h
+        frames(qq, sub, pos, rot)
+        up = pos[n].copy()
+        qq[j] = q[j] - h
+        frames(qq, sub, pos, rot)
+        for k in range(3):
+            out[k, j] = (up[k] - pos[n, k]) / (2.0 * h)
+        qq[j] = q[j]
+    return out
 
 
 def forward_kinematics(q: np.ndarray, lengths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -244,7 +244,7 @@ def make_work(n, nt):
     )
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, nogil=True)
 def evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, want_jac, r, J, work):
     """Residual ``r`` (3N,) and, if ``want_jac``, its Jacobian ``J`` (3N, 3N).
 
@@ -769,7 +769,7 @@ PATH_SNAP = 2  # the loading path, relaxed through a fold (snap-through)
 PATH_FALLBACK = 3  # the loading path failed; Newton at full load found another equilibrium
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def solve_one(q0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, stepping, work):
     """Solve at full load.
 
@@ -884,7 +884,7 @@ def solve_one(q0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol
     return q, ok, res, iters, nj, steps, path
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, nogil=True)
 def solve_batch(q0, sub, holes, anchor, fric, tensions, grav, pforce, pmoment, atol, max_iter, max_dtheta, stepping,
                 out_q, out_ok, out_res, out_it, out_path):
     """Solve many tension vectors ``tensions`` (B, nt) in parallel (one thread per case)."""
