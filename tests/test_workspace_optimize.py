@@ -80,7 +80,13 @@ def test_ga_is_deterministic_bounded_and_polished(small):
     assert r1.history["best"] != r3.history["best"]
     for r in (r1, r3):
         assert r.reach <= small.length
-        assert r.evaluations == r.history["evaluations"][-1] <= 12 * r.generations
+        # every model solve is counted: the GA's (one per individual, one per locally improved leader) and
+        # its local searches'
+        ls = r.history["local_search_evaluations"][-1]
+        assert r.evaluations == r.history["evaluations"][-1]
+        assert r.evaluations - ls <= 12 * r.generations + r.settings["local_search_runs"]
+        # the memetic GA's best is a local optimum already: the final polish barely moves it
+        assert r.polish.cost_change < 1e-6
         assert np.all(np.diff(r.history["best"]) <= 0)  # elitist: the best never worsens
         assert r.cost == pytest.approx(1 / r.reach)
         assert r.polish is not None and r.polish.cost <= r.cost + 1e-12
@@ -93,6 +99,13 @@ def test_ga_is_deterministic_bounded_and_polished(small):
             t = np.clip(p.tensions + step * np.eye(4)[c], 0, 5)
             s = solve(small, Loads(t, LOAD.tip_force, LOAD.tip_moment))
             assert 1 / s.reach >= p.cost - 1e-9
+
+
+def test_plain_ga_without_local_search(small):
+    b = TensionBounds.uniform(4, 0.0, 5.0)
+    r = maximize_reach(small, LOAD, b, pop_size=12, max_gen=4, tol=1e-9, window=3, seed=1, local_search=False)
+    assert r.history["local_search_evaluations"][-1] == 0 and r.settings["local_search_runs"] == 0
+    assert r.evaluations == r.history["evaluations"][-1] <= 12 * r.generations
 
 
 def test_nonconverged_individuals_are_infeasible_and_counted(small):

@@ -211,7 +211,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else None
     res, files = run_optimize(setup.robot, setup.loads, bounds, pop=args.pop, tol=args.tol, window=args.window,
                               max_gen=args.max_gen, seed=args.seed, polish=not args.no_polish, out=out,
-                              model=model, options=options,
+                              model=model, options=options, local_search=not args.no_local_search,
                               progress=None if args.json else _tqdm_progress("GA", args.max_gen))
     if args.json:
         print(dump_json(res.to_dict()))
@@ -412,6 +412,8 @@ def build_parser() -> argparse.ArgumentParser:
     op.add_argument("--max-gen", type=int, default=100, help="generation cap [100]")
     op.add_argument("--seed", type=int, default=0, help="random seed [0]")
     op.add_argument("--no-polish", action="store_true", help="skip the gradient polish of the GA's best")
+    op.add_argument("--no-local-search", action="store_true",
+                    help="plain GA: no gradient search on each new leader (the default GA is memetic)")
     op.add_argument("--json", action="store_true", help="print one JSON object")
     op.add_argument("--out", help="write figures and data to this folder")
     op.set_defaults(func=_cmd_optimize)

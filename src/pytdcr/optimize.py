@@ -14,8 +14,10 @@ can never be the optimum; such evaluations are counted.
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -24,7 +26,7 @@ from scipy.optimize import minimize as sp_minimize
 from scipy.spatial import cKDTree
 
 from .design import Robot
-from .kinematics import forward_kinematics
+from .kinematics import forward_kinematics, tip_jacobian
 from .loads import Loads
 from .statics import CosseratModel, CosseratOptions, SolverOptions, StaticModel, solve, solve_batch
 from .workspace import TensionBounds
@@ -79,7 +81,7 @@ class ReachResult:
         1 / reach [1/m].
     generations : int
     evaluations : int
-        Static solves made by the GA.
+        Static solves made by the GA and its local searches.
     nonconverged : int
         GA evaluations whose static solve did not converge (made infeasible).
     converged : bool
@@ -158,29 +160,19 @@ def reach_gradient(robot: Robot, loads: Loads, q: np.ndarray) -> tuple[np.ndarra
     dtip_dT : ndarray, shape (3, n_tendons)
         [m/N]
     """
-    q = np.asarray(q, dtype=float).reshape(-1)
+    q = np.ascontiguousarray(q, dtype=float).reshape(-1)
     model = StaticModel.build(robot, loads)
     J = model.jacobian(q)
     r0 = model.residual(q).reshape(-1)
     nt = robot.n_tendons
     dr = np.empty((q.size, nt))
     for c in range(nt):
-        t = np.array(loads.tensions)
+        t = model.tension.copy()
         t[c] += 1.0
-        shifted = StaticModel.build(robot, loads.with_tensions(t))
-        dr[:, c] = shifted.residual(q).reshape(-1) - r0
+        dr[:, c] = replace(model, tension=t).residual(q).reshape(-1) - r0
     dq = -np.linalg.solve(J, dr)
-    lengths = robot.subsegment_lengths
-    tip = forward_kinematics(q, lengths)[0][-1]
-    h = 1e-7
-    dtip_dq = np.empty((3, q.size))
-    for j in range(q.size):
-        qp = q.copy()
-        qm = q.copy()
-        qp[j] += h
-        qm[j] -= h
-        dtip_dq[:, j] = (forward_kinematics(qp, lengths)[0][-1] - forward_kinematics(qm, lengths)[0][-1]) / (2 * h)
-    return tip, dtip_dq @ dq
+    tip = forward_kinematics(q, robot.subsegment_lengths)[0][-1]
+    return tip, tip_jacobian(q, model.sub, 1e-7) @ dq
 
 
 def polish_reach(
@@ -194,8 +186,16 @@ def polish_reach(
     warm: bool = False,
     model: str = "pcc",
     options: SolverOptions | CosseratOptions | None = None,
+    ftol: float = 1e-15,
+    gtol: float = 1e-12,
+    restarts: int = 3,
 ) -> PolishResult:
     """Refine a tension vector by L-BFGS-B on 1/reach with exact gradients.
+
+    ``ftol`` and ``gtol`` are L-BFGS-B's stopping tolerances. The cost has
+    kinks (friction regimes, folds of the loading path) where L-BFGS-B's line
+    search can give up; it is then restarted from its best point, up to
+    ``restarts`` times, while that still lowers the cost.
 
     Every cost is a static solve at a tight tolerance (1e-12 N m), so the cost
     is smooth to the optimiser; cold (from the straight robot) unless ``warm``,
@@ -236,10 +236,17 @@ def polish_reach(
     if not np.any(free):
         res_x, msg = x0, "no free tension"
     else:
-        res = sp_minimize(fun, x0, jac=True, method="L-BFGS-B",
-                          bounds=list(zip(bounds.lower[free], bounds.upper[free], strict=True)),
-                          options={"maxiter": max_iter, "ftol": 1e-15, "gtol": 1e-12})
-        res_x, msg = res.x, str(res.message)
+        box = list(zip(bounds.lower[free], bounds.upper[free], strict=True))
+        x, best = x0, c0
+        for _ in range(1 + max(0, int(restarts))):
+            res = sp_minimize(fun, x, jac=True, method="L-BFGS-B", bounds=box,
+                              options={"maxiter": max_iter, "ftol": ftol, "gtol": gtol})
+            gain = best - float(res.fun)
+            if gain > 0:
+                x, best = res.x, float(res.fun)
+            if res.success or gain <= 1e-12:
+                break
+        res_x, msg = x, str(res.message)
     t = full(np.clip(res_x, bounds.lower[free], bounds.upper[free]))
     final = solve(robot, loads.with_tensions(t), model=model,
                   q0=state["q"] if warm else None, options=opts)
@@ -266,6 +273,9 @@ def maximize_reach(
     n_polish: int = 3,
     warm_start: bool = False,
     extra_starts: Sequence[np.ndarray] = (),
+    local_search: bool = True,
+    ls_max_iter: int = 100,
+    ls_starts: int = 1,
     model: str = "pcc",
     options: SolverOptions | CosseratOptions | None = None,
     on_generation: Callable[[int, float, float], None] | None = None,
@@ -300,12 +310,20 @@ def maximize_reach(
     extra_starts : sequence of array-like, shape (n_tendons,)
         Further polish starts (clipped into the bounds), e.g. a known optimum
         of tighter bounds.
+    local_search : bool
+        Memetic GA (default): whenever a generation produces a new leader, a
+        short gradient search (:func:`polish_reach`, ``ls_max_iter``
+        iterations) replaces it by its local optimum (Lamarckian learning), so
+        the GA explores basins and the local search settles them; the first
+        generation searches from its ``ls_starts`` best distinct individuals.
+        Its solves are counted in ``evaluations``. False: the plain GA of the paper.
     model : {'pcc', 'cosserat'}
         The static model (see :func:`pytdcr.solve`); ``options`` must suit it.
     on_generation : callable, optional
         Called as ``on_generation(generation, best_cost, mean_cost)``.
     """
     from pymoo.algorithms.soo.nonconvex.ga import GA
+    from pymoo.core.population import Population
     from pymoo.core.problem import Problem
 
     bounds.check_robot(robot)
@@ -351,16 +369,59 @@ def maximize_reach(
             out["G"] = np.where(ok, -1.0, 1.0)[:, None]
 
     t0 = time.perf_counter()
+    problem = _Reach()
     algorithm = GA(pop_size=int(pop_size), eliminate_duplicates=True)
-    algorithm.setup(_Reach(), termination=("n_gen", int(max_gen)), seed=int(seed), verbose=False)
+    algorithm.setup(problem, termination=("n_gen", int(max_gen)), seed=int(seed), verbose=False)
     best_hist: list[float] = []
     mean_hist: list[float] = []
     evals_hist: list[int] = []
     nonconv_hist: list[int] = []
+    ls_hist: list[int] = []
     stopped = False
+    counters["ls"] = 0
+    counters["ls_runs"] = 0
+
+    def learn(infills: Population) -> Population:
+        """Lamarckian step: a new leader (better than the incumbent) is replaced by its local optimum.
+
+        In the first generation the best ``ls_starts`` distinct individuals are searched.
+        """
+        F = infills.get("F")[:, 0]
+        feas = infills.get("feas")
+        incumbent = best_hist[-1] if best_hist else np.inf
+        order = [int(k) for k in np.argsort(F) if feas[k] and F[k] < incumbent - tol]
+        picked: list[np.ndarray] = []
+        for k in order:
+            if len(picked) >= (ls_starts if not best_hist else 1):
+                break
+            x = infills[k].get("X")
+            if all(np.max(np.abs((x - y) / scale[free])) > 0.05 for y in picked):
+                picked.append(x)
+        found = []
+        for x in picked:
+            start = base.copy()
+            start[free] = x
+            try:
+                pr = polish_reach(robot, loads, bounds, start, max_iter=ls_max_iter, model=model, options=opts,
+                              ftol=1e-12, gtol=1e-8)
+            except RuntimeError:
+                continue
+            counters["ls"] += pr.evaluations
+            counters["ls_runs"] += 1
+            found.append(pr.tensions[free])
+        if not found:
+            return infills
+        extra = Population.new("X", np.array(found))
+        algorithm.evaluator.eval(problem, extra, algorithm=algorithm)
+        return Population.merge(infills, extra)
+
     while algorithm.has_next():
         before = counters["nonconv"]
-        algorithm.next()
+        infills = algorithm.infill()
+        algorithm.evaluator.eval(problem, infills, algorithm=algorithm)
+        if local_search:
+            infills = learn(infills)
+        algorithm.advance(infills=infills)
         pop = algorithm.pop
         F = pop.get("F")[:, 0]
         feas = pop.get("feas")
@@ -370,8 +431,9 @@ def maximize_reach(
         mean = float(F[feas].mean()) if np.any(feas) else float("inf")
         best_hist.append(best)
         mean_hist.append(mean)
-        evals_hist.append(counters["evals"])
+        evals_hist.append(counters["evals"] + counters["ls"])
         nonconv_hist.append(counters["nonconv"] - before)
+        ls_hist.append(counters["ls"])
         if on_generation is not None:
             on_generation(len(best_hist), best, mean)
         g = len(best_hist)
@@ -405,15 +467,26 @@ def maximize_reach(
             if all(np.max(np.abs((cand - s_) / scale)) > 0.05 for s_ in starts):
                 starts.append(cand)
         starts += [np.clip(np.asarray(x, dtype=float), bounds.lower, bounds.upper) for x in extra_starts]
-        results = []
-        for k, start in enumerate(starts):
+        def one(k: int) -> PolishResult | None:
             try:
-                results.append(polish_reach(robot, loads, bounds, start, q0=sol.q if k == 0 else None,
-                                            warm=warm_start, model=model, options=opts))
+                return polish_reach(robot, loads, bounds, starts[k], q0=sol.q if k == 0 else None, warm=warm_start,
+                                    model=model, options=opts, ftol=1e-12, gtol=1e-8)
             except RuntimeError:
-                continue
+                return None
+
+        # the starts are independent: run them on all cores (the compiled solver releases the GIL)
+        with ThreadPoolExecutor(max_workers=min(len(starts), os.cpu_count() or 1)) as pool:
+            results = [r_ for r_ in pool.map(one, range(len(starts))) if r_ is not None]
         if results:
             best_pol = min(results, key=lambda p_: p_.cost)
+            try:  # the winner once more at the tightest tolerances
+                tight = polish_reach(robot, loads, bounds, best_pol.tensions, warm=warm_start, model=model,
+                                     options=opts)
+                if tight.cost <= best_pol.cost:
+                    results.append(tight)
+                    best_pol = tight
+            except RuntimeError:
+                pass
             pol = PolishResult(tensions=best_pol.tensions, cost=best_pol.cost, reach=best_pol.reach,
                                tip_position=best_pol.tip_position, cost_change=1.0 / sol.reach - best_pol.cost,
                                evaluations=sum(p_.evaluations for p_ in results),
@@ -424,13 +497,16 @@ def maximize_reach(
         reach=sol.reach,
         cost=1.0 / sol.reach,
         generations=len(best_hist),
-        evaluations=counters["evals"],
+        evaluations=counters["evals"] + counters["ls"],
         nonconverged=counters["nonconv"],
         converged=stopped,
         seconds=seconds,
         seed=int(seed),
-        history={"best": best_hist, "mean": mean_hist, "evaluations": evals_hist, "nonconverged": nonconv_hist},
+        history={"best": best_hist, "mean": mean_hist, "evaluations": evals_hist, "nonconverged": nonconv_hist,
+                 "local_search_evaluations": ls_hist},
         polish=pol,
-        settings={"model": model, "pop_size": int(pop_size), "tol": float(tol), "window": int(window),
-                  "max_gen": int(max_gen), "bounds": bounds.to_dict()},
+        settings={"model": model, "local_search": bool(local_search), "ls_max_iter": int(ls_max_iter),
+                  "ls_starts": int(ls_starts),
+                  "local_search_runs": counters["ls_runs"], "pop_size": int(pop_size), "tol": float(tol),
+                  "window": int(window), "max_gen": int(max_gen), "bounds": bounds.to_dict()},
     )
