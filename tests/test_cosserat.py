@@ -161,8 +161,8 @@ def _dop853_tip(model: CosseratModel, m0: np.ndarray) -> np.ndarray:
 
         def f(_s, yy, active=active):
             dy = np.empty(18)
-            assert CK.rhs(yy, model.holes, p.tension, active, model.stiff, model.shear_extension, x, A, F, dy)
-            dy[15:18] = -model.mpl * p.grav
+            fw = -model.mpl * p.grav
+            assert CK.rhs(yy, model.holes, p.tension, active, model.stiff, model.shear_extension, fw, x, A, F, dy)
             return dy
 
         y = solve_ivp(f, (0.0, p.sub[i, 0]), y, method="DOP853", rtol=1e-11, atol=1e-13).y[:, -1].copy()

@@ -169,9 +169,10 @@ def constitutive(mb, nb, holes, tau, active, stiff, ext, x, A, F):
 
 
 @njit(cache=True)
-def rhs(y, holes, tau, active, stiff, ext, x, A, F, dy):
-    """Derivative ``dy`` (18,) of the state ``y`` at a point of a subsegment (no distributed load).
+def rhs(y, holes, tau, active, stiff, ext, fw, x, A, F, dy):
+    """Derivative ``dy`` (18,) of the state ``y`` at a point of a subsegment.
 
+    ``fw`` (3,) is N', minus the distributed weight per length [N/m].
     ``x`` (6,) carries (u, v) from the last call (warm start) and receives the
     new one. Returns False if the balance could not be solved.
     """
@@ -192,14 +193,14 @@ def rhs(y, holes, tau, active, stiff, ext, x, A, F, dy):
         dy[3 + 3 * i] = b * u2 - c * u1
         dy[4 + 3 * i] = -a * u2 + c * u0
         dy[5 + 3 * i] = a * u1 - b * u0
-    # M' = -p' x N; N' is the distributed weight, added by the caller
+    # M' = -p' x N; N' = -rho A g
     n0, n1, n2 = y[15], y[16], y[17]
     dy[12] = -(dy[1] * n2 - dy[2] * n1)
     dy[13] = -(dy[2] * n0 - dy[0] * n2)
     dy[14] = -(dy[0] * n1 - dy[1] * n0)
-    dy[15] = 0.0
-    dy[16] = 0.0
-    dy[17] = 0.0
+    dy[15] = fw[0]
+    dy[16] = fw[1]
+    dy[17] = fw[2]
     return True
 
 
@@ -263,10 +264,7 @@ def shoot(m0, lam, lengths, stiff, mpl, dmass, holes, anchor, tension, grav, pfo
     x[5] = 1.0
     A = np.empty((6, 6))
     F = np.empty(6)
-    k1 = np.empty(18)
-    k2 = np.empty(18)
-    k3 = np.empty(18)
-    k4 = np.empty(18)
+    K = np.empty((4, 18))
     yt = np.empty(18)
     fw = np.empty(3)
     for k in range(3):
@@ -283,34 +281,16 @@ def shoot(m0, lam, lengths, stiff, mpl, dmass, holes, anchor, tension, grav, pfo
             active[c] = anchor[c] >= i + 1
         h = lengths[i] / nsub
         for _ in range(nsub):
-            if not rhs(y, holes, tau, active, stiff, ext, x, A, F, k1):
-                res[:] = np.nan
-                return False
-            for k in range(15, 18):
-                k1[k] = fw[k - 15]
+            for st in range(4):  # classical Runge-Kutta stages
+                if not rhs(y if st == 0 else yt, holes, tau, active, stiff, ext, fw, x, A, F, K[st]):
+                    res[:] = np.nan
+                    return False
+                if st < 3:
+                    c = h if st == 2 else 0.5 * h
+                    for k in range(18):
+                        yt[k] = y[k] + c * K[st, k]
             for k in range(18):
-                yt[k] = y[k] + 0.5 * h * k1[k]
-            if not rhs(yt, holes, tau, active, stiff, ext, x, A, F, k2):
-                res[:] = np.nan
-                return False
-            for k in range(15, 18):
-                k2[k] = fw[k - 15]
-            for k in range(18):
-                yt[k] = y[k] + 0.5 * h * k2[k]
-            if not rhs(yt, holes, tau, active, stiff, ext, x, A, F, k3):
-                res[:] = np.nan
-                return False
-            for k in range(15, 18):
-                k3[k] = fw[k - 15]
-            for k in range(18):
-                yt[k] = y[k] + h * k3[k]
-            if not rhs(yt, holes, tau, active, stiff, ext, x, A, F, k4):
-                res[:] = np.nan
-                return False
-            for k in range(15, 18):
-                k4[k] = fw[k - 15]
-            for k in range(18):
-                y[k] += h / 6.0 * (k1[k] + 2.0 * k2[k] + 2.0 * k3[k] + k4[k])
+                y[k] += h / 6.0 * (K[0, k] + 2.0 * K[1, k] + 2.0 * K[2, k] + K[3, k])
             _reorthonormalize(y)
             if record:
                 curve[ic, 0] = y[0]
