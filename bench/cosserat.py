@@ -19,11 +19,10 @@ Usage: python bench/cosserat.py [--runs 200] [--json]
 from __future__ import annotations
 
 import argparse
-import json
 import time
-from pathlib import Path
 
 import numpy as np
+from _common import write_result
 
 from pytdcr import CosseratOptions, Loads, NoFriction, paper_robot, solve
 from pytdcr.compare import compare_models
@@ -76,11 +75,7 @@ def main() -> None:
     e = result["e_compare_100"]
     print(f"{'e_compare_100':32s} {e['seconds']:.2f} s; both converged {e['both_converged']}/100; tip difference "
           f"median {e['difference_median_mm']:.3f} mm, max {e['difference_max_mm']:.3f} mm")
-    out = Path(__file__).resolve().parent / "results"
-    out.mkdir(exist_ok=True)
-    (out / "cosserat.json").write_text(json.dumps(result, indent=2))
-    if args.json:
-        print(json.dumps(result))
+    write_result("cosserat", result, args.json)
 
 
 if __name__ == "__main__":

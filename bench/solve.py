@@ -19,14 +19,13 @@ Usage: python bench/solve.py [--runs 200] [--batch 4000] [--json]
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
+from _common import write_result
 
 
 def startup_seconds() -> float:
@@ -120,11 +119,7 @@ def main() -> None:
     print(f"d throughput under the paper load   {result['throughput_paper_load_per_s']:.0f} solves/s")
     print(f"d throughput, load_stepping='auto'  {result['throughput_auto_per_s']:.0f} solves/s")
     print(f"converged: {result['converged_fraction']}")
-    out = Path(__file__).resolve().parent / "results"
-    out.mkdir(exist_ok=True)
-    (out / "solve.json").write_text(json.dumps(result, indent=2))
-    if args.json:
-        print(json.dumps(result))
+    write_result("solve", result, args.json)
 
 
 if __name__ == "__main__":

@@ -63,14 +63,19 @@ class CosseratOptions:
     load_stepping: Literal["always", "auto", "never"] = "always"
 
     def __post_init__(self) -> None:
-        if not (np.isfinite(self.atol) and self.atol > 0):
-            raise ValueError(f"atol must be finite and > 0, got {self.atol}")
+        check_common_options(self.atol, self.load_stepping)
         if self.max_eval < 4:
             raise ValueError(f"max_eval must be >= 4, got {self.max_eval}")
         if not 1 <= self.steps_per_subsegment <= 1000:
             raise ValueError(f"steps_per_subsegment must be in [1, 1000], got {self.steps_per_subsegment}")
-        if self.load_stepping not in ("always", "auto", "never"):
-            raise ValueError(f"load_stepping must be 'always', 'auto' or 'never', got {self.load_stepping!r}")
+
+
+def check_common_options(atol: float, load_stepping: str) -> None:
+    """Validate the options every solver shares; ValueError naming the field and its range."""
+    if not (np.isfinite(atol) and atol > 0):
+        raise ValueError(f"atol must be finite and > 0, got {atol}")
+    if load_stepping not in ("always", "auto", "never"):
+        raise ValueError(f"load_stepping must be one of ['always', 'auto', 'never'], got {load_stepping!r}")
 
 
 @dataclass(frozen=True, eq=False)

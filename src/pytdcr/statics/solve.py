@@ -26,7 +26,7 @@ from ..design import Robot
 from ..loads import Loads
 from ..results import StaticSolution
 from . import _kernels as K
-from .cosserat import CosseratModel, CosseratOptions, solve_cosserat
+from .cosserat import CosseratModel, CosseratOptions, check_common_options, solve_cosserat
 from .model import StaticModel
 
 __all__ = ["MODELS", "BatchSolution", "SolverOptions", "solve", "solve_batch", "solve_model", "warmup"]
@@ -59,14 +59,11 @@ class SolverOptions:
     load_stepping: Literal["always", "auto", "never"] = "always"
 
     def __post_init__(self) -> None:
-        if not (np.isfinite(self.atol) and self.atol > 0):
-            raise ValueError(f"atol must be finite and > 0, got {self.atol}")
+        check_common_options(self.atol, self.load_stepping)
         if self.max_iter < 1:
             raise ValueError(f"max_iter must be >= 1, got {self.max_iter}")
         if not (np.isfinite(self.max_dtheta) and self.max_dtheta > 0):
             raise ValueError(f"max_dtheta must be finite and > 0, got {self.max_dtheta}")
-        if self.load_stepping not in _STEPPING:
-            raise ValueError(f"load_stepping must be one of {sorted(_STEPPING)}, got {self.load_stepping!r}")
 
     def _kernel(self, warm: bool = False) -> tuple[float, int, float, int]:
         mode = _STEPPING[self.load_stepping]
