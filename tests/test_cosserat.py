@@ -287,3 +287,21 @@ def test_point_wrench_at_a_disk(backbone):
     mid = solve(robot, Loads(np.zeros(0), point_loads=(PointLoad(10, force=[f, 0, 0]),)), model="cosserat")
     expect = f * (L / 2) ** 2 * (3 * L - L / 2) / (6 * ei)
     assert abs(mid.tip_position[0] / expect - 1) < 1e-4
+
+
+def test_loading_path_matches_a_fine_fixed_step_path():
+    # the adaptive continuation takes a few large load steps; a 100-step path with warm starts must end on
+    # the same equilibrium (no branch skipped) under the paper's heavy tip load
+    from pytdcr.statics.cosserat import _root
+
+    robot = paper_robot(NoFriction())
+    loads = Loads(np.zeros(8), tip_force=[0.1, 0.1, -0.1], tip_moment=[-0.1, 0.1, 0.1])
+    for t in np.random.default_rng(5).uniform(0.0, 20.0, size=(4, 8)):
+        model = CosseratModel.build(robot, loads.with_tensions(t))
+        m0 = np.zeros(3)
+        for lam in np.linspace(0.0, 1.0, 101)[1:]:
+            m0, res, _ = _root(model, lam, m0, 1e-10, 200)
+            assert res <= 1e-10
+        fine = model.shape(m0)[0][-1]
+        sol = solve(robot, loads.with_tensions(t), model="cosserat")
+        assert sol.converged and np.linalg.norm(sol.tip_position - fine) < 1e-8
