@@ -305,3 +305,12 @@ def test_loading_path_matches_a_fine_fixed_step_path():
         fine = model.shape(m0)[0][-1]
         sol = solve(robot, loads.with_tensions(t), model="cosserat")
         assert sol.converged and np.linalg.norm(sol.tip_position - fine) < 1e-8
+
+
+def test_pcc_approaches_the_rod_under_a_bending_and_twisting_tip_moment(backbone):
+    # the PCC moment balance about each subsegment's base is first order: the gap falls ~4x per 4x disks
+    loads = Loads(np.zeros(0), tip_moment=[0.0, 0.02, 0.02])
+    rod_tip = solve(rod(backbone, 10), loads, model="cosserat").tip_position
+    gaps = [np.linalg.norm(solve(rod(backbone, n), loads).tip_position - rod_tip) for n in (20, 80, 320)]
+    assert np.all(np.diff(gaps) < 0)
+    assert 3.5 < gaps[0] / gaps[1] < 4.5 and 3.5 < gaps[1] / gaps[2] < 4.5
