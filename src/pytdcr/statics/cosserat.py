@@ -120,6 +120,7 @@ class CosseratModel:
 
     @property
     def robot(self) -> Robot:
+        """The robot this model was built from."""
         return self.packed.robot
 
     def _shoot(self, m0: np.ndarray, lam: float, record: bool = False) -> tuple[np.ndarray, bool, tuple]:
@@ -264,7 +265,9 @@ def solve_cosserat(model: CosseratModel, m0: np.ndarray | None = None,
     -------
     StaticSolution
         ``model == "cosserat"``; ``q`` is the base moment (3,) [N m];
-        ``iterations`` counts shooting integrations.
+        ``iterations`` counts shooting integrations. ``path`` as for the PCC
+        solver, except that at a fold (``"snap"``) the root finder jumps to
+        full load from the last equilibrium instead of relaxing.
     """
     opts = options or CosseratOptions()
     t0 = time.perf_counter()
