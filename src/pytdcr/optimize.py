@@ -28,7 +28,7 @@ from scipy.spatial import cKDTree
 from .design import Robot
 from .kinematics import forward_kinematics, tip_jacobian
 from .loads import Loads
-from .statics import CosseratModel, CosseratOptions, SolverOptions, StaticModel, solve, solve_batch
+from .statics import CosseratModel, CosseratOptions, SolverOptions, StaticModel, options_for, solve, solve_batch
 from .workspace import TensionBounds
 
 __all__ = ["PolishResult", "ReachResult", "maximize_reach", "polish_reach", "reach_gradient"]
@@ -205,7 +205,7 @@ def polish_reach(
     for the Cosserat model.
     """
     bounds.check_robot(robot)
-    opts = replace(options or (CosseratOptions() if model == "cosserat" else SolverOptions()), atol=1e-12)
+    opts = replace(options_for(model, options), atol=1e-12)
     state = {"q": None if q0 is None else np.asarray(q0, dtype=float), "n": 0}
     free = bounds.upper > bounds.lower
     x_fixed = np.array(tensions, dtype=float)
@@ -337,7 +337,7 @@ def maximize_reach(
         raise ValueError("bounds: every tension is fixed (lower == upper); nothing to optimise")
     base = np.array(bounds.lower, dtype=float)
     counters = {"evals": 0, "nonconv": 0}
-    opts = options or (CosseratOptions() if model == "cosserat" else SolverOptions())
+    opts = options_for(model, options)
     archive_T: list[np.ndarray] = []
     archive_q: list[np.ndarray] = []
     scale = np.maximum(bounds.upper - bounds.lower, 1e-12)

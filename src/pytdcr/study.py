@@ -33,7 +33,7 @@ from .loads import Loads
 from .optimize import ReachResult, maximize_reach, polish_reach
 from .plotting import plot_convergence, plot_model_overlay, plot_reach_samples, plot_robot, plot_robots
 from .results import StaticSolution
-from .statics import CosseratOptions, SolverOptions, solve
+from .statics import CosseratOptions, SolverOptions, options_for, solve
 from .workspace import TensionBounds, WorkspaceSamples, sample_workspace
 
 __all__ = [
@@ -106,7 +106,7 @@ class SampleRun:
 
 
 def _solver_record(model: str, options: SolverOptions | CosseratOptions | None) -> dict[str, Any]:
-    opts = options or (CosseratOptions() if model == "cosserat" else SolverOptions())
+    opts = options_for(model, options)
     return {"model": model, **opts.__dict__}
 
 
@@ -176,7 +176,7 @@ def write_optimize(res: ReachResult, robot: Robot, loads: Loads, bounds: Tension
     ax.set_title(f"GA, population {pop}: {res.generations} generations, {res.evaluations} solves")
     files += _save(ax.figure, out, f"fig5_convergence{sfx}")
     final_t = res.polish.tensions if res.polish is not None else res.tensions
-    tight = replace(options or (CosseratOptions() if model == "cosserat" else SolverOptions()), atol=1e-12)
+    tight = replace(options_for(model, options), atol=1e-12)
     sol = solve(robot, loads.with_tensions(final_t), model=model, options=tight)
     ax = plot_robot(sol, robot, loads=_load_arrows(sol, loads, robot))
     ax.set_title(f"optimal robot: reach {sol.reach:.4f} m\n(purple: tip force, orange: tip moment axis)"

@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
@@ -186,6 +187,11 @@ class CosseratModel:
 
     def straight_guess(self, load_factor: float = 1.0) -> np.ndarray:
         """Base moment [N m] of the loads on the straight robot: the cold start, shape (3,)."""
+        return load_factor * self._straight_moment
+
+    @cached_property
+    def _straight_moment(self) -> np.ndarray:
+        # every load scales with the load factor: computed once per model (each root solve asks for it)
         p = self.packed
         s = np.cumsum(p.sub[:, 0])
         force = p.pforce + p.sub[:, 3:4] * p.grav
@@ -194,7 +200,7 @@ class CosseratModel:
         m = np.cross(arm, force).sum(axis=0) + p.pmoment.sum(axis=0)
         length = s[-1]
         m += np.cross([0.0, 0.0, length / 2.0], self.mpl * length * p.grav)
-        return load_factor * m
+        return m
 
 
 def _root(model: CosseratModel, lam: float, x0: np.ndarray, atol: float,

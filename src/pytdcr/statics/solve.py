@@ -29,7 +29,8 @@ from . import _kernels as K
 from .cosserat import CosseratModel, CosseratOptions, check_common_options, solve_cosserat
 from .model import StaticModel
 
-__all__ = ["MODELS", "BatchSolution", "SolverOptions", "solve", "solve_batch", "solve_model", "warmup"]
+__all__ = ["MODELS", "BatchSolution", "SolverOptions", "options_for", "solve", "solve_batch", "solve_model",
+           "warmup"]
 
 _STEPPING = {"never": 0, "auto": 1, "always": 2}
 PATHS = ("direct", "loading", "snap", "fallback")
@@ -114,6 +115,15 @@ def solve_model(
 
 
 MODELS = ("pcc", "cosserat")
+
+
+def options_for(model: str, options: SolverOptions | CosseratOptions | None = None
+                ) -> SolverOptions | CosseratOptions:
+    """``options``, or the default options of ``model`` ('pcc' or 'cosserat') when None."""
+    _check_model(model, options)
+    if options is not None:
+        return options
+    return CosseratOptions() if model == "cosserat" else SolverOptions()
 
 
 def _check_model(model: str, options: SolverOptions | CosseratOptions | None) -> None:
