@@ -27,8 +27,6 @@ __all__ = [
     "Robot",
     "Segment",
     "Tendon",
-    "paper_robot",
-    "rao_robot",
 ]
 
 
@@ -157,9 +155,10 @@ class NoFriction(_Frozen):
 
     law: Literal["none"] = "none"
 
-    def mu(self, sigma: np.ndarray | float) -> np.ndarray:
-        """Friction coefficient for deflection angle ``sigma`` [rad]."""
-        return np.zeros_like(np.asarray(sigma, dtype=float))
+    @property
+    def is_frictionless(self) -> bool:
+        """Always True."""
+        return True
 
 
 class ConstantFriction(_Frozen):
@@ -168,9 +167,10 @@ class ConstantFriction(_Frozen):
     law: Literal["constant"] = "constant"
     mu0: float = Field(ge=0, le=10, allow_inf_nan=False, description="friction coefficient [-]")
 
-    def mu(self, sigma: np.ndarray | float) -> np.ndarray:
-        """Friction coefficient for deflection angle ``sigma`` [rad]."""
-        return np.full_like(np.asarray(sigma, dtype=float), self.mu0)
+    @property
+    def is_frictionless(self) -> bool:
+        """True when mu0 = 0 (then the model equals :class:`NoFriction` exactly)."""
+        return self.mu0 == 0.0
 
 
 class ExponentialFriction(_Frozen):
@@ -190,9 +190,10 @@ class ExponentialFriction(_Frozen):
         default=0.027, ge=0, le=10, allow_inf_nan=False, description="decay rate [1/deg]"
     )
 
-    def mu(self, sigma: np.ndarray | float) -> np.ndarray:
-        """Friction coefficient for deflection angle ``sigma`` [rad]."""
-        return self.mu0 * np.exp(-self.decay_per_deg * np.degrees(np.asarray(sigma, dtype=float)))
+    @property
+    def is_frictionless(self) -> bool:
+        """True when mu0 = 0."""
+        return self.mu0 == 0.0
 
 
 FrictionLaw = Annotated[
@@ -298,53 +299,3 @@ class Robot(_Frozen):
     def with_friction(self, friction: NoFriction | ConstantFriction | ExponentialFriction) -> Robot:
         """Copy with another friction law."""
         return Robot.model_validate({**self.model_dump(), "friction": friction.model_dump()})
-
-
-# --------------------------------------------------------------------- presets
-#: Backbone of the benchmark robot of Rao et al. 2021 (the paper gives no material values).
-_RAO_BACKBONE = Backbone(
-    youngs_modulus=54e9, poissons_ratio=0.3, outer_radius=0.7e-3, inner_radius=0.0, mass_per_length=0.0115
-)
-
-
-def paper_robot(
-    friction: NoFriction | ConstantFriction | ExponentialFriction | None = None,
-) -> Robot:
-    """The two-segment, eight-tendon robot of Jabari et al. (the ``paper`` robot).
-
-    Two segments of 0.2 m with 10 disks of 0.2 g each; tendons at 10 mm, at
-    0/90/180/270 deg (segment 1) and 45/135/225/315 deg (segment 2); gravity
-    -9.81 m/s^2 along base z; the paper's exponential friction law by default.
-    The paper gives no material values: the backbone (E = 54 GPa, nu = 0.3,
-    solid, radius 0.7 mm, 0.0115 kg/m) is that of Rao et al. 2021's benchmark
-    robot, whose geometry the paper shares.
-    """
-    seg = Segment(length=0.2, n_disks=10, disk_mass=0.2e-3)
-    tendons = [Tendon(segment=1, radius=0.01, angle_deg=a) for a in (0.0, 90.0, 180.0, 270.0)]
-    tendons += [Tendon(segment=2, radius=0.01, angle_deg=a) for a in (45.0, 135.0, 225.0, 315.0)]
-    return Robot(
-        name="paper",
-        backbone=_RAO_BACKBONE,
-        segments=(seg, seg),
-        tendons=tuple(tendons),
-        gravity=(0.0, 0.0, -9.81),
-        friction=friction if friction is not None else ExponentialFriction(),
-    )
-
-
-def rao_robot() -> Robot:
-    """The two-segment benchmark robot of Rao et al. 2021 (three tendons per segment).
-
-    Tendons at 90, -30 and 210 deg in both segments, 10 mm radius; no friction
-    and no gravity (the setting of their published PCC regression values).
-    """
-    seg = Segment(length=0.2, n_disks=10, disk_mass=0.2e-3)
-    tendons = [Tendon(segment=s, radius=0.01, angle_deg=a) for s in (1, 2) for a in (90.0, -30.0, 210.0)]
-    return Robot(
-        name="rao2021",
-        backbone=_RAO_BACKBONE,
-        segments=(seg, seg),
-        tendons=tuple(tendons),
-        gravity=(0.0, 0.0, 0.0),
-        friction=NoFriction(),
-    )

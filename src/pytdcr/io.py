@@ -39,7 +39,8 @@ import numpy as np
 import tomli_w
 from pydantic import ValidationError
 
-from .design import Robot, paper_robot, rao_robot
+from .design import Robot
+from .paper import BUILTIN_ROBOTS
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -60,7 +61,6 @@ __all__ = [
 ]
 
 SCHEMA_VERSION = 1
-BUILTIN_ROBOTS = {"paper": paper_robot, "rao": rao_robot}
 
 
 _LAW_TAGS = {"none", "constant", "exponential"}  # pydantic's union tags, not user keys

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["Loads", "PointLoad", "check_vector"]
+__all__ = ["Loads", "PointLoad", "check_tensions", "check_vector"]
 
 
 def check_vector(value: ArrayLike, name: str, size: int = 3) -> np.ndarray:
@@ -17,6 +17,45 @@ def check_vector(value: ArrayLike, name: str, size: int = 3) -> np.ndarray:
         raise ValueError(f"{name} must have shape ({size},), got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be finite, got {arr.tolist()}")
+    return arr
+
+
+def check_tensions(value: ArrayLike, n_tendons: int | None = None, name: str = "tensions") -> np.ndarray:
+    """The one tension validator: ``value`` as float64, finite and >= 0 [N].
+
+    Parameters
+    ----------
+    value : array-like, shape (n_tendons,) or (B, n_tendons)
+        One tension vector or one per row.
+    n_tendons : int, optional
+        Required length of each vector.
+    name : str
+        Name used in the error message.
+
+    Returns
+    -------
+    ndarray
+        A new, C-ordered float64 array of the same shape.
+
+    Raises
+    ------
+    ValueError
+        Naming the first offending entry, its value and the allowed range, or
+        the shape that arrived.
+    """
+    arr = np.array(value, dtype=float, order="C")
+    if arr.ndim not in (1, 2):
+        raise ValueError(f"{name} must be a 1-D array (one per tendon) or 2-D (one row per case), "
+                         f"got shape {arr.shape}")
+    if n_tendons is not None and arr.shape[-1] != n_tendons:
+        want = f"({n_tendons},)" if arr.ndim == 1 else f"(B, {n_tendons})"
+        raise ValueError(f"{name} must have shape {want} (one per tendon), got shape {arr.shape}")
+    bad = ~np.isfinite(arr) | (arr < 0)
+    if np.any(bad):
+        idx = tuple(int(i) for i in np.argwhere(bad)[0])
+        where = ", ".join(str(i) for i in idx)
+        which = f"tendon {idx[-1] + 1}" if arr.ndim == 1 else f"case {idx[0] + 1}, tendon {idx[1] + 1}"
+        raise ValueError(f"{name}[{where}] ({which}) must be finite and >= 0 N, got {arr[idx]}")
     return arr
 
 
@@ -71,14 +110,9 @@ class Loads:
     release: bool = False
 
     def __post_init__(self) -> None:
-        t = np.asarray(self.tensions, dtype=float)
+        t = check_tensions(self.tensions)
         if t.ndim != 1:
-            raise ValueError(f"tensions must be a 1-D array, got shape {t.shape}")
-        bad = ~np.isfinite(t) | (t < 0)
-        if np.any(bad):
-            k = int(np.argmax(bad))
-            raise ValueError(f"tensions[{k}] must be finite and >= 0 N, got {t[k]}")
-        t = t.copy()
+            raise ValueError(f"tensions must be a 1-D array (one per tendon), got shape {t.shape}")
         t.flags.writeable = False
         object.__setattr__(self, "tensions", t)
         object.__setattr__(self, "tip_force", check_vector(self.tip_force, "tip_force"))
@@ -87,6 +121,17 @@ class Loads:
         for p in self.point_loads:
             if not isinstance(p, PointLoad):
                 raise TypeError(f"point_loads must hold PointLoad objects, got {type(p).__name__}")
+
+    def scaled(self, factor: float) -> Loads:
+        """Every load here (tensions, tip wrench, point wrenches) times ``factor`` >= 0: a point of the loading path.
+
+        Gravity belongs to the robot (:meth:`pytdcr.Robot.with_gravity`).
+        """
+        f = float(factor)
+        if not (np.isfinite(f) and f >= 0):
+            raise ValueError(f"factor must be finite and >= 0, got {factor!r}")
+        points = tuple(PointLoad(p.disk, p.force * f, p.moment * f) for p in self.point_loads)
+        return Loads(self.tensions * f, self.tip_force * f, self.tip_moment * f, points, self.release)
 
     def with_tensions(self, tensions: np.ndarray) -> Loads:
         """The same external loads and friction direction with other actuator tensions [N]."""
