@@ -11,7 +11,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["backbone_curve", "forward_kinematics", "frames", "subsegment", "subsegment_transform", "tip_jacobian"]
+__all__ = ["backbone_curve", "forward_kinematics", "frames", "subsegment", "subsegment_derivatives",
+           "subsegment_transform", "tip_jacobian"]
 
 _SERIES_T2 = 1e-2  # use series for theta^2 below this
 
@@ -111,24 +112,109 @@ def subsegment_transform(beta: float, gamma: float, eps: float, length: float) -
     return R, d
 
 
+@njit(cache=True, inline="always")
+def _abc_slopes(t2):
+    """Derivatives by theta^2 of A = sin(th)/th and B = (1-cos th)/th^2 (series near 0; no cancellation)."""
+    a, b, c = _abc(t2)
+    da = 0.5 * (c - b)
+    if t2 < _SERIES_T2:
+        db = -1.0 / 24.0 + t2 * (2.0 / 720.0 - t2 * (3.0 / 40320.0 - t2 * (4.0 / 3628800.0 - t2 * 5.0 / 479001600.0)))
+    else:
+        db = (a - 2.0 * b) / (2.0 * t2)
+    return a, b, c, da, db
+
+
 @njit(cache=True)
-def tip_jacobian(q, sub, h):
-    """Derivative of the tip position by q (3N,), shape (3, 3N), by central differences of step ``h``."""
-    m = q.shape[0]
+def subsegment_derivatives(beta, gamma, eps, l, dR, dd):
+    """Derivatives of one subsegment's transform by (beta, gamma, eps), in closed form.
+
+    Writes ``dR`` (3, 3, 3): ``dR[a]`` = d R / d q_a, and ``dd`` (3, 3): ``dd[a]``
+    = d d / d q_a, for q = (beta [1/m], gamma [1/m], eps [rad]). With
+    R = E(w) Rz(eps), E = I + A K + B K^2, K = [w]x, w = l (-gamma, beta, 0) and
+    A, B functions of t2 = |w|^2; exact and smooth at zero curvature.
+    """
+    wx = -gamma * l
+    wy = beta * l
+    t2 = wx * wx + wy * wy
+    a, b, _c, da, db = _abc_slopes(t2)
+    K = np.zeros((3, 3))
+    K[0, 2] = wy
+    K[1, 2] = -wx
+    K[2, 0] = -wy
+    K[2, 1] = wx
+    K2 = K @ K
+    E = np.eye(3) + a * K + b * K2
+    ce = np.cos(eps)
+    se = np.sin(eps)
+    Rz = np.array([[ce, -se, 0.0], [se, ce, 0.0], [0.0, 0.0, 1.0]])
+    dRz = np.array([[-se, -ce, 0.0], [ce, -se, 0.0], [0.0, 0.0, 0.0]])
+    ll = l * l
+    for j in range(2):  # j = 0: by w_x, j = 1: by w_y
+        wj = wx if j == 0 else wy
+        Kj = np.zeros((3, 3))
+        if j == 0:
+            Kj[1, 2] = -1.0
+            Kj[2, 1] = 1.0
+        else:
+            Kj[0, 2] = 1.0
+            Kj[2, 0] = -1.0
+        dE = (2.0 * wj * da) * K + a * Kj + (2.0 * wj * db) * K2 + b * (Kj @ K + K @ Kj)
+        dEz = dE @ Rz
+        # beta moves w_y by l; gamma moves w_x by -l
+        lane = 0 if j == 1 else 1
+        sgn = l if j == 1 else -l
+        for u in range(3):
+            for v in range(3):
+                dR[lane, u, v] = sgn * dEz[u, v]
+    ER = E @ dRz
+    for u in range(3):
+        for v in range(3):
+            dR[2, u, v] = ER[u, v]
+    # d = (l^2 B beta, l^2 B gamma, l A), t2 = l^2 (beta^2 + gamma^2)
+    dt_db = 2.0 * ll * beta
+    dt_dg = 2.0 * ll * gamma
+    dd[0, 0] = ll * (b + beta * db * dt_db)
+    dd[0, 1] = ll * gamma * db * dt_db
+    dd[0, 2] = l * da * dt_db
+    dd[1, 0] = ll * beta * db * dt_dg
+    dd[1, 1] = ll * (b + gamma * db * dt_dg)
+    dd[1, 2] = l * da * dt_dg
+    dd[2, 0] = 0.0
+    dd[2, 1] = 0.0
+    dd[2, 2] = 0.0
+
+
+@njit(cache=True)
+def tip_jacobian(q, sub):
+    """Exact derivative of the tip position by the unknowns q (3N,), shape (3, 3N) [m per unit of q].
+
+    Moving subsegment i moves everything beyond it rigidly: d tip / d q_(i,a) =
+    R_(0,i-1) (dd_i/dq_a + dR_i/dq_a x_i), with x_i the tip in frame i and the
+    subsegment derivatives in closed form (:func:`subsegment_derivatives`).
+    ``sub`` (N, >=1) holds the subsegment lengths [m] in its first column.
+    """
     n = sub.shape[0]
     pos = np.empty((n + 1, 3))
     rot = np.empty((n + 1, 3, 3))
-    out = np.empty((3, m))
-    qq = q.copy()
-    for j in range(m):
-        qq[j] = q[j] + h
-        frames(qq, sub, pos, rot)
-        up = pos[n].copy()
-        qq[j] = q[j] - h
-        frames(qq, sub, pos, rot)
-        for k in range(3):
-            out[k, j] = (up[k] - pos[n, k]) / (2.0 * h)
-        qq[j] = q[j]
+    frames(q, sub, pos, rot)
+    out = np.empty((3, 3 * n))
+    dR = np.empty((3, 3, 3))
+    dd = np.empty((3, 3))
+    x = np.empty(3)
+    v = np.empty(3)
+    for i in range(1, n + 1):
+        k = 3 * (i - 1)
+        subsegment_derivatives(q[k], q[k + 1], q[k + 2], sub[i - 1, 0], dR, dd)
+        for u in range(3):
+            x[u] = 0.0
+            for w in range(3):
+                x[u] += rot[i, w, u] * (pos[n, w] - pos[i, w])
+        P = rot[i - 1]
+        for a in range(3):
+            for u in range(3):
+                v[u] = dd[a, u] + dR[a, u, 0] * x[0] + dR[a, u, 1] * x[1] + dR[a, u, 2] * x[2]
+            for u in range(3):
+                out[u, k + a] = P[u, 0] * v[0] + P[u, 1] * v[1] + P[u, 2] * v[2]
     return out
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -10,7 +11,7 @@ import numpy as np
 from .design import Robot
 from .kinematics import backbone_curve
 
-__all__ = ["NotConvergedError", "StaticSolution"]
+__all__ = ["BatchSolution", "NotConvergedError", "StaticSolution"]
 
 
 class NotConvergedError(RuntimeError):
@@ -37,7 +38,8 @@ class StaticSolution:
         a fold), ``"direct"`` (Newton at full load from the start point) or
         ``"fallback"`` (the loading path failed; another equilibrium).
     q : ndarray
-        The model's unknowns, a warm start for a nearby solve. PCC: shape
+        The model's unknowns, a warm start for a nearby solve of the same
+        model (its ``unknowns`` attribute says what they are). PCC: shape
         (N, 3), (beta [1/m], gamma [1/m], eps [rad]) per subsegment (MODEL.md);
         Cosserat: shape (3,), the total moment at the base [N m], base frame.
     tensions : ndarray, shape (n_tendons, N)
@@ -47,7 +49,7 @@ class StaticSolution:
     atol : float
         Convergence tolerance used [N m].
     model : str
-        ``"pcc"`` or ``"cosserat"``.
+        The registered name of the model that solved it (:data:`pytdcr.statics.MODELS`).
     """
 
     converged: bool
@@ -122,3 +124,55 @@ class StaticSolution:
             "q": self.q.tolist(),
             "tensions": self.tensions.tolist(),
         }
+
+
+@dataclass(frozen=True, eq=False)
+class BatchSolution:
+    """Solutions of many tension vectors under the same external loads.
+
+    Attributes
+    ----------
+    tensions : ndarray, shape (B, n_tendons)
+    converged : ndarray of bool, shape (B,)
+    residual : ndarray, shape (B,)
+        max |residual| [N m].
+    iterations : ndarray of int, shape (B,)
+    q : ndarray
+        The model's unknowns per case: PCC (B, N, 3), Cosserat (B, 3).
+    tip_position : ndarray, shape (B, 3)
+        [m]; NaN where not converged.
+    seconds : float
+        Wall time of the whole batch [s].
+    path : ndarray of str, shape (B,)
+        How each equilibrium was reached (see :class:`StaticSolution`).
+    model : str
+        The registered name of the model.
+    """
+
+    tensions: np.ndarray
+    converged: np.ndarray
+    residual: np.ndarray
+    iterations: np.ndarray
+    q: np.ndarray
+    tip_position: np.ndarray
+    seconds: float
+    path: np.ndarray
+    model: str
+
+    @classmethod
+    def from_solutions(cls, tensions: np.ndarray, solutions: Sequence[StaticSolution], seconds: float,
+                       model: str) -> BatchSolution:
+        """Gather single solutions, case by case."""
+        ok = np.array([s.converged for s in solutions], dtype=bool)
+        tips = np.full((len(solutions), 3), np.nan)
+        for b in np.flatnonzero(ok):
+            tips[b] = solutions[b].tip_position
+        return cls(tensions=tensions, converged=ok, residual=np.array([s.residual for s in solutions]),
+                   iterations=np.array([s.iterations for s in solutions], dtype=np.int64),
+                   q=np.array([s.q for s in solutions]), tip_position=tips, seconds=seconds,
+                   path=np.array([s.path for s in solutions], dtype=object), model=model)
+
+    @property
+    def reach(self) -> np.ndarray:
+        """||tip|| [m], shape (B,); NaN where not converged."""
+        return np.linalg.norm(self.tip_position, axis=1)

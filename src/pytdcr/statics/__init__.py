@@ -1,10 +1,17 @@
-"""Statics: the PCC equilibrium model, the Cosserat-rod model and their solvers."""
+"""Statics: the registered models (PCC, Cosserat rod) and the functions that solve them.
 
-from .cosserat import CosseratModel, CosseratOptions, solve_cosserat
-from .model import StaticModel
-from .solve import MODELS, BatchSolution, SolverOptions, _prime, options_for, solve, solve_batch, solve_model, warmup
+``solve``, ``solve_batch`` and ``tip_gradient`` take a model's name or object
+and ask the registry (:data:`MODELS`), which checks the request against what
+the model supports.
+"""
 
-_prime()
+from ._constants import DEFAULT_ATOL, PATH_NAMES, TIGHT_ATOL
+from .base import Capabilities, Model, UnsupportedFeatureError
+from .cosserat import CosseratModel, CosseratOptions, CosseratShooting
+from .pcc import PCCEquations, PCCModel, SolverOptions
+from .registry import MODELS, configure, get_model, options_record, resolve
+from .solve import solve, solve_batch, tip_gradient, warmup
 
-__all__ = ["MODELS", "BatchSolution", "CosseratModel", "CosseratOptions", "SolverOptions", "StaticModel",
-           "options_for", "solve", "solve_batch", "solve_cosserat", "solve_model", "warmup"]
+__all__ = ["DEFAULT_ATOL", "MODELS", "PATH_NAMES", "TIGHT_ATOL", "Capabilities", "CosseratModel", "CosseratOptions",
+           "CosseratShooting", "Model", "PCCEquations", "PCCModel", "SolverOptions", "UnsupportedFeatureError",
+           "configure", "get_model", "options_record", "resolve", "solve", "solve_batch", "tip_gradient", "warmup"]

@@ -26,16 +26,73 @@ of a dense forward-mode pass.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from ..kinematics import frames, subsegment
+from ._constants import PATH_DIRECT, PATH_FALLBACK, PATH_LOADING, PATH_SNAP
 
 # fast-math that keeps NaN/Inf semantics (non-convergence must stay detectable)
 _FM = {"contract", "reassoc", "arcp", "nsz"}
 
-__all__ = ["evaluate", "frames", "make_work", "newton", "relax", "solve_batch", "solve_one", "subsegment",
-           "tendon_unit_load_jvp"]
+__all__ = ["Outcome", "Packed", "Settings", "Work", "evaluate", "frames", "make_work", "newton", "relax",
+           "solve_one", "solve_range", "subsegment", "tendon_unit_load_jvp"]
+
+
+class Packed(NamedTuple):
+    """The packed model (see the module docstring for each array's layout)."""
+
+    sub: np.ndarray
+    holes: np.ndarray
+    anchor: np.ndarray
+    fric: np.ndarray
+    tension: np.ndarray
+    grav: np.ndarray
+    pforce: np.ndarray
+    pmoment: np.ndarray
+
+
+class Settings(NamedTuple):
+    """Solver settings: tolerance [N m], Newton iterations, step limit [rad], load-stepping code."""
+
+    atol: float
+    max_iter: int
+    max_dtheta: float
+    stepping: int
+
+
+class Work(NamedTuple):
+    """Scratch arrays of :func:`evaluate` (N disks, nt tendons, m = 3N unknowns)."""
+
+    R: np.ndarray  # (N+2, 3, 3) subsegment rotations R[i] (index 1..N; N+1 = padding)
+    d: np.ndarray  # (N+2, 3) subsegment translations
+    pg: np.ndarray  # (N+2, 3) backbone piece centroids
+    dR: np.ndarray  # (N+2, 3, 3, 3) dR[i, a]: derivative by q[3(i-1) + a]
+    dd: np.ndarray  # (N+2, 3, 3)
+    dpg: np.ndarray  # (N+2, 3, 3)
+    G: np.ndarray  # (N+1, 3, 3) G[i] = R_{0,i}^T
+    omega: np.ndarray  # (N+1, 3, m) body angular velocity of frame i per unknown
+    T: np.ndarray  # (N+2, nt) tension in piece i of each tendon [N]
+    dT: np.ndarray  # (N+2, nt, m)
+    W: np.ndarray  # (N+1, nt, 7) unit load (force, moment) and tension ratio at disk i
+    dW: np.ndarray  # (N+1, nt, 7, 6) its local derivative
+    dF: np.ndarray  # (3, m)
+    dM: np.ndarray  # (3, m)
+    dL: np.ndarray  # (6, m)
+
+
+class Outcome(NamedTuple):
+    """What :func:`solve_one` returns."""
+
+    q: np.ndarray  # (3N,) the unknowns reached
+    converged: bool
+    residual: float  # max |residual| [N m]
+    iterations: int  # Newton iterations in all
+    jacobians: int  # exact Jacobian evaluations
+    load_steps: int
+    path: int  # a PATH_* code
 
 _H = 1e-30  # complex-step size
 _STALL = 15  # Newton gives up after this many iterations without halving the residual
@@ -225,35 +282,27 @@ def tendon_unit_load_jvp(R, d, hn, dR, dd, dh, nl, px, py, is_anchor, fric, out,
 def make_work(n, nt):
     """Allocate the scratch arrays of :func:`evaluate` for N = n disks, nt tendons."""
     m = 3 * n
-    return (
-        np.zeros((n + 2, 3, 3)),  # 0 R[i] (index 1..N, N+1 = identity pad)
-        np.zeros((n + 2, 3)),  # 1 d[i]
-        np.zeros((n + 2, 3)),  # 2 pg[i]
-        np.zeros((n + 2, 3, 3, 3)),  # 3 dR[i, a]
-        np.zeros((n + 2, 3, 3)),  # 4 dd[i, a]
-        np.zeros((n + 2, 3, 3)),  # 5 dpg[i, a]
-        np.zeros((n + 1, 3, 3)),  # 6 G[i] = R_{0,i}^T
-        np.zeros((n + 1, 3, m)),  # 7 Omega[i] (body angular velocity per lane)
-        np.zeros((n + 2, nt)),  # 8 T[i, c]: tension in piece i
-        np.zeros((n + 2, nt, m)),  # 9 dT
-        np.zeros((n + 1, nt, 7)),  # 10 unit load and ratio at disk i
-        np.zeros((n + 1, nt, 7, 6)),  # 11 its local derivative
-        np.zeros((3, m)),  # 12 dF
-        np.zeros((3, m)),  # 13 dM
-        np.zeros((6, m)),  # 14 dL
+    return Work(
+        np.zeros((n + 2, 3, 3)), np.zeros((n + 2, 3)), np.zeros((n + 2, 3)), np.zeros((n + 2, 3, 3, 3)),
+        np.zeros((n + 2, 3, 3)), np.zeros((n + 2, 3, 3)), np.zeros((n + 1, 3, 3)), np.zeros((n + 1, 3, m)),
+        np.zeros((n + 2, nt)), np.zeros((n + 2, nt, m)), np.zeros((n + 1, nt, 7)), np.zeros((n + 1, nt, 7, 6)),
+        np.zeros((3, m)), np.zeros((3, m)), np.zeros((6, m)),
     )
 
 
 @njit(cache=True, fastmath=_FM, nogil=True)
-def evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, want_jac, r, J, work):
+def evaluate(q, lam, model, want_jac, r, J, work):
     """Residual ``r`` (3N,) and, if ``want_jac``, its Jacobian ``J`` (3N, 3N).
 
     ``lam`` scales every load (tensions, gravity, point wrenches): load stepping.
     """
+    sub, holes, anchor, fric = model.sub, model.holes, model.anchor, model.fric
+    tension, grav, pforce, pmoment = model.tension, model.grav, model.pforce, model.pmoment
     n = sub.shape[0]
     nt = holes.shape[0]
     m = 3 * n
-    Rs, ds, pgs, dRs, dds, dpgs, G, Om, T, dT, W, dW, dF, dM, dL = work
+    Rs, ds, pgs, dRs, dds, dpgs, G, Om = work.R, work.d, work.pg, work.dR, work.dd, work.dpg, work.G, work.omega
+    T, dT, W, dW, dF, dM, dL = work.T, work.dT, work.W, work.dW, work.dF, work.dM, work.dL
     Rc = np.empty((3, 3), dtype=np.complex128)
     dc = np.empty(3, dtype=np.complex128)
     pgc = np.empty(3, dtype=np.complex128)
@@ -583,8 +632,7 @@ def _step_scale(dx, sub, max_dtheta):
 
 
 @njit(cache=True)
-def newton(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, work,
-           H, reuse):
+def newton(q, lam, m, atol, max_iter, max_dtheta, work, H, reuse):
     """Quasi-Newton iteration from ``q`` (modified in place) at load factor ``lam``.
 
     ``H`` (3N, 3N) holds the inverse Jacobian: computed from the exact
@@ -597,17 +645,17 @@ def newton(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, ato
     Jacobian (near a fold), Levenberg-Marquardt steps take over.
     Returns ``(converged, max|r|, iterations, jacobian evaluations)``.
     """
-    m = q.shape[0]
-    r = np.empty(m)
-    rt = np.empty(m)
-    J = np.empty((m, m))
-    qt = np.empty(m)
+    nq = q.shape[0]
+    r = np.empty(nq)
+    rt = np.empty(nq)
+    J = np.empty((nq, nq))
+    qt = np.empty(nq)
     if reuse:
-        evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, False, r, J, work)
+        evaluate(q, lam, m, False, r, J, work)
         njac = 0
         fresh = False
     else:
-        evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, True, r, J, work)
+        evaluate(q, lam, m, True, r, J, work)
         njac = 1
         fresh = True
         try:
@@ -633,14 +681,14 @@ def newton(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, ato
                 return False, res, it, njac
         it += 1
         dx = -(H @ r)
-        alpha = _step_scale(dx, sub, max_dtheta)
+        alpha = _step_scale(dx, m.sub, max_dtheta)
         f0 = _sumsq(r)
         accepted = False
         nls = 8 if not fresh else 12
         for _ls in range(nls):
-            for u in range(m):
+            for u in range(nq):
                 qt[u] = q[u] + alpha * dx[u]
-            evaluate(qt, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, False, rt, J, work)
+            evaluate(qt, lam, m, False, rt, J, work)
             f1 = _sumsq(rt)
             if f1 <= (1.0 - 1e-4 * alpha) * f0:
                 accepted = True
@@ -652,22 +700,22 @@ def newton(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, ato
             g = J.T @ r
             mu = 1e-5
             dmax = 0.0
-            for u in range(m):
+            for u in range(nq):
                 if A[u, u] > dmax:
                     dmax = A[u, u]
             for _lm in range(8):
                 B = A.copy()
-                for u in range(m):
+                for u in range(nq):
                     B[u, u] += mu * dmax
                 try:
                     dx = -np.linalg.solve(B, g)
                 except Exception:
                     mu *= 10.0
                     continue
-                alpha = _step_scale(dx, sub, max_dtheta)
-                for u in range(m):
+                alpha = _step_scale(dx, m.sub, max_dtheta)
+                for u in range(nq):
                     qt[u] = q[u] + alpha * dx[u]
-                evaluate(qt, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, False, rt, J, work)
+                evaluate(qt, lam, m, False, rt, J, work)
                 f1 = _sumsq(rt)
                 if f1 < f0:
                     accepted = True
@@ -677,7 +725,7 @@ def newton(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, ato
                 return False, res, it, njac
         if not accepted:
             # stale Broyden inverse: recompute the exact Jacobian here and retry
-            evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, True, r, J, work)
+            evaluate(q, lam, m, True, r, J, work)
             njac += 1
             fresh = True
             try:
@@ -693,13 +741,13 @@ def newton(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, ato
         if abs(sHy) > 1e-300:
             sH = s @ H
             H += np.outer(s - Hy, sH) / sHy
-        for u in range(m):
+        for u in range(nq):
             q[u] = qt[u]
             r[u] = rt[u]
         res = _maxabs(r)
         fresh = False
         if f1 > 0.25 * f0 and res > atol:
-            evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, True, r, J, work)
+            evaluate(q, lam, m, True, r, J, work)
             njac += 1
             fresh = True
             try:
@@ -710,7 +758,7 @@ def newton(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, ato
 
 
 @njit(cache=True)
-def relax(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, work):
+def relax(q, lam, m, atol, max_iter, max_dtheta, work):
     """Pseudo-transient continuation from ``q`` (in place): implicit Euler on dq/dt = -D^-1 r.
 
     Used where Newton fails at a fold: the pseudo-time flow follows the
@@ -718,12 +766,12 @@ def relax(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol
     the residual falls (switched evolution relaxation), ending in Newton steps.
     Returns ``(converged, max|r|, iterations, jacobian evaluations)``.
     """
-    m = q.shape[0]
-    r = np.empty(m)
-    J = np.empty((m, m))
-    D = np.empty(m)
-    evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, True, r, J, work)
-    for u in range(m):
+    nq = q.shape[0]
+    r = np.empty(nq)
+    J = np.empty((nq, nq))
+    D = np.empty(nq)
+    evaluate(q, lam, m, True, r, J, work)
+    for u in range(nq):
         D[u] = abs(J[u, u]) + 1e-12
     r0 = np.sqrt(_sumsq(r))
     rprev = r0
@@ -733,16 +781,16 @@ def relax(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol
         if res <= atol:
             return True, res, it, it + 1
         A = J.copy()
-        for u in range(m):
+        for u in range(nq):
             A[u, u] += D[u] / dt
         try:
             dx = -np.linalg.solve(A, r)
         except Exception:
             return False, res, it, it + 1
-        alpha = _step_scale(dx, sub, max_dtheta)
-        for u in range(m):
+        alpha = _step_scale(dx, m.sub, max_dtheta)
+        for u in range(nq):
             q[u] += alpha * dx[u]
-        evaluate(q, lam, sub, holes, anchor, fric, tension, grav, pforce, pmoment, True, r, J, work)
+        evaluate(q, lam, m, True, r, J, work)
         res = _maxabs(r)
         if not np.isfinite(res):
             return False, res, it + 1, it + 2
@@ -763,14 +811,9 @@ def _change(qa, qb, sub):
     return big
 
 
-PATH_DIRECT = 0  # Newton from the start point at full load
-PATH_LOADING = 1  # continuation along the loading path from the unloaded robot
-PATH_SNAP = 2  # the loading path, relaxed through a fold (snap-through)
-PATH_FALLBACK = 3  # the loading path failed; Newton at full load found another equilibrium
-
 
 @njit(cache=True, nogil=True)
-def solve_one(q0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, stepping, work):
+def solve_one(q0, m, settings, work):
     """Solve at full load.
 
     ``stepping``: 0 Newton from ``q0`` only; 1 Newton from ``q0``, then the
@@ -781,27 +824,25 @@ def solve_one(q0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol
     equilibrium (the snap-through); if that fails too, Newton at full load
     from the last equilibrium and then from ``q0`` gives another equilibrium
     (path code 3).
-    Returns ``(q, converged, max|r|, iterations, jacobian evaluations, load steps, path code)``.
+    ``settings`` (:class:`Settings`) carries ``stepping`` and the tolerances. Returns an :class:`Outcome`.
     """
-    m = q0.shape[0]
+    atol, max_iter, max_dtheta, stepping = settings.atol, settings.max_iter, settings.max_dtheta, settings.stepping
+    nq = q0.shape[0]
     q = q0.copy()
-    H = np.zeros((m, m))
+    H = np.zeros((nq, nq))
     iters = 0
     nj = 0
     if stepping != 2:
-        ok, res, it, ne = newton(
-            q, 1.0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, work,
-            H, False,
-        )
+        ok, res, it, ne = newton(q, 1.0, m, atol, max_iter, max_dtheta, work, H, False)
         iters += it
         nj += ne
         if ok or stepping == 0:
-            return q, ok, res, iters, nj, 0, PATH_DIRECT
+            return Outcome(q, ok, res, iters, nj, 0, PATH_DIRECT)
     path = PATH_LOADING
     q[:] = 0.0
-    qprev = np.zeros(m)
+    qprev = np.zeros(nq)
     lprev = 0.0
-    qs = np.zeros(m)
+    qs = np.zeros(nq)
     lam = 0.0
     dlam = 0.25
     steps = 0
@@ -814,27 +855,21 @@ def solve_one(q0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol
         # secant predictor from the last two equilibria
         if lam > lprev:
             w = (lt - lam) / (lam - lprev)
-            for u in range(m):
+            for u in range(nq):
                 qs[u] = q[u] + w * (q[u] - qprev[u])
         else:
             qs[:] = q
         tol = atol if lt >= 1.0 else max(atol, _STEP_ATOL)
-        ok, res, it, ne = newton(
-            qs, lt, sub, holes, anchor, fric, tension, grav, pforce, pmoment, tol, step_iter, max_dtheta, work,
-            H, have_h,
-        )
+        ok, res, it, ne = newton(qs, lt, m, tol, step_iter, max_dtheta, work, H, have_h)
         if not ok and lam > lprev:  # retry without the predictor, from a fresh Jacobian
             qs[:] = q
-            ok, res, it2, ne2 = newton(
-                qs, lt, sub, holes, anchor, fric, tension, grav, pforce, pmoment, tol, step_iter, max_dtheta, work,
-                H, False,
-            )
+            ok, res, it2, ne2 = newton(qs, lt, m, tol, step_iter, max_dtheta, work, H, False)
             it += it2
             ne += ne2
         iters += it
         nj += ne
         steps += 1
-        if ok and dlam >= 1.0 / 64.0 and _change(qs, q, sub) > _MAX_STEP_CHANGE:
+        if ok and dlam >= 1.0 / 64.0 and _change(qs, q, m.sub) > _MAX_STEP_CHANGE:
             ok = False  # a converged step that moved far has jumped to another branch: take a smaller step
         have_h = ok
         if ok:
@@ -843,17 +878,14 @@ def solve_one(q0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol
             q[:] = qs
             lam = lt
             # next step from the secant rate of change: aim at _STEP_TARGET per subsegment
-            rate = _change(q, qprev, sub) / (lam - lprev)
+            rate = _change(q, qprev, m.sub) / (lam - lprev)
             dlam = min(2.0 * dlam, _MAX_DLAM, _STEP_TARGET / rate if rate > 0.0 else _MAX_DLAM)
         else:
             dlam *= 0.5
             if dlam < 1.0 / 128.0:
                 # a fold: relax from the last equilibrium at full load (the snap-through)
                 qs[:] = q
-                ok, res, it, ne = relax(
-                    qs, 1.0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, 4 * max_iter,
-                    max_dtheta, work,
-                )
+                ok, res, it, ne = relax(qs, 1.0, m, atol, 4 * max_iter, max_dtheta, work)
                 iters += it
                 nj += ne
                 steps += 1
@@ -869,36 +901,36 @@ def solve_one(q0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol
                 qs[:] = q
             else:
                 qs[:] = q0
-            ok, res, it, ne = newton(
-                qs, 1.0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, atol, max_iter, max_dtheta, work,
-                H, False,
-            )
+            ok, res, it, ne = newton(qs, 1.0, m, atol, max_iter, max_dtheta, work, H, False)
             iters += it
             nj += ne
             if ok:
-                return qs, True, res, iters, nj, steps, PATH_FALLBACK
-        r = np.empty(m)
+                return Outcome(qs, True, res, iters, nj, steps, PATH_FALLBACK)
+        r = np.empty(nq)
         J = np.empty((1, 1))
-        evaluate(q, 1.0, sub, holes, anchor, fric, tension, grav, pforce, pmoment, False, r, J, work)
-        return q, False, _maxabs(r), iters, nj, steps, PATH_LOADING
-    return q, ok, res, iters, nj, steps, path
+        evaluate(q, 1.0, m, False, r, J, work)
+        return Outcome(q, False, _maxabs(r), iters, nj, steps, PATH_LOADING)
+    return Outcome(q, ok, res, iters, nj, steps, path)
 
 
-@njit(cache=True, parallel=True, nogil=True)
-def solve_batch(q0, sub, holes, anchor, fric, tensions, grav, pforce, pmoment, atol, max_iter, max_dtheta, stepping,
-                out_q, out_ok, out_res, out_it, out_path):
-    """Solve many tension vectors ``tensions`` (B, nt) in parallel (one thread per case)."""
-    nb = tensions.shape[0]
-    n = sub.shape[0]
-    nt = holes.shape[0]
-    for b in prange(nb):
-        work = make_work(n, nt)
-        q, ok, res, it, _ne, _st, pth = solve_one(
-            q0[b], sub, holes, anchor, fric, tensions[b], grav, pforce, pmoment, atol, max_iter, max_dtheta,
-            stepping, work,
-        )
-        out_q[b, :] = q
-        out_ok[b] = ok
-        out_res[b] = res
-        out_it[b] = it
-        out_path[b] = pth
+@njit(cache=True, nogil=True)
+def solve_range(q0, m, tensions, settings, start, stop, out_q, out_ok, out_res, out_it, out_steps, out_path):
+    """Solve the cases ``start <= b < stop`` of a batch, one after the other (the GIL released).
+
+    ``q0`` (B, 3N) start points, ``tensions`` (B, nt) actuator tensions [N]; ``m`` gives every other
+    load. Writes ``out_q`` (B, 3N), ``out_ok``, ``out_res``, ``out_it``, ``out_steps`` and ``out_path`` (B,) for those
+    cases. Callers run disjoint ranges in threads: each case is solved by the same compiled code
+    whatever the thread, so a batch's results do not depend on how it is split.
+    """
+    n = m.sub.shape[0]
+    nt = m.holes.shape[0]
+    work = make_work(n, nt)
+    for b in range(start, stop):
+        mb = Packed(m.sub, m.holes, m.anchor, m.fric, tensions[b], m.grav, m.pforce, m.pmoment)
+        o = solve_one(q0[b], mb, settings, work)
+        out_q[b, :] = o.q
+        out_ok[b] = o.converged
+        out_res[b] = o.residual
+        out_it[b] = o.iterations
+        out_steps[b] = o.load_steps
+        out_path[b] = o.path

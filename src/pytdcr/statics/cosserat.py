@@ -12,29 +12,37 @@ differ. See :mod:`pytdcr.statics._cosserat_kernels` for the equations.
 The boundary-value problem has three unknowns, the total moment at the base
 (the total force there is known), found by SciPy's MINPACK hybrid root finder
 on the tip residual; a cold start that fails is retried by load continuation.
-The model has no tendon friction: a robot with a friction law is refused.
+The model has no tendon friction (its capabilities say so, and the registry
+refuses a robot with a friction law).
+
+:class:`CosseratShooting` is the shooting problem of one robot under its
+loads; :class:`CosseratModel` is the registry's entry that solves it.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import numpy as np
 from scipy.optimize import root
 
-from ..design import ConstantFriction, NoFriction, Robot
+from ..design import Robot
 from ..loads import Loads
-from ..results import StaticSolution
+from ..results import BatchSolution, StaticSolution
 from . import _cosserat_kernels as CK
-from .model import StaticModel
+from ._batch import run_in_chunks
+from ._constants import DEFAULT_ATOL, PATH_DIRECT, PATH_FALLBACK, PATH_LOADING, PATH_NAMES, PATH_SNAP
+from ._kernels import Packed
+from ._options import check_common_options
+from .base import Capabilities
+from .pcc import PCCEquations
 
-__all__ = ["CosseratModel", "CosseratOptions", "solve_cosserat"]
+__all__ = ["COSSERAT", "CosseratModel", "CosseratOptions", "CosseratShooting"]
 
-_PATHS = ("direct", "loading", "snap", "fallback")
 _MIN_DLAM = 1.0 / 1024.0
 
 
@@ -57,7 +65,7 @@ class CosseratOptions:
         the PCC solver does; 'auto' solves at full load first; 'never' only that.
     """
 
-    atol: float = 1e-9
+    atol: float = DEFAULT_ATOL
     max_eval: int = 200
     steps_per_subsegment: int = 4
     shear_extension: bool = False
@@ -71,21 +79,24 @@ class CosseratOptions:
             raise ValueError(f"steps_per_subsegment must be in [1, 1000], got {self.steps_per_subsegment}")
 
 
-def check_common_options(atol: float, load_stepping: str) -> None:
-    """Validate the options every solver shares; ValueError naming the field and its range."""
-    if not (np.isfinite(atol) and atol > 0):
-        raise ValueError(f"atol must be finite and > 0, got {atol}")
-    if load_stepping not in ("always", "auto", "never"):
-        raise ValueError(f"load_stepping must be one of ['always', 'auto', 'never'], got {load_stepping!r}")
+class Shot(NamedTuple):
+    """One integration from the base: the moment just past the tip [N m], the tip [m], and the shape if recorded."""
+
+    residual: np.ndarray  # (3,) the shooting residual: total moment just past the tip
+    tip: np.ndarray  # (3,)
+    positions: np.ndarray | None  # (N+1, 3) disk centres [m]
+    rotations: np.ndarray | None  # (N+1, 3, 3)
+    curve: np.ndarray | None  # (N nsub + 1, 3) backbone points [m]
 
 
 @dataclass(frozen=True, eq=False)
-class CosseratModel:
+class CosseratShooting:
     """The shooting problem of ``robot`` under ``loads`` (three unknowns: the base moment).
 
     Attributes
     ----------
-    packed : StaticModel
+    robot : Robot
+    packed : pytdcr.statics._kernels.Packed
         The loads and routing, packed exactly as for the PCC model.
     stiff : ndarray, shape (4,)
         EI, GJ [N m^2], GA, EA [N].
@@ -93,9 +104,13 @@ class CosseratModel:
         Routing r_c in the body frame [m].
     mpl : float
         Backbone mass per length [kg/m].
+    shear_extension : bool
+    nsub : int
+        Runge-Kutta steps per subsegment.
     """
 
-    packed: StaticModel
+    robot: Robot
+    packed: Packed
     stiff: np.ndarray
     holes: np.ndarray
     mpl: float
@@ -103,28 +118,23 @@ class CosseratModel:
     nsub: int
 
     @classmethod
-    def build(cls, robot: Robot, loads: Loads, options: CosseratOptions | None = None) -> CosseratModel:
-        """Pack ``robot`` and ``loads``; ValueError if the robot has friction."""
+    def build(cls, robot: Robot, loads: Loads, options: CosseratOptions | None = None) -> CosseratShooting:
+        """Pack ``robot`` and ``loads`` (any friction law of the robot is ignored: the rod has none)."""
         opts = options or CosseratOptions()
-        law = robot.friction
-        if not (isinstance(law, NoFriction) or (isinstance(law, ConstantFriction) and law.mu0 == 0.0)):
-            raise ValueError(
-                f"robot.friction: the cosserat model has no tendon friction; use friction 'none' "
-                f"(robot '{robot.name}' has law '{law.law}')"
-            )
-        packed = StaticModel.build(robot, loads)
+        packed = PCCEquations.build(robot, loads).packed
         bb = robot.backbone
         area = math.pi * (bb.outer_radius**2 - bb.inner_radius**2)
         stiff = np.array([bb.bending_stiffness, bb.torsional_stiffness, bb.shear * area, bb.youngs_modulus * area])
-        return cls(packed=packed, stiff=stiff, holes=np.ascontiguousarray(robot.tendon_holes), mpl=bb.mass_per_length,
-                   shear_extension=bool(opts.shear_extension), nsub=int(opts.steps_per_subsegment))
+        return cls(robot=robot, packed=packed, stiff=stiff, holes=np.ascontiguousarray(robot.tendon_holes),
+                   mpl=bb.mass_per_length, shear_extension=bool(opts.shear_extension),
+                   nsub=int(opts.steps_per_subsegment))
 
-    @property
-    def robot(self) -> Robot:
-        """The robot this model was built from."""
-        return self.packed.robot
+    def with_tensions(self, tensions: np.ndarray) -> CosseratShooting:
+        """The same problem with other actuator tensions [N], shape (n_tendons,)."""
+        return replace(self, packed=self.packed._replace(tension=np.asarray(tensions, dtype=float)))
 
-    def _shoot(self, m0: np.ndarray, lam: float, record: bool = False) -> tuple[np.ndarray, bool, tuple]:
+    def shoot(self, m0: np.ndarray, load_factor: float = 1.0, record: bool = False) -> Shot:
+        """Integrate from the base with total base moment ``m0`` (3,) [N m], every load scaled by ``load_factor``."""
         p = self.packed
         n = p.sub.shape[0]
         if record:
@@ -132,10 +142,10 @@ class CosseratModel:
         else:
             out = (np.empty((1, 3)), np.empty((1, 3, 3)), np.empty((1, 3)))
         res = np.empty(6)
-        ok = CK.shoot(np.ascontiguousarray(m0, dtype=float), float(lam), p.sub[:, 0], self.stiff, self.mpl,
-                      p.sub[:, 3], self.holes, p.anchor, p.tension, p.grav, p.pforce, p.pmoment,
-                      self.shear_extension, self.nsub, record, *out, res)
-        return res[:3], bool(ok), out
+        CK.shoot(np.ascontiguousarray(m0, dtype=float), float(load_factor), p.sub[:, 0], self.stiff, self.mpl,
+                 p.sub[:, 3], self.holes, p.anchor, p.tension, p.grav, p.pforce, p.pmoment,
+                 self.shear_extension, self.nsub, record, *out, res)
+        return Shot(res[:3].copy(), res[3:].copy(), *(out if record else (None, None, None)))
 
     def residual(self, m0: np.ndarray, load_factor: float = 1.0) -> np.ndarray:
         """Total moment just past the tip [N m], shape (3,), for base moment ``m0`` (3,) [N m].
@@ -145,43 +155,36 @@ class CosseratModel:
         m0 = np.asarray(m0, dtype=float)
         if m0.shape != (3,) or not np.all(np.isfinite(m0)):
             raise ValueError(f"m0 must be 3 finite numbers [N m], got {m0!r}")
-        return self._shoot(m0, load_factor)[0]
+        return self.shoot(m0, load_factor).residual
 
-    def shape(self, m0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Disk positions (N+1, 3) [m], disk rotations (N+1, 3, 3) and backbone points (N nsub + 1, 3)."""
-        return self._shoot(np.asarray(m0, dtype=float), 1.0, record=True)[2]
-
-    def tip_and_gradient(self, m0: np.ndarray, rel_step: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
+    def tip_gradient(self, m0: np.ndarray, rel_step: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
         """Tip position (3,) [m] at the equilibrium ``m0`` and its derivative by the tensions (3, n_tendons) [m/N].
 
         Implicit function theorem on the shooting residual r(m0, T) = 0:
         dm0/dT = -(dr/dm0)^-1 dr/dT, every partial by central differences of
         the integration (relative step ``rel_step``).
         """
-        p = self.packed
         m0 = np.asarray(m0, dtype=float)
+        tension = self.packed.tension
 
-        def run(m: np.ndarray, tension: np.ndarray) -> np.ndarray:
-            out = (np.empty((1, 3)), np.empty((1, 3, 3)), np.empty((1, 3)))
-            res = np.empty(6)
-            CK.shoot(m, 1.0, p.sub[:, 0], self.stiff, self.mpl, p.sub[:, 3], self.holes, p.anchor, tension,
-                     p.grav, p.pforce, p.pmoment, self.shear_extension, self.nsub, False, *out, res)
-            return res
+        def run(m: np.ndarray, t: np.ndarray) -> np.ndarray:
+            shot = self.with_tensions(t).shoot(m)
+            return np.concatenate([shot.residual, shot.tip])
 
-        base = run(m0, p.tension)
-        nt = p.tension.size
+        base = run(m0, tension)
+        nt = tension.size
         d_m = np.empty((6, 3))
         hm = rel_step * max(1e-4, float(np.max(np.abs(m0))))
         for j in range(3):
             e = np.zeros(3)
             e[j] = hm
-            d_m[:, j] = (run(m0 + e, p.tension) - run(m0 - e, p.tension)) / (2.0 * hm)
+            d_m[:, j] = (run(m0 + e, tension) - run(m0 - e, tension)) / (2.0 * hm)
         d_t = np.empty((6, nt))
-        ht = rel_step * max(1.0, float(np.max(p.tension)))
+        ht = rel_step * max(1.0, float(np.max(tension)))
         for c in range(nt):
             e = np.zeros(nt)
             e[c] = ht
-            d_t[:, c] = (run(m0, p.tension + e) - run(m0, p.tension - e)) / (2.0 * ht)
+            d_t[:, c] = (run(m0, tension + e) - run(m0, tension - e)) / (2.0 * ht)
         dm_dt = -np.linalg.solve(d_m[:3], d_t[:3])
         return base[3:].copy(), d_t[3:] + d_m[3:] @ dm_dt
 
@@ -202,33 +205,41 @@ class CosseratModel:
         m += np.cross([0.0, 0.0, length / 2.0], self.mpl * length * p.grav)
         return m
 
+    def root(self, load_factor: float, x0: np.ndarray, atol: float, max_eval: int,
+             xtol: float = 1e-13) -> tuple[np.ndarray, float, int]:
+        """One root solve at ``load_factor`` from ``x0`` (3,) [N m]; returns (m0, max |residual|, integrations)."""
+        lam = load_factor
+        scale = max(1e-6, float(np.max(np.abs(x0))), float(np.max(np.abs(self.straight_guess(lam)))))
+        count = 0
 
-def _root(model: CosseratModel, lam: float, x0: np.ndarray, atol: float,
-          max_eval: int, xtol: float = 1e-13) -> tuple[np.ndarray, float, int]:
-    """One root solve at load factor ``lam``; returns (m0, max |residual|, integrations)."""
-    scale = max(1e-6, float(np.max(np.abs(x0))), float(np.max(np.abs(model.straight_guess(lam)))))
-    count = 0
+        def fun(z: np.ndarray) -> np.ndarray:
+            nonlocal count
+            count += 1
+            r = self.shoot(z * scale, lam).residual
+            return r / scale if np.all(np.isfinite(r)) else np.full(3, 1e6)
 
-    def fun(z: np.ndarray) -> np.ndarray:
-        nonlocal count
+        r0 = self.shoot(x0, lam).residual
         count += 1
-        r = model._shoot(z * scale, lam)[0]
-        return r / scale if np.all(np.isfinite(r)) else np.full(3, 1e6)
-
-    r0 = model._shoot(x0, lam)[0]
-    count += 1
-    if np.all(np.isfinite(r0)) and np.max(np.abs(r0)) <= atol:
-        return x0, float(np.max(np.abs(r0))), count
-    sol = root(fun, x0 / scale, method="hybr", options={"xtol": xtol, "maxfev": max_eval})
-    m0 = sol.x * scale
-    r = model._shoot(m0, lam)[0]
-    count += 1
-    res = float(np.max(np.abs(r))) if np.all(np.isfinite(r)) else math.inf
-    return m0, res, count
+        if np.all(np.isfinite(r0)) and np.max(np.abs(r0)) <= atol:
+            return x0, float(np.max(np.abs(r0))), count
+        sol = root(fun, x0 / scale, method="hybr", options={"xtol": xtol, "maxfev": max_eval})
+        m0 = sol.x * scale
+        r = self.shoot(m0, lam).residual
+        count += 1
+        res = float(np.max(np.abs(r))) if np.all(np.isfinite(r)) else math.inf
+        return m0, res, count
 
 
-def _ramp(model: CosseratModel, opts: CosseratOptions) -> tuple[np.ndarray, float, int, int, float]:
-    """Follow the loading path from lam = 0; returns (m0, residual, integrations, steps, last lam reached)."""
+class _Ramp(NamedTuple):
+    m0: np.ndarray
+    residual: float
+    integrations: int
+    steps: int
+    load_factor: float  # the last load factor reached
+
+
+def _ramp(problem: CosseratShooting, opts: CosseratOptions) -> _Ramp:
+    """Follow the loading path from load factor 0."""
     lam = 0.0
     x = np.zeros(3)
     x_prev, lam_prev = None, None
@@ -241,7 +252,7 @@ def _ramp(model: CosseratModel, opts: CosseratOptions) -> tuple[np.ndarray, floa
         guess = x if x_prev is None else x + (x - x_prev) * (target - lam) / (lam - lam_prev)
         tol = opts.atol if target == 1.0 else step_atol
         # intermediate steps only track the branch: a looser step tolerance
-        m0, res, c = _root(model, target, guess, tol, opts.max_eval, 1e-13 if target == 1.0 else 1e-7)
+        m0, res, c = problem.root(target, guess, tol, opts.max_eval, 1e-13 if target == 1.0 else 1e-7)
         count += c
         steps += 1
         if res <= tol:
@@ -251,65 +262,103 @@ def _ramp(model: CosseratModel, opts: CosseratOptions) -> tuple[np.ndarray, floa
         else:
             dlam /= 2.0
             if dlam < _MIN_DLAM:
-                return x, math.inf, count, steps, lam
-    return x, res, count, steps, lam
+                return _Ramp(x, math.inf, count, steps, lam)
+    return _Ramp(x, res, count, steps, lam)
 
 
-def solve_cosserat(model: CosseratModel, m0: np.ndarray | None = None,
-                   options: CosseratOptions | None = None) -> StaticSolution:
-    """Solve the Cosserat model; the result has the same type as the PCC solver's.
+def _solve_shooting(problem: CosseratShooting, m0: np.ndarray | None, opts: CosseratOptions) -> StaticSolution:
+    """Solve the shooting problem; the result has the same type as the PCC solver's.
 
-    Parameters
-    ----------
-    model : CosseratModel
-    m0 : array-like, shape (3,), optional
-        Warm start: the base moment [N m] of a nearby solution (``solution.q``).
-    options : CosseratOptions, optional
-        Must match the ones the model was built with (steps, shear/extension).
-
-    Returns
-    -------
-    StaticSolution
-        ``model == "cosserat"``; ``q`` is the base moment (3,) [N m];
-        ``iterations`` counts shooting integrations. ``path`` as for the PCC
-        solver, except that at a fold (``"snap"``) the root finder jumps to
-        full load from the last equilibrium instead of relaxing.
+    ``q`` is the base moment (3,) [N m]; ``iterations`` counts shooting
+    integrations. ``path`` as for the PCC solver, except that at a fold
+    (``"snap"``) the root finder jumps to full load from the last equilibrium
+    instead of relaxing.
     """
-    opts = options or CosseratOptions()
     t0 = time.perf_counter()
     count = steps = 0
-    path = 0
+    path = PATH_DIRECT
     warm = m0 is not None
     if warm:
         x0 = np.asarray(m0, dtype=float).reshape(-1)
         if x0.shape != (3,) or not np.all(np.isfinite(x0)):
-            raise ValueError(f"m0 must be 3 finite numbers [N m], got {m0!r}")
+            raise ValueError(f"q0 must be 3 finite numbers (the base moment [N m]) for the cosserat model, "
+                             f"got shape {np.shape(m0)}")
     else:
-        x0 = model.straight_guess()
+        x0 = problem.straight_guess()
     x, res = x0, math.inf
     if opts.load_stepping in ("auto", "never") or warm:
-        x, res, count = _root(model, 1.0, x0, opts.atol, opts.max_eval)
+        x, res, count = problem.root(1.0, x0, opts.atol, opts.max_eval)
     if res > opts.atol and opts.load_stepping != "never":
-        x, res, c, steps, lam = _ramp(model, opts)
-        count += c
-        path = 1
-        if res > opts.atol and lam > 0.0:  # a fold of the loading path: jump to full load from there
-            x, res, c = _root(model, 1.0, x, opts.atol, opts.max_eval)
+        ramp = _ramp(problem, opts)
+        x, res, steps = ramp.m0, ramp.residual, ramp.steps
+        count += ramp.integrations
+        path = PATH_LOADING
+        if res > opts.atol and ramp.load_factor > 0.0:  # a fold of the loading path: jump to full load from there
+            x, res, c = problem.root(1.0, x, opts.atol, opts.max_eval)
             count += c
-            path = 2
+            path = PATH_SNAP
         if res > opts.atol:
-            x, res, c = _root(model, 1.0, x0, opts.atol, opts.max_eval)
+            x, res, c = problem.root(1.0, x0, opts.atol, opts.max_eval)
             count += c
-            path = 3
+            path = PATH_FALLBACK
     converged = bool(res <= opts.atol and np.all(np.isfinite(x)))
-    pos, rot, curve = model.shape(x)
+    shot = problem.shoot(x, record=True)
     seconds = time.perf_counter() - t0
-    p = model.packed
-    n = p.sub.shape[0]
-    pieces = np.arange(1, n + 1)
+    p = problem.packed
+    pieces = np.arange(1, p.sub.shape[0] + 1)
     tensions = np.where(pieces[None, :] <= p.anchor[:, None], p.tension[:, None], 0.0)
     return StaticSolution(
         converged=converged, residual=float(res), iterations=int(count), load_steps=int(steps),
-        path=_PATHS[path], q=np.array(x, dtype=float), tensions=tensions, seconds=seconds, atol=opts.atol,
-        _positions=pos, _rotations=rot, model="cosserat", _curve=curve,
+        path=PATH_NAMES[path], q=np.array(x, dtype=float), tensions=tensions, seconds=seconds, atol=opts.atol,
+        _positions=shot.positions, _rotations=shot.rotations, model=COSSERAT.name, _curve=shot.curve,
     )
+
+
+class CosseratModel:
+    """The registry's entry for the Cosserat rod with smeared tendons (see the module docstring)."""
+
+    name = "cosserat"
+    description = "Cosserat rod, tendons along it at their routing (Rucker & Webster 2011); no friction"
+    options_type = CosseratOptions
+    capabilities = Capabilities(friction=False, point_wrenches=True, gradient="finite differences")
+    unknowns = "q: (3,), the total moment at the base [N m], base frame"
+    iteration_unit = "integrations"
+
+    def default_options(self) -> CosseratOptions:
+        """Default options."""
+        return CosseratOptions()
+
+    def solve(self, robot: Robot, loads: Loads, q0: np.ndarray | None, options: CosseratOptions) -> StaticSolution:
+        """One equilibrium; see :func:`pytdcr.solve`."""
+        return _solve_shooting(CosseratShooting.build(robot, loads, options), q0, options)
+
+    def solve_batch(self, robot: Robot, tensions: np.ndarray, loads: Loads, q0: np.ndarray | None,
+                    options: CosseratOptions, threads: int | None = None) -> BatchSolution:
+        """Every row of ``tensions`` (B, n_tendons) [N]; ``q0`` is (3,) or (B, 3)."""
+        nb = tensions.shape[0]
+        if q0 is not None:
+            Q0 = np.asarray(q0, dtype=float)
+            if Q0.size not in (3, 3 * nb):
+                raise ValueError(f"q0 must have shape (3,) or ({nb}, 3) for the cosserat model, got {Q0.shape}")
+            Q0 = np.broadcast_to(Q0.reshape(1, 3), (nb, 3)) if Q0.size == 3 else Q0.reshape(nb, 3)
+        problem = CosseratShooting.build(robot, loads.with_tensions(np.zeros(robot.n_tendons)), options)
+        sols: list[StaticSolution | None] = [None] * nb
+
+        def chunk(start: int, stop: int) -> None:
+            for b in range(start, stop):
+                sols[b] = _solve_shooting(problem.with_tensions(tensions[b]), None if q0 is None else Q0[b], options)
+
+        t0 = time.perf_counter()
+        run_in_chunks(chunk, nb, threads)
+        seconds = time.perf_counter() - t0
+        return BatchSolution.from_solutions(tensions, sols, seconds, self.name)
+
+    def tip_gradient(self, robot: Robot, loads: Loads, solution: StaticSolution,
+                     options: CosseratOptions) -> tuple[np.ndarray, np.ndarray]:
+        """Tip (3,) [m] and its derivative by the tensions (3, n_tendons) [m/N], by central differences of the
+        shooting map (implicit function theorem)."""
+        return CosseratShooting.build(robot, loads, options).tip_gradient(solution.q)
+
+
+#: the registry's instance
+COSSERAT = CosseratModel()

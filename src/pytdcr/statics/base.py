@@ -1,0 +1,101 @@
+"""What a static model is: the protocol every registered model satisfies, and the one refusal error.
+
+A model turns a robot and its loads into equilibria. It declares what it
+supports (:class:`Capabilities`); :func:`pytdcr.statics.registry.resolve`
+checks a request against that declaration, in one place, before any model
+code runs, and raises :class:`UnsupportedFeatureError` naming the model and
+the feature.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Literal, Protocol, runtime_checkable
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from ..design import Robot
+    from ..loads import Loads
+    from ..results import BatchSolution, StaticSolution
+
+__all__ = ["Capabilities", "Model", "UnsupportedFeatureError"]
+
+
+class UnsupportedFeatureError(ValueError):
+    """A model was asked for something it does not model.
+
+    Attributes
+    ----------
+    model : str
+        The model's registered name.
+    feature : str
+        What it was asked for.
+    """
+
+    def __init__(self, model: str, feature: str, hint: str = "") -> None:
+        self.model = model
+        self.feature = feature
+        super().__init__(f"model '{model}' does not support {feature}" + (f"; {hint}" if hint else ""))
+
+
+@dataclass(frozen=True)
+class Capabilities:
+    """What a model supports.
+
+    Attributes
+    ----------
+    friction : bool
+        Tendon-disk friction laws (constant, exponential; pull and release).
+        Without it, only robots whose law is frictionless are accepted.
+    point_wrenches : bool
+        External wrenches at disks other than the tip.
+    gradient : {'exact', 'finite differences'} or None
+        How :meth:`Model.tip_gradient` differentiates the tip by the tensions.
+    """
+
+    friction: bool
+    point_wrenches: bool
+    gradient: Literal["exact", "finite differences"] | None
+
+
+@runtime_checkable
+class Model(Protocol):
+    """A static model of a tendon-driven continuum robot.
+
+    Attributes
+    ----------
+    name : str
+        Its name in the registry (``--model NAME``).
+    description : str
+        One line for ``--help``.
+    options_type : type
+        A frozen dataclass with ``atol`` [N m] and ``load_stepping``; its
+        defaults are the model's defaults.
+    capabilities : Capabilities
+    unknowns : str
+        What ``StaticSolution.q`` holds for this model.
+    iteration_unit : str
+        What ``StaticSolution.iterations`` counts.
+    """
+
+    name: str
+    description: str
+    options_type: type
+    capabilities: Capabilities
+    unknowns: str
+    iteration_unit: str
+
+    def default_options(self) -> Any:
+        """An ``options_type`` with the model's defaults."""
+
+    def solve(self, robot: Robot, loads: Loads, q0: np.ndarray | None, options: Any) -> StaticSolution:
+        """One equilibrium (inputs already checked by the registry)."""
+
+    def solve_batch(self, robot: Robot, tensions: np.ndarray, loads: Loads, q0: np.ndarray | None, options: Any,
+                    threads: int | None = None) -> BatchSolution:
+        """One equilibrium per row of ``tensions`` (B, n_tendons) [N] under ``loads``' external wrenches."""
+
+    def tip_gradient(self, robot: Robot, loads: Loads, solution: StaticSolution,
+                     options: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Tip (3,) [m] of a converged equilibrium and its derivative by the tensions (3, n_tendons) [m/N]."""

@@ -1,0 +1,106 @@
+"""The registry of static models: names to models, and the one place a request is checked.
+
+Adding a model: one module that defines a class satisfying
+:class:`~pytdcr.statics.base.Model`, one line in :data:`MODELS`, and its tests.
+Everything else (``solve``, ``solve_batch``, the comparison, the workspace,
+the optimiser, ``--model`` on the command line) finds it here.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+from ..design import Robot
+from ..loads import Loads
+from .base import Model, UnsupportedFeatureError
+from .cosserat import COSSERAT
+from .pcc import PCC
+
+__all__ = ["MODELS", "configure", "get_model", "options_record", "resolve"]
+
+#: every registered model by name
+MODELS: dict[str, Model] = {"pcc": PCC, "cosserat": COSSERAT}
+
+
+def get_model(model: str | Model) -> Model:
+    """The model registered under ``model``, or ``model`` itself if it is a :class:`Model`.
+
+    Raises
+    ------
+    ValueError
+        For an unknown name, listing the registered ones.
+    TypeError
+        For anything else.
+    """
+    if isinstance(model, str):
+        try:
+            return MODELS[model]
+        except KeyError:
+            raise ValueError(f"model must be one of {list(MODELS)}, got {model!r}") from None
+    if isinstance(model, Model):
+        return model
+    raise TypeError(f"model must be a registered name ({', '.join(MODELS)}) or a Model, got {type(model).__name__}")
+
+
+def configure(model: str | Model, options: Any = None, **overrides: Any) -> Any:
+    """``options`` (default: the model's defaults) with ``overrides`` applied.
+
+    An override the model's options do not have is a feature the model does
+    not support: :class:`UnsupportedFeatureError`.
+    """
+    m = get_model(model)
+    opts = m.default_options() if options is None else options
+    if not isinstance(opts, m.options_type):
+        raise TypeError(f"model {m.name!r} takes {m.options_type.__name__}, got {type(opts).__name__}")
+    fields = {f.name for f in dataclasses.fields(opts)}
+    for key in overrides:
+        if key not in fields:
+            raise UnsupportedFeatureError(m.name, f"the option {key!r}",
+                                          f"its options are {', '.join(sorted(fields))}")
+    return dataclasses.replace(opts, **overrides) if overrides else opts
+
+
+def resolve(model: str | Model, robot: Robot, loads: Loads | None = None, options: Any = None, *,
+            gradient: bool = False) -> tuple[Model, Any]:
+    """Check a request against the model's capabilities; return the model and its options.
+
+    Parameters
+    ----------
+    model : str or Model
+    robot : Robot
+    loads : Loads, optional
+    options : the model's options type, optional
+        Default: the model's defaults.
+    gradient : bool
+        The caller needs :meth:`Model.tip_gradient`.
+
+    Raises
+    ------
+    UnsupportedFeatureError
+        Naming the model and the feature it does not model.
+    TypeError
+        When ``robot``, ``loads`` or ``options`` have the wrong type.
+    """
+    m = get_model(model)
+    opts = configure(m, options)
+    if not isinstance(robot, Robot):
+        raise TypeError(f"robot must be a pytdcr.Robot, got {type(robot).__name__}")
+    if loads is not None and not isinstance(loads, Loads):
+        raise TypeError(f"loads must be a pytdcr.Loads, got {type(loads).__name__}")
+    caps = m.capabilities
+    if not caps.friction and not robot.friction.is_frictionless:
+        raise UnsupportedFeatureError(m.name, "tendon friction",
+                                      f"robot '{robot.name}' has law '{robot.friction.law}': use friction 'none' "
+                                      "(--friction none)")
+    if not caps.point_wrenches and loads is not None and any(p.disk != robot.n_disks for p in loads.point_loads):
+        raise UnsupportedFeatureError(m.name, "wrenches at disks other than the tip")
+    if gradient and caps.gradient is None:
+        raise UnsupportedFeatureError(m.name, "a tip gradient (needed by the gradient search)")
+    return m, opts
+
+
+def options_record(model: str | Model, options: Any = None) -> dict[str, Any]:
+    """The model's name and its options (defaults filled in), JSON-ready."""
+    m = get_model(model)
+    return {"model": m.name, **dataclasses.asdict(configure(m, options))}
