@@ -1,66 +1,87 @@
-"""Cross-checking the two static models: the same cases solved by PCC and by the Cosserat rod."""
+"""Cross-checking models: the same cases solved by two or more registered models.
+
+The first model is the reference; every other model's tip is measured from it.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from .design import Robot
-from .loads import Loads
+from .loads import Loads, check_tensions
 from .results import StaticSolution
-from .statics import CosseratOptions, SolverOptions, solve
+from .statics import Model, get_model, resolve
 
 __all__ = ["ModelComparison", "compare_models"]
 
 
 @dataclass(frozen=True, eq=False)
 class ModelComparison:
-    """Both models' equilibria for B tension vectors under the same external loads.
+    """Every model's equilibria for B tension vectors under the same external loads.
 
     Attributes
     ----------
     tensions : ndarray, shape (B, n_tendons)
         Actuator tensions of each case [N].
-    pcc, cosserat : list of StaticSolution
-        The solutions, case by case.
+    models : tuple of str
+        The models' names; the first is the reference.
+    solutions : dict of str to list of StaticSolution
+        Each model's solutions, case by case.
     length : float
         Backbone length [m], the scale of the relative differences.
     """
 
     tensions: np.ndarray
-    pcc: list[StaticSolution]
-    cosserat: list[StaticSolution]
+    models: tuple[str, ...]
+    solutions: dict[str, list[StaticSolution]]
     length: float
 
     @property
-    def both_converged(self) -> np.ndarray:
-        """Cases where both solves converged, shape (B,) of bool."""
-        return np.array([a.converged and b.converged for a, b in zip(self.pcc, self.cosserat, strict=True)])
+    def reference(self) -> str:
+        """The reference model's name (the first)."""
+        return self.models[0]
 
     @property
-    def difference(self) -> np.ndarray:
-        """Distance between the two tips [m], shape (B,); NaN unless both converged."""
-        out = np.full(len(self.pcc), np.nan)
-        for k, (a, b) in enumerate(zip(self.pcc, self.cosserat, strict=True)):
+    def others(self) -> tuple[str, ...]:
+        """The models measured against the reference."""
+        return self.models[1:]
+
+    @property
+    def all_converged(self) -> np.ndarray:
+        """Cases where every model converged, shape (B,) of bool."""
+        return np.array([all(self.solutions[m][k].converged for m in self.models) for k in range(len(self))])
+
+    def __len__(self) -> int:
+        return int(self.tensions.shape[0])
+
+    def difference(self, model: str) -> np.ndarray:
+        """Distance of ``model``'s tip from the reference's [m], shape (B,); NaN unless both converged."""
+        out = np.full(len(self), np.nan)
+        for k, (a, b) in enumerate(zip(self.solutions[self.reference], self.solutions[model], strict=True)):
             if a.converged and b.converged:
                 out[k] = float(np.linalg.norm(a.tip_position - b.tip_position))
         return out
 
     def rows(self) -> list[dict[str, Any]]:
-        """One JSON/CSV-ready row per case: tips [m], difference [mm, % of length], times [ms], status."""
+        """One JSON/CSV-ready row per case: tips [m], differences [mm, % of length], times [ms], status."""
+        diffs = {m: self.difference(m) for m in self.others}
         rows = []
-        diff = self.difference
-        for k, (a, b) in enumerate(zip(self.pcc, self.cosserat, strict=True)):
+        for k in range(len(self)):
             row: dict[str, Any] = {"case": k + 1}
             row.update({f"T{c + 1}_N": float(t) for c, t in enumerate(self.tensions[k])})
-            for name, s in (("pcc", a), ("cosserat", b)):
+            for name in self.models:
+                s = self.solutions[name][k]
                 tip = s.tip_position if s.converged else np.full(3, np.nan)
                 row.update({f"{name}_x_m": tip[0], f"{name}_y_m": tip[1], f"{name}_z_m": tip[2]})
-            row["difference_mm"] = diff[k] * 1e3
-            row["difference_pct_length"] = diff[k] / self.length * 100.0
-            for name, s in (("pcc", a), ("cosserat", b)):
+            for name in self.others:
+                row[f"{name}_difference_mm"] = diffs[name][k] * 1e3
+                row[f"{name}_difference_pct_length"] = diffs[name][k] / self.length * 100.0
+            for name in self.models:
+                s = self.solutions[name][k]
                 row[f"{name}_ms"] = s.seconds * 1e3
                 row[f"{name}_converged"] = bool(s.converged)
                 row[f"{name}_residual_Nm"] = s.residual
@@ -69,20 +90,21 @@ class ModelComparison:
         return rows
 
     def summary(self) -> dict[str, Any]:
-        """Median and maximum tip difference and solve times over the cases."""
-        d = self.difference
-        ok = np.isfinite(d)
-        return {
-            "cases": len(self.pcc),
-            "both_converged": int(ok.sum()),
-            "pcc_not_converged": sum(not s.converged for s in self.pcc),
-            "cosserat_not_converged": sum(not s.converged for s in self.cosserat),
-            "difference_median_mm": float(np.median(d[ok]) * 1e3) if ok.any() else None,
-            "difference_max_mm": float(np.max(d[ok]) * 1e3) if ok.any() else None,
-            "difference_median_pct_length": float(np.median(d[ok]) / self.length * 100) if ok.any() else None,
-            "pcc_ms_median": float(np.median([s.seconds for s in self.pcc]) * 1e3),
-            "cosserat_ms_median": float(np.median([s.seconds for s in self.cosserat]) * 1e3),
-        }
+        """Per model: median and maximum tip difference from the reference, failures, median solve time."""
+        out: dict[str, Any] = {"cases": len(self), "reference": self.reference, "models": list(self.models),
+                               "all_converged": int(self.all_converged.sum())}
+        for name in self.models:
+            sols = self.solutions[name]
+            out[f"{name}_not_converged"] = sum(not s.converged for s in sols)
+            out[f"{name}_ms_median"] = float(np.median([s.seconds for s in sols]) * 1e3)
+        for name in self.others:
+            d = self.difference(name)
+            ok = np.isfinite(d)
+            out[f"{name}_difference_median_mm"] = float(np.median(d[ok]) * 1e3) if ok.any() else None
+            out[f"{name}_difference_max_mm"] = float(np.max(d[ok]) * 1e3) if ok.any() else None
+            out[f"{name}_difference_median_pct_length"] = (float(np.median(d[ok]) / self.length * 100)
+                                                           if ok.any() else None)
+        return out
 
 
 def compare_models(
@@ -90,24 +112,37 @@ def compare_models(
     loads: Loads,
     tensions: np.ndarray,
     *,
-    pcc_options: SolverOptions | None = None,
-    cosserat_options: CosseratOptions | None = None,
-    progress: Any = None,
+    models: Sequence[str | Model] = ("pcc", "cosserat"),
+    options: Mapping[str, Any] | None = None,
+    progress: Callable[[], None] | None = None,
 ) -> ModelComparison:
-    """Solve each row of ``tensions`` (B, n_tendons) [N] with both models under ``loads``' external wrenches.
+    """Solve each row of ``tensions`` (B, n_tendons) [N] with every model under ``loads``' external wrenches.
 
-    ``progress``, if given, is called with no argument after each case.
-    The robot must have no friction (the Cosserat model has none).
+    Parameters
+    ----------
+    models : sequence of str or Model
+        Two or more distinct registered models; the first is the reference.
+    options : mapping of model name to that model's options, optional
+    progress : callable, optional
+        Called with no argument after each case.
+
+    Every model is checked against the robot and loads before any solve
+    (:class:`~pytdcr.statics.UnsupportedFeatureError` names the first that
+    cannot take them).
     """
-    T = np.asarray(tensions, dtype=float)
-    if T.ndim != 2 or T.shape[1] != robot.n_tendons:
+    resolved = [get_model(m) for m in models]
+    names = tuple(m.name for m in resolved)
+    if len(names) < 2 or len(set(names)) != len(names):
+        raise ValueError(f"models: give two or more distinct models, got {list(names)}")
+    opts = {m.name: resolve(m, robot, loads, (options or {}).get(m.name))[1] for m in resolved}
+    T = check_tensions(tensions, robot.n_tendons)
+    if T.ndim != 2:
         raise ValueError(f"tensions must have shape (B, {robot.n_tendons}), got {T.shape}")
-    pcc: list[StaticSolution] = []
-    cr: list[StaticSolution] = []
+    sols: dict[str, list[StaticSolution]] = {n: [] for n in names}
     for row in T:
         lds = loads.with_tensions(row)
-        cr.append(solve(robot, lds, model="cosserat", options=cosserat_options))  # refuses friction first
-        pcc.append(solve(robot, lds, options=pcc_options))
+        for m in resolved:
+            sols[m.name].append(m.solve(robot, lds, None, opts[m.name]))
         if progress is not None:
             progress()
-    return ModelComparison(tensions=T, pcc=pcc, cosserat=cr, length=robot.length)
+    return ModelComparison(tensions=T, models=names, solutions=sols, length=robot.length)

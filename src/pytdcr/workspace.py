@@ -1,71 +1,19 @@
-"""Tendon-force bounds and random sampling of the feasible static workspace."""
+"""Random sampling of the feasible static workspace."""
 
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from .bounds import TensionBounds
 from .design import Robot
 from .loads import Loads
-from .statics import CosseratOptions, SolverOptions, solve_batch
+from .statics import Model, solve_batch
 
-__all__ = ["TensionBounds", "WorkspaceSamples", "sample_workspace"]
-
-
-@dataclass(frozen=True)
-class TensionBounds:
-    """Per-tendon actuator tension bounds [N].
-
-    Parameters
-    ----------
-    lower, upper : array-like, shape (n_tendons,)
-        Finite, 0 <= lower <= upper.
-    """
-
-    lower: np.ndarray
-    upper: np.ndarray
-
-    def __post_init__(self) -> None:
-        lo = np.asarray(self.lower, dtype=float).reshape(-1)
-        hi = np.asarray(self.upper, dtype=float).reshape(-1)
-        if lo.shape != hi.shape:
-            raise ValueError(f"bounds: lower has {lo.size} entries, upper {hi.size}")
-        for name, arr in (("lower", lo), ("upper", hi)):
-            bad = ~np.isfinite(arr) | (arr < 0)
-            if np.any(bad):
-                k = int(np.argmax(bad))
-                raise ValueError(f"bounds: {name}[{k}] must be finite and >= 0 N, got {arr[k]}")
-        bad = lo > hi
-        if np.any(bad):
-            k = int(np.argmax(bad))
-            raise ValueError(f"bounds: tendon {k + 1} has lower {lo[k]} > upper {hi[k]} N")
-        object.__setattr__(self, "lower", lo)
-        object.__setattr__(self, "upper", hi)
-
-    @classmethod
-    def uniform(cls, n_tendons: int, lower: float, upper: float) -> TensionBounds:
-        """The same bounds [lower, upper] N for every tendon."""
-        return cls(np.full(n_tendons, float(lower)), np.full(n_tendons, float(upper)))
-
-    @property
-    def n(self) -> int:
-        """Number of tendons."""
-        return int(self.lower.size)
-
-    def check_robot(self, robot: Robot) -> None:
-        """Raise ValueError unless there is one bound pair per tendon of ``robot``."""
-        if self.n != robot.n_tendons:
-            raise ValueError(f"bounds: robot '{robot.name}' has {robot.n_tendons} tendons, got bounds for {self.n}")
-
-    def sample(self, n: int, rng: np.random.Generator) -> np.ndarray:
-        """``n`` uniform random tension vectors, shape (n, n_tendons) [N]."""
-        return self.lower + (self.upper - self.lower) * rng.random((n, self.n))
-
-    def to_dict(self) -> dict[str, list[float]]:
-        """JSON-ready form."""
-        return {"lower": self.lower.tolist(), "upper": self.upper.tolist()}
+__all__ = ["WorkspaceSamples", "sample_workspace"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -81,8 +29,8 @@ class WorkspaceSamples:
     converged : ndarray of bool, shape (n,)
     residual : ndarray, shape (n,)
         max |residual| [N m].
-    q : ndarray, shape (n, N, 3)
-        Unknowns of every solve (meaningful only where converged).
+    q : ndarray
+        Unknowns of every solve (meaningful only where converged): PCC (n, N, 3).
     seed : int
     seconds : float
     """
@@ -108,22 +56,24 @@ def sample_workspace(
     n: int = 100,
     *,
     seed: int = 0,
-    model: str = "pcc",
-    options: SolverOptions | CosseratOptions | None = None,
+    model: str | Model = "pcc",
+    options: Any = None,
+    threads: int | None = None,
 ) -> WorkspaceSamples:
     """Solve ``n`` random tension vectors drawn uniformly within ``bounds``.
 
     ``loads`` supplies the external wrenches and friction direction (its
     tensions are ignored). Non-converged samples are kept and flagged.
-    ``model`` is ``"pcc"`` or ``"cosserat"`` (see :func:`pytdcr.solve`).
+    ``model`` and ``options`` as for :func:`pytdcr.solve`; ``threads`` as for
+    :func:`pytdcr.solve_batch`.
     """
-    if n < 1:
-        raise ValueError(f"n must be >= 1, got {n}")
+    if isinstance(n, bool) or int(n) != n or n < 1:
+        raise ValueError(f"n must be an integer >= 1, got {n!r}")
     bounds.check_robot(robot)
     rng = np.random.default_rng(seed)
-    T = bounds.sample(n, rng)
+    T = bounds.sample(int(n), rng)
     t0 = time.perf_counter()
-    batch = solve_batch(robot, T, loads, model=model, options=options)
+    batch = solve_batch(robot, T, loads, model=model, options=options, threads=threads)
     return WorkspaceSamples(
         tensions=T,
         tip_position=batch.tip_position,

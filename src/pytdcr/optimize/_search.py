@@ -1,512 +1,404 @@
-"""The feasible static workspace problem of the paper (Eq. 29) and its solution.
+"""How it is solved and when to stop: a memetic GA (pymoo), a gradient polish, a termination rule.
 
-What is solved: minimise ``1 / ||^0P_n||`` over the actuator tensions within
-bounds, subject to static equilibrium, under given external loads. How: the
-genetic algorithm of pymoo (the population evaluated as one parallel batch of
-static solves), stopped when its best cost changes by less than ``tol`` over
-``window`` generations or at ``max_gen``; then a gradient polish (L-BFGS-B)
-whose gradient comes exactly from the implicit function theorem.
+The pieces follow pymoo's shape: the problem (:class:`ReachProblem`, what is
+solved), the algorithm (:class:`MemeticGA`, how) and the termination
+(:class:`Termination`, when to stop) are separate objects joined by one call,
+:func:`maximize_reach`, which returns one :class:`ReachResult`.
 
-A tension vector whose static solve does not converge is infeasible (a
-constraint violation): pymoo ranks every feasible individual above it, so it
-can never be the optimum; such evaluations are counted.
+The GA is pymoo's (SBX crossover, polynomial mutation, tournament selection),
+driven by ask/tell with each population solved as one parallel batch. A
+tension vector whose solve does not converge is infeasible (a constraint
+violation): pymoo ranks every feasible individual above it, so it can never
+be the optimum; such evaluations are counted. Memetic: whenever a generation
+produces a new leader, a short gradient search (:func:`polish_reach`) replaces
+it by its local optimum (Lamarckian learning), so the GA explores basins and
+the local search settles them. At the end, a multi-start L-BFGS-B polish whose
+gradient is the implicit-function-theorem one (exact for the PCC model).
 """
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
+from pymoo.algorithms.soo.nonconvex.ga import GA
+from pymoo.core.population import Population
+from pymoo.core.problem import Problem
 from scipy.optimize import minimize as sp_minimize
 from scipy.spatial import cKDTree
 
-from .design import Robot
-from .kinematics import forward_kinematics, tip_jacobian
-from .loads import Loads
-from .statics import CosseratModel, CosseratOptions, SolverOptions, StaticModel, options_for, solve, solve_batch
-from .workspace import TensionBounds
+from ..statics import TIGHT_ATOL
+from ..statics._batch import default_threads
+from ._problem import INFEASIBLE_COST, ReachProblem
+from ._result import Optimum, ReachResult
 
-__all__ = ["PolishResult", "ReachResult", "maximize_reach", "polish_reach", "reach_gradient"]
+__all__ = ["MemeticGA", "Termination", "maximize_reach", "polish_reach"]
 
-#: cost given to non-converged individuals (they are also flagged infeasible)
-_INFEASIBLE_COST = 1e3
+#: distinct starts differ by more than this fraction of the bounds' span in some tension
+_DISTINCT = 0.05
 
 
-@dataclass(frozen=True, eq=False)
-class PolishResult:
-    """Local refinement of an optimum.
+def _check_int(name: str, value: Any, lowest: int) -> None:
+    if isinstance(value, bool) or int(value) != value or value < lowest:
+        raise ValueError(f"{name} must be an integer >= {lowest}, got {value!r}")
 
-    Attributes
+
+@dataclass(frozen=True)
+class Termination:
+    """When the GA stops: the best cost improved by less than ``tol`` over ``window`` generations, or ``max_gen``.
+
+    Parameters
     ----------
-    tensions : ndarray, shape (n_tendons,)
-    cost : float
-        1 / reach [1/m].
-    reach : float
-        [m]
-    cost_change : float
-        Start cost minus polished cost (>= 0 when the polish improved it).
-    evaluations : int
-        Static solves used.
-    message : str
-        The local optimiser's own report.
+    tol : float
+        [1/m] for the paper's cost 1/reach, [m] along a direction.
+    window : int
+    max_gen : int
     """
 
-    tensions: np.ndarray
-    cost: float
-    reach: float
-    tip_position: np.ndarray
-    cost_change: float
-    evaluations: int
-    message: str
+    tol: float = 1e-6
+    window: int = 5
+    max_gen: int = 100
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.tol) and self.tol > 0):
+            raise ValueError(f"tol must be finite and > 0, got {self.tol}")
+        _check_int("window", self.window, 1)
+        _check_int("max_gen", self.max_gen, 1)
+
+    def reason(self, best: Sequence[float]) -> str | None:
+        """``"tolerance"``, ``"generation cap"`` or None (go on), given the best cost of each generation so far."""
+        g = len(best)
+        if g > self.window and np.isfinite(best[-1]) and best[g - 1 - self.window] - best[-1] < self.tol:
+            return "tolerance"
+        return "generation cap" if g >= self.max_gen else None
 
 
-@dataclass(frozen=True, eq=False)
-class ReachResult:
-    """Outcome of :func:`maximize_reach`.
+@dataclass(frozen=True)
+class MemeticGA:
+    """The GA of the paper's Eq. 29 with a gradient search on each new leader.
 
-    Attributes
+    Parameters
     ----------
-    tensions : ndarray, shape (n_tendons,)
-        The GA's best actuator tensions [N].
-    tip_position : ndarray, shape (3,)
-        [m]
-    reach : float
-        ||tip|| [m].
-    cost : float
-        1 / reach [1/m].
-    generations : int
-    evaluations : int
-        Static solves made by the GA and its local searches.
-    nonconverged : int
-        GA evaluations whose static solve did not converge (made infeasible).
-    converged : bool
-        True when the stopping rule (not the generation cap) ended the run.
-    seconds : float
-    seed : int
-    history : dict
-        ``best`` and ``mean`` feasible cost per generation, ``evaluations``
-        (cumulative) and ``nonconverged`` per generation.
-    polish : PolishResult or None
-    settings : dict
-        pop_size, tol, window, max_gen, bounds.
+    pop_size : int
+        Population (the paper tried 50, 100 and 200).
+    local_search : bool
+        Memetic (default): each new leader is replaced by its local optimum
+        (``ls_max_iter`` L-BFGS-B iterations); the first generation searches
+        from its ``ls_starts`` best distinct individuals. False: the paper's plain GA.
+    polish : bool
+        Refine the GA's best at the end, from it and up to ``n_polish - 1``
+        other distinct individuals of the final population (keep the best),
+        plus ``extra_starts`` (clipped into the bounds).
+    warm_start : bool
+        Start each evaluation from the equilibrium of the nearest tension
+        vector already solved (faster). Off by default: where a tension vector
+        has several equilibria this makes the cost depend on the search
+        history; cold evaluations (the solver's loading path) make it a
+        function of the tensions alone.
     """
 
-    tensions: np.ndarray
-    tip_position: np.ndarray
-    reach: float
-    cost: float
-    generations: int
-    evaluations: int
-    nonconverged: int
-    converged: bool
-    seconds: float
-    seed: int
-    history: dict[str, list[float]]
-    polish: PolishResult | None
-    settings: dict[str, Any] = field(default_factory=dict)
+    pop_size: int = 50
+    local_search: bool = True
+    ls_max_iter: int = 100
+    ls_starts: int = 1
+    polish: bool = True
+    n_polish: int = 3
+    warm_start: bool = False
+    extra_starts: tuple[np.ndarray, ...] = ()
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary (the keys of ``tdcr optimize --json``)."""
-        out = {
-            "tensions": self.tensions.tolist(),
-            "tip_position": self.tip_position.tolist(),
-            "reach": self.reach,
-            "cost": self.cost,
-            "generations": self.generations,
-            "evaluations": self.evaluations,
-            "nonconverged": self.nonconverged,
-            "converged": self.converged,
-            "seconds": self.seconds,
-            "seed": self.seed,
-            "history": self.history,
-            "settings": self.settings,
-        }
-        if self.polish is not None:
-            p = self.polish
-            out["polish"] = {
-                "tensions": p.tensions.tolist(),
-                "tip_position": p.tip_position.tolist(),
-                "reach": p.reach,
-                "cost": p.cost,
-                "cost_change": p.cost_change,
-                "evaluations": p.evaluations,
-                "message": p.message,
-            }
-        return out
+    def __post_init__(self) -> None:
+        _check_int("pop_size", self.pop_size, 2)
+        _check_int("ls_max_iter", self.ls_max_iter, 1)
+        _check_int("ls_starts", self.ls_starts, 1)
+        _check_int("n_polish", self.n_polish, 1)
+
+    def describe(self) -> dict[str, Any]:
+        """JSON-ready settings."""
+        d = asdict(self)
+        d["extra_starts"] = [np.asarray(x).tolist() for x in self.extra_starts]
+        return d
 
 
-def _check_reach(reach: float, robot: Robot) -> None:
-    # the backbone is inextensible: a longer reach can only be a bug
-    if reach > robot.length * (1.0 + 1e-12):
-        raise RuntimeError(f"reach {reach} m exceeds the backbone length {robot.length} m")
+# ------------------------------------------------------------------------------------------ the local search
+def polish_reach(problem: ReachProblem, tensions: np.ndarray, *, q0: np.ndarray | None = None, warm: bool = False,
+                 max_iter: int = 200, ftol: float = 1e-12, gtol: float = 1e-8, restarts: int = 3) -> ReachResult:
+    """Refine a tension vector by L-BFGS-B on the problem's cost, with its gradient.
 
-
-def reach_gradient(robot: Robot, loads: Loads, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Tip position and its exact derivative with respect to the actuator tensions.
-
-    At an equilibrium ``q`` (N, 3) of ``robot`` under ``loads``, the implicit
-    function theorem gives ``dq/dT = -J^-1 dr/dT``; the residual is affine in
-    the tensions at fixed ``q``, so ``dr/dT_c`` is a difference of residuals.
-
-    Returns
-    -------
-    tip : ndarray, shape (3,)
-        [m]
-    dtip_dT : ndarray, shape (3, n_tendons)
-        [m/N]
-    """
-    q = np.ascontiguousarray(q, dtype=float).reshape(-1)
-    model = StaticModel.build(robot, loads)
-    J = model.jacobian(q)
-    r0 = model.residual(q).reshape(-1)
-    nt = robot.n_tendons
-    dr = np.empty((q.size, nt))
-    for c in range(nt):
-        t = model.tension.copy()
-        t[c] += 1.0
-        dr[:, c] = replace(model, tension=t).residual(q).reshape(-1) - r0
-    dq = -np.linalg.solve(J, dr)
-    tip = forward_kinematics(q, robot.subsegment_lengths)[0][-1]
-    return tip, tip_jacobian(q, model.sub, 1e-7) @ dq
-
-
-def polish_reach(
-    robot: Robot,
-    loads: Loads,
-    bounds: TensionBounds,
-    tensions: np.ndarray,
-    *,
-    q0: np.ndarray | None = None,
-    max_iter: int = 200,
-    warm: bool = False,
-    model: str = "pcc",
-    options: SolverOptions | CosseratOptions | None = None,
-    ftol: float = 1e-15,
-    gtol: float = 1e-12,
-    restarts: int = 3,
-) -> PolishResult:
-    """Refine a tension vector by L-BFGS-B on 1/reach with exact gradients.
-
-    ``ftol`` and ``gtol`` are L-BFGS-B's stopping tolerances. The cost has
+    ``ftol`` and ``gtol`` are L-BFGS-B's stopping tolerances (relative change
+    of the cost, and projected gradient); with the exact gradient of the PCC
+    model tighter ones only creep along kinks. The cost has
     kinks (friction regimes, folds of the loading path) where L-BFGS-B's line
     search can give up; it is then restarted from its best point, up to
-    ``restarts`` times, while that still lowers the cost.
+    ``restarts`` times, while that still lowers the cost. Every cost is a
+    static solve at a tight tolerance, cold (from the straight robot) unless
+    ``warm``, in which case it starts from ``q0`` and then the last equilibrium.
 
-    Every cost is a static solve at a tight tolerance (1e-12 N m), so the cost
-    is smooth to the optimiser; cold (from the straight robot) unless ``warm``,
-    in which case it starts from ``q0`` and then the last equilibrium. The
-    gradient is the implicit-function-theorem one: exact for the PCC model
-    (:func:`reach_gradient`), from central differences of the shooting map
-    for the Cosserat model.
+    Raises
+    ------
+    RuntimeError
+        When the final tension vector's solve does not converge.
     """
-    bounds.check_robot(robot)
-    opts = replace(options_for(model, options), atol=1e-12)
-    state = {"q": None if q0 is None else np.asarray(q0, dtype=float), "n": 0}
-    free = bounds.upper > bounds.lower
-    x_fixed = np.array(tensions, dtype=float)
+    t0 = time.perf_counter()
+    free = problem.free
+    start = problem.bounds.clip(tensions)
+    state: dict[str, Any] = {"q": None if q0 is None else np.asarray(q0, dtype=float), "n": 0}
+    lo, hi = problem.bounds.lower[free], problem.bounds.upper[free]
 
     def full(x: np.ndarray) -> np.ndarray:
-        t = x_fixed.copy()
-        t[free] = x
+        t = start.copy()
+        t[free] = np.clip(x, lo, hi)
         return t
 
     def fun(x: np.ndarray) -> tuple[float, np.ndarray]:
-        t = full(np.clip(x, bounds.lower[free], bounds.upper[free]))
-        lds = loads.with_tensions(t)
-        sol = solve(robot, lds, model=model, q0=state["q"] if warm else None, options=opts)
+        cost, grad, sol = problem.cost_and_gradient(full(x), state["q"] if warm else None)
         state["n"] += 1
-        if not sol.converged:
-            return _INFEASIBLE_COST, np.zeros_like(x)
+        if grad is None:
+            return INFEASIBLE_COST, np.zeros_like(x)
         state["q"] = sol.q
-        if model == "cosserat":
-            tip, dtip = CosseratModel.build(robot, lds, opts).tip_and_gradient(sol.q)
-        else:
-            tip, dtip = reach_gradient(robot, lds, sol.q)
-        r = float(np.linalg.norm(tip))
-        grad = -(tip @ dtip) / r**3
-        return 1.0 / r, grad[free]
+        return cost, grad[free]
 
-    x0 = np.array(tensions, dtype=float)[free]
-    c0, _ = fun(x0)
-    if not np.any(free):
-        res_x, msg = x0, "no free tension"
-    else:
-        box = list(zip(bounds.lower[free], bounds.upper[free], strict=True))
-        x, best = x0, c0
+    x, best = start[free], fun(start[free])[0]
+    c0, message, success = best, "no free tension", True
+    if np.any(free):
         for _ in range(1 + max(0, int(restarts))):
-            res = sp_minimize(fun, x, jac=True, method="L-BFGS-B", bounds=box,
+            res = sp_minimize(fun, x, jac=True, method="L-BFGS-B", bounds=list(zip(lo, hi, strict=True)),
                               options={"maxiter": max_iter, "ftol": ftol, "gtol": gtol})
             gain = best - float(res.fun)
             if gain > 0:
                 x, best = res.x, float(res.fun)
             if res.success or gain <= 1e-12:
                 break
-        res_x, msg = x, str(res.message)
-    t = full(np.clip(res_x, bounds.lower[free], bounds.upper[free]))
-    final = solve(robot, loads.with_tensions(t), model=model,
-                  q0=state["q"] if warm else None, options=opts)
+        message, success = str(res.message), bool(res.success)
+    t = full(x)
+    final = problem.solve(t, state["q"] if warm else None, atol=TIGHT_ATOL)
     state["n"] += 1
     if not final.converged:  # pragma: no cover - the optimiser only accepts converged points
         raise RuntimeError("polish ended on a tension vector whose solve does not converge")
-    _check_reach(final.reach, robot)
-    cost = 1.0 / final.reach
-    return PolishResult(tensions=t, cost=cost, reach=final.reach, tip_position=final.tip_position,
-                        cost_change=c0 - cost, evaluations=state["n"], message=msg)
+    tip = final.tip_position
+    cost = float(problem.cost(tip))
+    begin = Optimum(start, np.full(3, np.nan), float("nan"), c0)
+    return ReachResult(tensions=t, tip_position=tip, reach=final.reach, cost=cost, value=float(problem.value(tip)),
+                       converged=success, stop_reason=message, generations=0, evaluations=state["n"], nonconverged=0,
+                       seconds=time.perf_counter() - t0, seed=None, history={}, ga=begin, polish_gain=c0 - cost,
+                       polish_evaluations=state["n"], polish_message=message, settings=problem.describe())
 
 
-def maximize_reach(
-    robot: Robot,
-    loads: Loads,
-    bounds: TensionBounds,
-    *,
-    pop_size: int = 50,
-    tol: float = 1e-6,
-    window: int = 5,
-    max_gen: int = 100,
-    seed: int = 0,
-    polish: bool = True,
-    n_polish: int = 3,
-    warm_start: bool = False,
-    extra_starts: Sequence[np.ndarray] = (),
-    local_search: bool = True,
-    ls_max_iter: int = 100,
-    ls_starts: int = 1,
-    model: str = "pcc",
-    options: SolverOptions | CosseratOptions | None = None,
-    on_generation: Callable[[int, float, float], None] | None = None,
-) -> ReachResult:
-    """Maximise the tip's distance from the base over the tensions (the paper's Eq. 29).
+# ------------------------------------------------------------------------------------------ the GA
+@dataclass
+class _Stats:
+    evals: int = 0
+    nonconv: int = 0
+    ls: int = 0
+    ls_runs: int = 0
+    history: dict[str, list] = field(default_factory=lambda: {
+        "best": [], "mean": [], "evaluations": [], "nonconverged": [], "local_search_evaluations": []})
 
-    Parameters
-    ----------
-    robot, loads
-        The robot and the external loads (the tensions of ``loads`` are ignored).
-    bounds : TensionBounds
-    pop_size : int
-        GA population (the paper tried 50, 100 and 200).
-    tol, window : float, int
-        Stop once the best cost has improved by less than ``tol`` [1/m] over
-        the last ``window`` generations.
-    max_gen : int
-        Generation cap.
-    seed : int
-        Seed of the GA (same seed, same result).
-    polish : bool
-        Refine the GA's best with :func:`polish_reach`.
-    n_polish : int
-        Polish the GA's best and up to ``n_polish - 1`` other distinct
-        individuals of the final population; keep the best result.
-    warm_start : bool
-        Start each evaluation from the equilibrium of the nearest tension
-        vector already solved (faster). Off by default: where a tension vector
-        has several equilibria this makes the cost depend on the search
-        history. Cold evaluations (from the straight robot, the solver's
-        default path) make the cost a function of the tensions alone.
-    extra_starts : sequence of array-like, shape (n_tendons,)
-        Further polish starts (clipped into the bounds), e.g. a known optimum
-        of tighter bounds.
-    local_search : bool
-        Memetic GA (default): whenever a generation produces a new leader, a
-        short gradient search (:func:`polish_reach`, ``ls_max_iter``
-        iterations) replaces it by its local optimum (Lamarckian learning), so
-        the GA explores basins and the local search settles them; the first
-        generation searches from its ``ls_starts`` best distinct individuals.
-        Its solves are counted in ``evaluations``. False: the plain GA of the paper.
-    model : {'pcc', 'cosserat'}
-        The static model (see :func:`pytdcr.solve`); ``options`` must suit it.
-    on_generation : callable, optional
-        Called as ``on_generation(generation, best_cost, mean_cost)``.
-    """
-    from pymoo.algorithms.soo.nonconvex.ga import GA
-    from pymoo.core.population import Population
-    from pymoo.core.problem import Problem
 
-    bounds.check_robot(robot)
-    for name, val, lo in (("pop_size", pop_size, 2), ("window", window, 1), ("max_gen", max_gen, 1)):
-        if int(val) != val or val < lo:
-            raise ValueError(f"{name} must be an integer >= {lo}, got {val}")
-    if not (np.isfinite(tol) and tol > 0):
-        raise ValueError(f"tol must be finite and > 0, got {tol}")
-    free = bounds.upper > bounds.lower
-    if not np.any(free):
-        raise ValueError("bounds: every tension is fixed (lower == upper); nothing to optimise")
-    base = np.array(bounds.lower, dtype=float)
-    counters = {"evals": 0, "nonconv": 0}
-    opts = options_for(model, options)
-    archive_T: list[np.ndarray] = []
-    archive_q: list[np.ndarray] = []
-    scale = np.maximum(bounds.upper - bounds.lower, 1e-12)
+class _Evaluator(Problem):
+    """pymoo's view of a :class:`ReachProblem`: the free tensions in, cost and feasibility out."""
 
-    class _Reach(Problem):
-        def __init__(self) -> None:
-            super().__init__(n_var=int(free.sum()), n_obj=1, n_ieq_constr=1,
-                             xl=bounds.lower[free], xu=bounds.upper[free])
+    def __init__(self, problem: ReachProblem, warm_start: bool, stats: _Stats) -> None:
+        free = problem.free
+        super().__init__(n_var=int(free.sum()), n_obj=1, n_ieq_constr=1, xl=problem.bounds.lower[free],
+                         xu=problem.bounds.upper[free])
+        self.reach = problem
+        self.warm_start = warm_start
+        self.stats = stats
+        self.archive_T: list[np.ndarray] = []
+        self.archive_q: list[np.ndarray] = []
 
-        def _evaluate(self, x: np.ndarray, out: dict, *args: Any, **kwargs: Any) -> None:
-            T = np.repeat(base[None, :], x.shape[0], axis=0)
-            T[:, free] = x
-            q0 = None
-            if warm_start and archive_T:
-                # warm start from the nearest tension vector already solved (offspring lie near parents)
-                AT = np.vstack(archive_T)
-                nearest = cKDTree(AT / scale).query(T / scale)[1]
-                q0 = np.vstack(archive_q)[nearest]
-            batch = solve_batch(robot, T, loads, model=model, q0=q0, options=opts)
-            ok = batch.converged
-            archive_T.append(T[ok])
-            archive_q.append(batch.q[ok])
-            counters["evals"] += x.shape[0]
-            counters["nonconv"] += int((~ok).sum())
-            reach = batch.reach
-            f = np.full(x.shape[0], _INFEASIBLE_COST)
-            f[ok] = 1.0 / reach[ok]
-            out["F"] = f[:, None]
-            out["G"] = np.where(ok, -1.0, 1.0)[:, None]
+    def _evaluate(self, x: np.ndarray, out: dict, *args: Any, **kwargs: Any) -> None:
+        T = self.reach.full(x)
+        q0 = None
+        if self.warm_start and self.archive_T:
+            # warm start from the nearest tension vector already solved (offspring lie near parents)
+            scale = self.reach.bounds.span
+            nearest = cKDTree(np.vstack(self.archive_T) / scale).query(T / scale)[1]
+            q0 = np.vstack(self.archive_q)[nearest]
+        ev = self.reach.evaluate(T, q0)
+        ok = ev.batch.converged
+        self.archive_T.append(T[ok])
+        self.archive_q.append(ev.batch.q[ok])
+        self.stats.evals += x.shape[0]
+        self.stats.nonconv += int((~ok).sum())
+        out["F"] = ev.cost[:, None]
+        out["G"] = np.where(ok, -1.0, 1.0)[:, None]
 
-    t0 = time.perf_counter()
-    problem = _Reach()
-    algorithm = GA(pop_size=int(pop_size), eliminate_duplicates=True)
-    algorithm.setup(problem, termination=("n_gen", int(max_gen)), seed=int(seed), verbose=False)
-    best_hist: list[float] = []
-    mean_hist: list[float] = []
-    evals_hist: list[int] = []
-    nonconv_hist: list[int] = []
-    ls_hist: list[int] = []
-    stopped = False
-    counters["ls"] = 0
-    counters["ls_runs"] = 0
 
-    def learn(infills: Population) -> Population:
+def _distinct(x: np.ndarray, picked: Sequence[np.ndarray], scale: np.ndarray) -> bool:
+    return all(np.max(np.abs((x - y) / scale)) > _DISTINCT for y in picked)
+
+
+class _GARun:
+    """One run of the memetic GA: pymoo's GA stepped by ask/tell, with the local search between ask and tell."""
+
+    def __init__(self, problem: ReachProblem, algo: MemeticGA, termination: Termination, seed: int,
+                 on_generation: Callable[[int, float, float], None] | None) -> None:
+        self.problem = problem
+        self.algo = algo
+        self.termination = termination
+        self.on_generation = on_generation
+        self.stats = _Stats()
+        self.evaluator = _Evaluator(problem, algo.warm_start, self.stats)
+        self.ga = GA(pop_size=int(algo.pop_size), eliminate_duplicates=True)
+        self.ga.setup(self.evaluator, termination=("n_gen", int(termination.max_gen)), seed=int(seed), verbose=False)
+
+    def learn(self, infills: Population) -> Population:
         """Lamarckian step: a new leader (better than the incumbent) is replaced by its local optimum.
 
         In the first generation the best ``ls_starts`` distinct individuals are searched.
         """
+        best_hist = self.stats.history["best"]
         F = infills.get("F")[:, 0]
         feas = infills.get("feas")
         incumbent = best_hist[-1] if best_hist else np.inf
+        tol = self.termination.tol
         order = [int(k) for k in np.argsort(F) if feas[k] and F[k] < incumbent - tol]
+        scale = self.problem.bounds.span[self.problem.free]
         picked: list[np.ndarray] = []
         for k in order:
-            if len(picked) >= (ls_starts if not best_hist else 1):
+            if len(picked) >= (self.algo.ls_starts if not best_hist else 1):
                 break
             x = infills[k].get("X")
-            if all(np.max(np.abs((x - y) / scale[free])) > 0.05 for y in picked):
+            if _distinct(x, picked, scale):
                 picked.append(x)
         found = []
         for x in picked:
-            start = base.copy()
-            start[free] = x
             try:
-                pr = polish_reach(robot, loads, bounds, start, max_iter=ls_max_iter, model=model, options=opts,
-                              ftol=1e-12, gtol=1e-8)
+                pr = polish_reach(self.problem, self.problem.full(x), max_iter=self.algo.ls_max_iter)
             except RuntimeError:
                 continue
-            counters["ls"] += pr.evaluations
-            counters["ls_runs"] += 1
-            found.append(pr.tensions[free])
+            self.stats.ls += pr.evaluations
+            self.stats.ls_runs += 1
+            found.append(pr.tensions[self.problem.free])
         if not found:
             return infills
         extra = Population.new("X", np.array(found))
-        algorithm.evaluator.eval(problem, extra, algorithm=algorithm)
+        self.ga.evaluator.eval(self.evaluator, extra, algorithm=self.ga)
         return Population.merge(infills, extra)
 
-    while algorithm.has_next():
-        before = counters["nonconv"]
-        infills = algorithm.infill()
-        algorithm.evaluator.eval(problem, infills, algorithm=algorithm)
-        if local_search:
-            infills = learn(infills)
-        algorithm.advance(infills=infills)
-        pop = algorithm.pop
-        F = pop.get("F")[:, 0]
-        feas = pop.get("feas")
-        opt_f = algorithm.opt.get("F")[:, 0]
-        opt_feas = algorithm.opt.get("feas")
+    def generation(self) -> None:
+        """One generation: ask, evaluate, learn, tell, record."""
+        before = self.stats.nonconv
+        infills = self.ga.infill()
+        self.ga.evaluator.eval(self.evaluator, infills, algorithm=self.ga)
+        if self.algo.local_search:
+            infills = self.learn(infills)
+        self.ga.advance(infills=infills)
+        F = self.ga.pop.get("F")[:, 0]
+        feas = self.ga.pop.get("feas")
+        opt_f = self.ga.opt.get("F")[:, 0]
+        opt_feas = self.ga.opt.get("feas")
         best = float(opt_f[opt_feas].min()) if np.any(opt_feas) else float("inf")
         mean = float(F[feas].mean()) if np.any(feas) else float("inf")
-        best_hist.append(best)
-        mean_hist.append(mean)
-        evals_hist.append(counters["evals"] + counters["ls"])
-        nonconv_hist.append(counters["nonconv"] - before)
-        ls_hist.append(counters["ls"])
-        if on_generation is not None:
-            on_generation(len(best_hist), best, mean)
-        g = len(best_hist)
-        if g > window and np.isfinite(best) and best_hist[g - 1 - window] - best < tol:
-            stopped = True
-            break
-    seconds = time.perf_counter() - t0
-    opt = algorithm.opt[0]
-    if not opt.get("feas"):
-        raise RuntimeError("no tension vector within the bounds gave a converged static solve")
-    T = base.copy()
-    T[free] = opt.get("X")
-    # the optimum is re-solved cold, from the straight robot, independent of the warm-start history
-    sol = solve(robot, loads.with_tensions(T), model=model, options=opts)
-    if not sol.converged:
-        raise RuntimeError("the GA's best does not converge when solved cold from the straight robot")
-    _check_reach(sol.reach, robot)
-    pol = None
-    if polish:
-        # polish the best few distinct individuals (the landscape has several local optima)
-        pop = algorithm.pop
-        order = np.argsort(pop.get("F")[:, 0])
-        starts: list[np.ndarray] = [T]
-        for k in order:
-            if len(starts) >= n_polish:
-                break
-            if not pop[k].get("feas"):
-                continue
-            cand = base.copy()
-            cand[free] = pop[k].get("X")
-            if all(np.max(np.abs((cand - s_) / scale)) > 0.05 for s_ in starts):
-                starts.append(cand)
-        starts += [np.clip(np.asarray(x, dtype=float), bounds.lower, bounds.upper) for x in extra_starts]
-        def one(k: int) -> PolishResult | None:
-            try:
-                return polish_reach(robot, loads, bounds, starts[k], q0=sol.q if k == 0 else None, warm=warm_start,
-                                    model=model, options=opts, ftol=1e-12, gtol=1e-8)
-            except RuntimeError:
-                return None
+        h = self.stats.history
+        h["best"].append(best)
+        h["mean"].append(mean)
+        h["evaluations"].append(self.stats.evals + self.stats.ls)
+        h["nonconverged"].append(self.stats.nonconv - before)
+        h["local_search_evaluations"].append(self.stats.ls)
+        if self.on_generation is not None:
+            self.on_generation(len(h["best"]), best, mean)
 
-        # the starts are independent: run them on all cores (the compiled solver releases the GIL)
-        with ThreadPoolExecutor(max_workers=min(len(starts), os.cpu_count() or 1)) as pool:
-            results = [r_ for r_ in pool.map(one, range(len(starts))) if r_ is not None]
-        if results:
-            best_pol = min(results, key=lambda p_: p_.cost)
-            try:  # the winner once more at the tightest tolerances
-                tight = polish_reach(robot, loads, bounds, best_pol.tensions, warm=warm_start, model=model,
-                                     options=opts)
-                if tight.cost <= best_pol.cost:
-                    results.append(tight)
-                    best_pol = tight
-            except RuntimeError:
-                pass
-            pol = PolishResult(tensions=best_pol.tensions, cost=best_pol.cost, reach=best_pol.reach,
-                               tip_position=best_pol.tip_position, cost_change=1.0 / sol.reach - best_pol.cost,
-                               evaluations=sum(p_.evaluations for p_ in results),
-                               message=f"best of {len(results)} starts: {best_pol.message}")
+    def run(self) -> str:
+        """Generations until the termination rule; returns its reason."""
+        while True:
+            self.generation()
+            reason = self.termination.reason(self.stats.history["best"])
+            if reason is not None:
+                return reason
+
+    def best(self) -> tuple[Optimum, np.ndarray]:
+        """The GA's best, re-solved cold (independent of any warm-start history), and its unknowns."""
+        opt = self.ga.opt[0]
+        if not opt.get("feas"):
+            raise RuntimeError("no tension vector within the bounds gave a converged static solve")
+        T = self.problem.full(opt.get("X"))
+        sol = self.problem.solve(T)
+        if not sol.converged:
+            raise RuntimeError("the GA's best does not converge when solved cold from the straight robot")
+        return Optimum(T, sol.tip_position, sol.reach, float(self.problem.cost(sol.tip_position))), sol.q
+
+    def polish_starts(self, best: np.ndarray) -> list[np.ndarray]:
+        """The GA's best, the best few distinct feasible individuals of the last population, the extra starts."""
+        pop = self.ga.pop
+        scale = self.problem.bounds.span
+        starts: list[np.ndarray] = [best]
+        for k in np.argsort(pop.get("F")[:, 0]):
+            if len(starts) >= self.algo.n_polish:
+                break
+            if pop[k].get("feas"):
+                cand = self.problem.full(pop[k].get("X"))
+                if _distinct(cand, starts, scale):
+                    starts.append(cand)
+        return starts + [self.problem.bounds.clip(x) for x in self.algo.extra_starts]
+
+
+def _polish_many(problem: ReachProblem, starts: list[np.ndarray], q0: np.ndarray,
+                 warm: bool) -> ReachResult | None:
+    """Polish every start in parallel threads (the compiled solvers release the GIL); the best."""
+
+    def one(k: int) -> ReachResult | None:
+        try:
+            return polish_reach(problem, starts[k], q0=q0 if k == 0 else None, warm=warm)
+        except RuntimeError:
+            return None
+
+    with ThreadPoolExecutor(max_workers=min(len(starts), default_threads())) as pool:
+        results = [r for r in pool.map(one, range(len(starts))) if r is not None]
+    if not results:
+        return None
+    best = min(results, key=lambda r: r.cost)
+    evaluations = sum(r.evaluations for r in results)
+    return ReachResult(**{**best.__dict__, "evaluations": evaluations, "polish_evaluations": evaluations,
+                          "polish_message": f"best of {len(results)} starts: {best.polish_message}"})
+
+
+def maximize_reach(problem: ReachProblem, algorithm: MemeticGA | None = None, termination: Termination | None = None,
+                   *, seed: int = 0, on_generation: Callable[[int, float, float], None] | None = None) -> ReachResult:
+    """Maximise the reach (the paper's Eq. 29), or the reach along a direction, over the tensions.
+
+    Parameters
+    ----------
+    problem : ReachProblem
+        What is solved (:meth:`ReachProblem.create`).
+    algorithm : MemeticGA, optional
+        How (default: population 50, memetic, with the final polish).
+    termination : Termination, optional
+        When to stop (default: 1e-6 over 5 generations, at most 100).
+    seed : int
+        Seed of the GA: same seed, same result.
+    on_generation : callable, optional
+        Called as ``on_generation(generation, best_cost, mean_cost)``.
+
+    Returns
+    -------
+    ReachResult
+        The final optimum; ``ga`` keeps the GA's best before the polish.
+    """
+    algo = algorithm or MemeticGA()
+    term = termination or Termination()
+    _check_int("seed", seed, 0)
+    t0 = time.perf_counter()
+    run = _GARun(problem, algo, term, seed, on_generation)
+    reason = run.run()
+    ga, q = run.best()
+    final: ReachResult | None = None
+    if algo.polish:
+        final = _polish_many(problem, run.polish_starts(ga.tensions), q, algo.warm_start)
+    top = final.optimum if final is not None else ga
+    stats = run.stats
     return ReachResult(
-        tensions=T,
-        tip_position=sol.tip_position,
-        reach=sol.reach,
-        cost=1.0 / sol.reach,
-        generations=len(best_hist),
-        evaluations=counters["evals"] + counters["ls"],
-        nonconverged=counters["nonconv"],
-        converged=stopped,
-        seconds=seconds,
-        seed=int(seed),
-        history={"best": best_hist, "mean": mean_hist, "evaluations": evals_hist, "nonconverged": nonconv_hist,
-                 "local_search_evaluations": ls_hist},
-        polish=pol,
-        settings={"model": model, "local_search": bool(local_search), "ls_max_iter": int(ls_max_iter),
-                  "ls_starts": int(ls_starts),
-                  "local_search_runs": counters["ls_runs"], "pop_size": int(pop_size), "tol": float(tol),
-                  "window": int(window), "max_gen": int(max_gen), "bounds": bounds.to_dict()},
+        tensions=top.tensions, tip_position=top.tip_position, reach=top.reach, cost=top.cost,
+        value=float(problem.value(top.tip_position)), converged=reason == "tolerance", stop_reason=reason,
+        generations=len(stats.history["best"]), evaluations=stats.evals + stats.ls, nonconverged=stats.nonconv,
+        seconds=time.perf_counter() - t0, seed=int(seed), history=stats.history, ga=ga,
+        polish_gain=ga.cost - top.cost if final is not None else 0.0,
+        polish_evaluations=final.polish_evaluations if final is not None else 0,
+        polish_message=final.polish_message if final is not None else "",
+        settings={**problem.describe(), **algo.describe(), **asdict(term), "local_search_runs": stats.ls_runs},
     )

@@ -1,0 +1,14 @@
+"""The reach search of the paper's Eq. 29, in pymoo's shape.
+
+What is solved (:class:`ReachProblem`: robot, loads, bounds and model give a
+cost, the reach or the reach along a direction, and its gradient), how
+(:class:`MemeticGA`), when to stop (:class:`Termination`), joined by one
+:func:`maximize_reach` call that returns one :class:`ReachResult`.
+"""
+
+from ._problem import INFEASIBLE_COST, Evaluated, ReachProblem
+from ._result import Optimum, ReachResult
+from ._search import MemeticGA, Termination, maximize_reach, polish_reach
+
+__all__ = ["INFEASIBLE_COST", "Evaluated", "MemeticGA", "Optimum", "ReachProblem", "ReachResult", "Termination",
+           "maximize_reach", "polish_reach"]

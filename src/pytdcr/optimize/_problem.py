@@ -1,0 +1,151 @@
+"""What is solved: the paper's Eq. 29, or the reach along a direction, as one problem object."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from ..bounds import TensionBounds
+from ..design import Robot
+from ..loads import Loads
+from ..results import BatchSolution, StaticSolution
+from ..statics import TIGHT_ATOL, Model, configure, resolve
+
+__all__ = ["INFEASIBLE_COST", "Evaluated", "ReachProblem"]
+
+#: cost given to tension vectors whose solve did not converge (they are also flagged infeasible)
+INFEASIBLE_COST = 1e3
+
+
+class Evaluated(NamedTuple):
+    """A batch of tension vectors, evaluated: the solves and the cost of each (INFEASIBLE_COST where not converged)."""
+
+    batch: BatchSolution
+    cost: np.ndarray
+
+
+@dataclass(frozen=True, eq=False)
+class ReachProblem:
+    """The reach search's problem: robot, loads, bounds and model, giving an objective and its gradient.
+
+    Minimised cost: ``1 / ||tip||`` (the paper's Eq. 29: the tip as far from the
+    base as possible), or ``-d . tip`` with ``direction`` d (the tip as far as
+    possible along d: the workspace's support function). Build it with
+    :meth:`create`, which checks the request against the model's capabilities.
+
+    Attributes
+    ----------
+    robot : Robot
+    loads : Loads
+        External loads and friction direction (its tensions are ignored).
+    bounds : TensionBounds
+    model : Model
+    options : the model's options type
+    direction : ndarray, shape (3,), or None
+        Unit vector in the base frame, or None for the paper's objective.
+    """
+
+    robot: Robot
+    loads: Loads
+    bounds: TensionBounds
+    model: Model
+    options: Any
+    direction: np.ndarray | None = None
+
+    @classmethod
+    def create(cls, robot: Robot, loads: Loads, bounds: TensionBounds, *, model: str | Model = "pcc",
+               options: Any = None, direction: np.ndarray | None = None) -> ReachProblem:
+        """Check the inputs and resolve the model; ``direction`` is normalised (ValueError if zero)."""
+        if not isinstance(bounds, TensionBounds):
+            raise TypeError(f"bounds must be a pytdcr.TensionBounds, got {type(bounds).__name__}")
+        m, opts = resolve(model, robot, loads, options, gradient=True)
+        bounds.check_robot(robot)
+        if not np.any(bounds.free):
+            raise ValueError("bounds: every tension is fixed (lower == upper); nothing to optimise")
+        d = None
+        if direction is not None:
+            d = np.asarray(direction, dtype=float).reshape(-1)
+            norm = float(np.linalg.norm(d)) if d.shape == (3,) and np.all(np.isfinite(d)) else 0.0
+            if norm == 0.0:
+                raise ValueError(f"direction must be 3 finite numbers, not all zero, got {direction!r}")
+            d = d / norm
+        return cls(robot=robot, loads=loads.with_tensions(np.zeros(robot.n_tendons)), bounds=bounds, model=m,
+                   options=opts, direction=d)
+
+    def with_direction(self, direction: np.ndarray | None) -> ReachProblem:
+        """The same problem along another direction (None: the paper's objective)."""
+        return ReachProblem.create(self.robot, self.loads, self.bounds, model=self.model, options=self.options,
+                                   direction=direction)
+
+    @property
+    def free(self) -> np.ndarray:
+        """Tendons the search varies, shape (n_tendons,) of bool."""
+        return self.bounds.free
+
+    def full(self, x: np.ndarray) -> np.ndarray:
+        """Tension vectors (..., n_tendons) [N] from the free variables (..., n_free): fixed ones at their bound."""
+        x = np.asarray(x, dtype=float)
+        t = np.broadcast_to(self.bounds.lower, (*x.shape[:-1], self.robot.n_tendons)).copy()
+        t[..., self.free] = x
+        return t
+
+    def cost(self, tip: np.ndarray) -> np.ndarray:
+        """The minimised cost of tip positions (..., 3) [m]: 1/||tip|| [1/m] or -d . tip [m]."""
+        tip = np.asarray(tip, dtype=float)
+        if self.direction is None:
+            return 1.0 / np.linalg.norm(tip, axis=-1)
+        return -(tip @ self.direction)
+
+    def value(self, tip: np.ndarray) -> np.ndarray:
+        """What is maximised, for tips (..., 3): ||tip|| or d . tip [m]."""
+        tip = np.asarray(tip, dtype=float)
+        return np.linalg.norm(tip, axis=-1) if self.direction is None else tip @ self.direction
+
+    def cost_gradient(self, tip: np.ndarray, dtip: np.ndarray) -> np.ndarray:
+        """d cost / d tensions (n_tendons,) from the tip (3,) and its derivative (3, n_tendons)."""
+        if self.direction is None:
+            r = float(np.linalg.norm(tip))
+            return -(tip @ dtip) / r**3
+        return -(self.direction @ dtip)
+
+    def evaluate(self, tensions: np.ndarray, q0: np.ndarray | None = None) -> Evaluated:
+        """Solve every row of ``tensions`` (B, n_tendons) [N]: the batch and each row's cost."""
+        batch = self.model.solve_batch(self.robot, np.ascontiguousarray(tensions, dtype=float), self.loads, q0,
+                                       self.options)
+        cost = np.full(batch.converged.shape, INFEASIBLE_COST)
+        ok = batch.converged
+        cost[ok] = self.cost(batch.tip_position[ok])
+        return Evaluated(batch, cost)
+
+    def solve(self, tensions: np.ndarray, q0: np.ndarray | None = None, atol: float | None = None) -> StaticSolution:
+        """One equilibrium at ``tensions`` (n_tendons,) [N], at the problem's tolerance or ``atol`` [N m]."""
+        opts = self.options if atol is None else configure(self.model, self.options, atol=atol)
+        sol = self.model.solve(self.robot, self.loads.with_tensions(tensions), q0, opts)
+        if sol.converged:
+            self.check_reach(sol.reach)
+        return sol
+
+    def cost_and_gradient(self, tensions: np.ndarray, q0: np.ndarray | None = None,
+                          atol: float = TIGHT_ATOL) -> tuple[float, np.ndarray | None, StaticSolution]:
+        """Cost and its gradient by the tensions (n_tendons,) at ``tensions``; (INFEASIBLE_COST, None, sol)
+        when the solve does not converge. Solved at the tight tolerance ``atol`` so that the cost is smooth
+        to a gradient search."""
+        sol = self.solve(tensions, q0, atol)
+        if not sol.converged:
+            return INFEASIBLE_COST, None, sol
+        opts = configure(self.model, self.options, atol=atol)
+        tip, dtip = self.model.tip_gradient(self.robot, self.loads.with_tensions(tensions), sol, opts)
+        return float(self.cost(tip)), self.cost_gradient(tip, dtip), sol
+
+    def check_reach(self, reach: float) -> None:
+        """The backbone is inextensible: a reach beyond its length can only be a bug (RuntimeError)."""
+        if reach > self.robot.length * (1.0 + 1e-12):
+            raise RuntimeError(f"reach {reach} m exceeds the backbone length {self.robot.length} m")
+
+    def describe(self) -> dict[str, Any]:
+        """JSON-ready settings of the problem."""
+        return {"model": self.model.name, "bounds": self.bounds.to_dict(),
+                "objective": "reach" if self.direction is None else "direction",
+                "direction": None if self.direction is None else self.direction.tolist()}
