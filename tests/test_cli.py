@@ -64,7 +64,7 @@ def test_human_summary_and_plot(capsys, tmp_path):
     ("args", "words"),
     [
         (["--tensions", "1,2"], ["--tensions", "8 tendons", "got 2"]),
-        (["--tensions", "1,2,3,4,5,6,7,-8"], ["tension 8 must be >= 0"]),
+        (["--tensions", "1,2,3,4,5,6,7,-8"], ["tendon 8", "must be finite and >= 0"]),
         (["--tensions", "1,2,3,4,5,6,7,nan"], ["finite"]),
         (["--tensions", "1,2,3,4,5,6,7,x"], ["comma-separated numbers"]),
         (["--tensions", "0,0,0,0,0,0,0,0", "--tip-force", "1,2"], ["--tip-force", "3"]),
@@ -117,7 +117,7 @@ def test_robot_command_round_trips(capsys, tmp_path, paper):
     ("args", "words"),
     [
         (["--bounds", "5,1"], ["--bounds", "lower 5.0 > upper 1.0"]),
-        (["--bounds", "-1,3"], ["--bounds", "lower[0] must be finite and >= 0"]),
+        (["--bounds", "-1,3"], ["--bounds", "lower[0] (tendon 1) must be finite and >= 0"]),
         (["--bounds", "0,inf"], ["--bounds", "finite"]),
         (["--bounds", "1"], ["--bounds", "expected 2"]),
     ],
@@ -176,25 +176,26 @@ def test_cosserat_refuses_friction_in_one_line(capsys):
     assert code == 2
     assert "--friction none" in err and len(err.strip().splitlines()) == 1
     code, _, err = run(capsys, "solve", "--tensions", "1,0,0,0,0,0,0,0", "--shear-extension")
-    assert code == 2 and "--model cosserat" in err
+    assert code == 2 and "--shear-extension" in err and "model 'pcc'" in err
 
 
 def test_compare_writes_table_and_figure(capsys, tmp_path):
     out = tmp_path / "cmp"
     code, text, _ = run(capsys, "compare", "--robot", "rao", "--n", "3", "--bounds", "0,4", "--seed", "2",
                         "--out", str(out))
-    assert code == 0 and "both converged on 3" in text
+    assert code == 0 and "every model converged on 3" in text
     rows = (out / "compare.csv").read_text().strip().splitlines()
     assert len(rows) == 4
     header = rows[0].split(",")
-    for key in ("pcc_x_m", "cosserat_z_m", "difference_mm", "difference_pct_length", "pcc_ms", "cosserat_ms"):
+    for key in ("pcc_x_m", "cosserat_z_m", "cosserat_difference_mm", "cosserat_difference_pct_length", "pcc_ms",
+                "cosserat_ms"):
         assert key in header
-    diff = [float(r.split(",")[header.index("difference_mm")]) for r in rows[1:]]
+    diff = [float(r.split(",")[header.index("cosserat_difference_mm")]) for r in rows[1:]]
     assert all(0.0 <= d < 0.015 * 400 for d in diff)  # within the tendon-only bound (mm)
     md = (out / "compare.md").read_text()
     assert md.count("\n| ") >= 4 and "median" in md
     data = json.loads((out / "compare.json").read_text())
-    assert data["summary"]["both_converged"] == 3 and data["inputs"]["seed"] == 2
+    assert data["summary"]["all_converged"] == 3 and data["inputs"]["seed"] == 2
     assert (out / "fig_compare.png").stat().st_size > 10_000
 
 
@@ -209,7 +210,7 @@ def test_compare_reads_cases_and_rejects_bad_ones(capsys, tmp_path):
         code, _, err = run(capsys, "compare", "--robot", "rao", "--cases", str(bad), "--out", str(tmp_path / "o"))
         assert code == 2 and "--cases" in err and msg in err
     code, _, err = run(capsys, "compare", "--robot", "rao", "--friction", "paper", "--out", str(tmp_path / "o"))
-    assert code == 2 and "no tendon friction" in err
+    assert code == 2 and "does not support tendon friction" in err
 
 
 def test_sample_and_optimize_take_the_model_option(capsys, tmp_path):
@@ -222,4 +223,6 @@ def test_sample_and_optimize_take_the_model_option(capsys, tmp_path):
                        "--bounds", "0,3", "--json")
     assert code == 0
     res = json.loads(out)
-    assert res["reach"] <= 0.4 and res["evaluations"] >= 12
+    assert res["ga"]["reach"] <= 0.4 and res["evaluations"] >= 12
+    # the polished optimum is the straight rod, whose RK4 integration hits the length up to roundoff
+    assert res["reach"] <= 0.4 * (1 + 1e-12)

@@ -8,9 +8,21 @@ from conftest import rod
 from scipy.integrate import solve_ivp
 from scipy.special import ellipeinc, ellipkinc
 
-from pytdcr import CosseratOptions, Loads, NoFriction, NotConvergedError, Segment, paper_robot, solve, solve_batch
-from pytdcr.statics import CosseratModel
-from pytdcr.statics import _cosserat_kernels as CK
+from pytdcr import (
+    CosseratOptions,
+    Loads,
+    NoFriction,
+    NotConvergedError,
+    Segment,
+    UnsupportedFeatureError,
+    paper_loads,
+    paper_robot,
+    solve,
+    solve_batch,
+    tip_gradient,
+)
+from pytdcr.statics import CosseratShooting
+from pytdcr.statics import _cosserat_kernels as CK  # the right-hand side kernel, tested on purpose
 
 #: Rao et al. 2021, tensions [4, 0, 0, 0, 2, 0] N: their Cosserat model's tip (6 digits published) [m]
 RAO_COSSERAT_TIP = np.array([0.127608, 0.143467, 0.336407])
@@ -145,7 +157,7 @@ def test_models_agree_on_tendon_only_cases():
     assert d.max() < 0.015 * robot.length
 
 
-def _dop853_tip(model: CosseratModel, m0: np.ndarray) -> np.ndarray:
+def _dop853_tip(model: CosseratShooting, m0: np.ndarray) -> np.ndarray:
     """The same shooting integration with SciPy's DOP853 (adaptive, rtol 1e-11) instead of fixed-step RK4."""
     p = model.packed
     n = p.sub.shape[0]
@@ -179,7 +191,7 @@ def test_fixed_step_integration_matches_scipy_dop853():
     for steps, agree in ((4, RK4_AGREE), (16, RK4_AGREE / 100)):
         opts = CosseratOptions(steps_per_subsegment=steps)
         sol = solve(robot, loads, model="cosserat", options=opts)
-        ref = _dop853_tip(CosseratModel.build(robot, loads, opts), sol.q)
+        ref = _dop853_tip(CosseratShooting.build(robot, loads, opts), sol.q)
         assert np.linalg.norm(sol.tip_position - ref) < agree
 
 
@@ -209,8 +221,14 @@ def test_turning_the_tensions_by_the_routing_angle_turns_the_shape():
 
 
 def test_friction_is_refused():
-    with pytest.raises(ValueError, match="friction"):
+    with pytest.raises(UnsupportedFeatureError, match="model 'cosserat' does not support tendon friction") as err:
         solve(paper_robot(), Loads(np.zeros(8)), model="cosserat")
+    assert err.value.model == "cosserat" and err.value.feature == "tendon friction"
+    # a constant mu of 0 is no friction
+    from pytdcr import ConstantFriction
+
+    sol = solve(paper_robot(ConstantFriction(mu0=0.0)), Loads(np.zeros(8)), model="cosserat")
+    assert sol.converged
 
 
 def test_wrong_options_type_is_refused(rao):
@@ -236,8 +254,7 @@ def test_non_convergence_is_reported_with_its_residual():
 
 def test_loading_path_converges_where_the_cold_start_may_not():
     robot = paper_nf(10)
-    loads = Loads(np.array([15.0, 2.0, 20.0, 16.0, 20.0, 20.0, 12.0, 12.0]), tip_force=[0.1, 0.1, -0.1],
-                  tip_moment=[-0.1, 0.1, 0.1])
+    loads = paper_loads(np.array([15.0, 2.0, 20.0, 16.0, 20.0, 20.0, 12.0, 12.0]))
     sol = solve(robot, loads, model="cosserat")
     assert sol.converged and sol.path in ("loading", "snap")
     assert sol.load_steps >= 2
@@ -262,7 +279,7 @@ def test_tip_gradient_matches_finite_differences_of_solves():
     loads = Loads(T, tip_force=[0.02, 0.0, -0.02])
     opts = CosseratOptions(atol=1e-13)
     sol = solve(robot, loads, model="cosserat", options=opts)
-    tip, grad = CosseratModel.build(robot, loads, opts).tip_and_gradient(sol.q)
+    tip, grad = tip_gradient(robot, loads, sol, model="cosserat", options=opts)
     assert np.allclose(tip, sol.tip_position, atol=1e-14)
     h = 1e-4
     for c in (0, 3, 6):
@@ -290,20 +307,20 @@ def test_point_wrench_at_a_disk(backbone):
 
 
 def test_loading_path_matches_a_fine_fixed_step_path():
-    # the adaptive continuation takes a few large load steps; a 100-step path with warm starts must end on
-    # the same equilibrium (no branch skipped) under the paper's heavy tip load
-    from pytdcr.statics.cosserat import _root
-
+    # the adaptive continuation takes a few large load steps; a 100-step path with warm starts (every load
+    # scaled by lam, Newton alone at each step) must end on the same equilibrium (no branch skipped) under the
+    # paper's heavy tip load
     robot = paper_robot(NoFriction())
-    loads = Loads(np.zeros(8), tip_force=[0.1, 0.1, -0.1], tip_moment=[-0.1, 0.1, 0.1])
+    step = CosseratOptions(atol=1e-10, load_stepping="never")
     for t in np.random.default_rng(5).uniform(0.0, 20.0, size=(4, 8)):
-        model = CosseratModel.build(robot, loads.with_tensions(t))
         m0 = np.zeros(3)
         for lam in np.linspace(0.0, 1.0, 101)[1:]:
-            m0, res, _ = _root(model, lam, m0, 1e-10, 200)
-            assert res <= 1e-10
-        fine = model.shape(m0)[0][-1]
-        sol = solve(robot, loads.with_tensions(t), model="cosserat")
+            part = robot.with_gravity(tuple(lam * np.array(robot.gravity)))
+            sol = solve(part, paper_loads(t).scaled(lam), model="cosserat", q0=m0, options=step)
+            assert sol.converged
+            m0 = sol.q
+        fine = sol.tip_position
+        sol = solve(robot, paper_loads(t), model="cosserat")
         assert sol.converged and np.linalg.norm(sol.tip_position - fine) < 1e-8
 
 

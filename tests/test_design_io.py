@@ -100,7 +100,7 @@ def test_python_api_validates_too():
 
 @pytest.mark.parametrize(
     ("tensions", "match"),
-    [([1.0, -0.5], r"tensions\[1\] must be finite and >= 0"), ([np.nan, 1.0], r"tensions\[0\]"),
+    [([1.0, -0.5], r"tensions\[1\] \(tendon 2\) must be finite and >= 0"), ([np.nan, 1.0], r"tensions\[0\]"),
      ([np.inf], r"tensions\[0\]"), ([[1.0]], "1-D")],
 )
 def test_bad_tensions(tensions, match):

@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 from conftest import SAME_SHAPE
 
-from pytdcr import Loads, NotConvergedError, SolverOptions, StaticModel, solve, solve_batch
+from pytdcr import Loads, NotConvergedError, PCCEquations, SolverOptions, solve, solve_batch
+from pytdcr.paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT
 
-PAPER_LOAD = {"tip_force": [0.1, 0.1, -0.1], "tip_moment": [-0.1, 0.1, 0.1]}
+PAPER_LOAD = {"tip_force": PAPER_TIP_FORCE, "tip_moment": PAPER_TIP_MOMENT}
 
 
 def test_non_convergence_is_reported_and_has_no_shape(paper):
@@ -71,14 +72,14 @@ def test_batch_matches_single_solves(paper):
         solve_batch(paper, T[:, :4])
     bad = T.copy()
     bad[3, 2] = -1.0
-    with pytest.raises(ValueError, match=r"tensions\[3, 2\] must be finite and >= 0"):
+    with pytest.raises(ValueError, match=r"tensions\[3, 2\] \(case 4, tendon 3\) must be finite and >= 0"):
         solve_batch(paper, bad)
 
 
 def test_model_checks_its_inputs(paper, rao):
     with pytest.raises(ValueError, match="tensions must have 8 entries"):
-        StaticModel.build(paper, Loads(np.zeros(6)))
-    model = StaticModel.build(rao, Loads(np.zeros(6)))
+        PCCEquations.build(paper, Loads(np.zeros(6)))
+    model = PCCEquations.build(rao, Loads(np.zeros(6)))
     with pytest.raises(ValueError, match="q must have 60 entries"):
         model.residual(np.zeros(5))
     with pytest.raises(ValueError, match="atol must be finite"):
@@ -100,7 +101,7 @@ def test_default_follows_the_loading_branch(paper):
     q = np.zeros(3 * paper.n_disks)
     for lam in np.linspace(0.01, 1.0, 100):  # the loading path, by hand
         robot = paper.with_gravity(tuple(lam * np.array(paper.gravity)))
-        q = solve(robot, loads_at(loads, lam), q0=q.reshape(-1, 3),
+        q = solve(robot, loads.scaled(lam), q0=q.reshape(-1, 3),
                   options=SolverOptions(load_stepping="never")).q.ravel()
     ref = np.linalg.norm(forward_kinematics(q, paper.subsegment_lengths)[0][-1])
     default = solve(paper, loads)
@@ -111,11 +112,6 @@ def test_default_follows_the_loading_branch(paper):
     assert abs(direct.reach - ref) > 0.05  # the other equilibrium
 
 
-def loads_at(loads: Loads, lam: float) -> Loads:
-    """Tensions and tip wrench scaled by ``lam``."""
-    return Loads(loads.tensions * lam, loads.tip_force * lam, loads.tip_moment * lam)
-
-
 def test_batch_results_do_not_depend_on_what_ran_first():
     # numba's cached parallel kernel gave other last bits when the serial kernel had been loaded before it;
     # pytdcr.statics now loads the serial kernel at import, so every process computes the same bits
@@ -124,11 +120,10 @@ def test_batch_results_do_not_depend_on_what_ran_first():
 
     code = (
         "import hashlib, sys, numpy as np\n"
-        "from pytdcr import Loads, paper_robot, rao_robot, solve, solve_batch\n"
+        "from pytdcr import Loads, paper_loads, paper_robot, rao_robot, solve, solve_batch\n"
         "if sys.argv[1] == 'serial-first': solve(rao_robot(), Loads(np.ones(6)))\n"
         "T = np.random.default_rng(0).uniform(0, 20, (60, 8))\n"
-        "b = solve_batch(paper_robot(), T, Loads(np.zeros(8), tip_force=[0.1, 0.1, -0.1], "
-        "tip_moment=[-0.1, 0.1, 0.1]))\n"
+        "b = solve_batch(paper_robot(), T, paper_loads())\n"
         "print(hashlib.sha1(b.q.tobytes()).hexdigest())\n"
     )
     out = [subprocess.run([sys.executable, "-c", code, mode], capture_output=True, text=True, check=True).stdout

@@ -11,18 +11,19 @@ from pytdcr import (
     ExponentialFriction,
     Loads,
     NoFriction,
+    PCCEquations,
     PointLoad,
     Robot,
     Segment,
     SolverOptions,
-    StaticModel,
     Tendon,
     solve,
     solve_batch,
 )
+from pytdcr.paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT
 
-PAPER_FORCE = np.array([0.1, 0.1, -0.1])
-PAPER_MOMENT = np.array([-0.1, 0.1, 0.1])
+PAPER_FORCE = np.array(PAPER_TIP_FORCE)
+PAPER_MOMENT = np.array(PAPER_TIP_MOMENT)
 
 
 def test_straight_robot_without_load(paper):
@@ -157,7 +158,7 @@ def test_capstan_limit(backbone, n):
     robot = Robot(backbone=backbone, segments=(Segment(length=L, n_disks=n),),
                   tendons=(Tendon(segment=1, radius=0.01, angle_deg=0.0),), gravity=(0, 0, 0),
                   friction=ConstantFriction(mu0=mu))
-    model = StaticModel.build(robot, Loads([1.0]))
+    model = PCCEquations.build(robot, Loads([1.0]))
     q = np.zeros((n, 3))
     q[:, 0] = kappa
     T = model.tensions(q)[0]
@@ -198,7 +199,7 @@ def test_jacobian_matches_finite_differences(paper, friction, release):
     robot = paper.with_friction(friction)
     loads = Loads(rng.uniform(0, 20, 8), tip_force=PAPER_FORCE, tip_moment=PAPER_MOMENT, release=release,
                   point_loads=(PointLoad(7, [0.03, -0.02, 0.01], [0.0, 0.01, -0.02]),))
-    model = StaticModel.build(robot, loads)
+    model = PCCEquations.build(robot, loads)
     for scale in (0.3, 3.0):
         q = rng.normal(0.0, scale, (20, 3))
         J = model.jacobian(q)
@@ -218,6 +219,6 @@ def test_solutions_are_in_equilibrium(paper):
     loads = Loads(np.array([2.0, 9.0, 0, 1.0, 4.0, 0, 0, 7.0]), tip_force=PAPER_FORCE, tip_moment=PAPER_MOMENT)
     sol = solve(paper, loads)
     assert sol.converged
-    r = StaticModel.build(paper, loads).residual(sol.q)
+    r = PCCEquations.build(paper, loads).residual(sol.q)
     assert np.abs(r).max() == pytest.approx(sol.residual, abs=1e-15)
     assert np.abs(r).max() <= SolverOptions().atol

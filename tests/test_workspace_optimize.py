@@ -8,11 +8,11 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
-from pytdcr import Loads, Robot, Segment, SolverOptions, Tendon, solve
-from pytdcr.optimize import maximize_reach, polish_reach, reach_gradient
+from pytdcr import Loads, Robot, Segment, SolverOptions, Tendon, TensionBounds, solve, tip_gradient
+from pytdcr.optimize import MemeticGA, ReachProblem, Termination, maximize_reach, polish_reach
 from pytdcr.plotting import plot_convergence, plot_reach_samples
-from pytdcr.study import run_optimize, run_reproduce, run_sample
-from pytdcr.workspace import TensionBounds, sample_workspace
+from pytdcr.study import ReproduceSettings, run_optimize, run_reproduce, run_sample
+from pytdcr.workspace import sample_workspace
 
 
 @pytest.fixture(scope="module")
@@ -30,7 +30,7 @@ LOAD = Loads(np.zeros(4), tip_force=[0.03, 0.0, -0.02], tip_moment=[0.0, 0.004, 
 
 @pytest.mark.parametrize(
     ("lo", "hi", "match"),
-    [([0, 0], [1, -1], r"upper\[1\] must be finite and >= 0"), ([2.0], [1.0], "lower 2.0 > upper 1.0"),
+    [([0, 0], [1, -1], r"upper\[1\] \(tendon 2\) must be finite and >= 0"), ([2.0], [1.0], "lower 2.0 > upper 1.0"),
      ([np.nan], [1.0], r"lower\[0\]"), ([0, 0], [1], "lower has 2 entries, upper 1")],
 )
 def test_bounds_validation(lo, hi, match):
@@ -58,7 +58,7 @@ def test_reach_gradient_is_exact(small):
     loads = Loads(t, LOAD.tip_force, LOAD.tip_moment)
     opts = SolverOptions(atol=1e-13)
     sol = solve(small, loads, options=opts)
-    tip, d = reach_gradient(small, loads, sol.q)
+    tip, d = tip_gradient(small, loads, sol, options=opts)
     assert np.allclose(tip, sol.tip_position)
     for c in range(4):
         h = 1e-4
@@ -70,48 +70,53 @@ def test_reach_gradient_is_exact(small):
         assert np.allclose(d[:, c], (fp - fm) / (2 * h), rtol=1e-6, atol=1e-10)
 
 
+def ga(small, bounds, seed, pop_size=12, max_gen=6, tol=1e-9, window=3, options=None, **algo):
+    problem = ReachProblem.create(small, LOAD, bounds, options=options)
+    return maximize_reach(problem, MemeticGA(pop_size=pop_size, **algo), Termination(tol, window, max_gen), seed=seed)
+
+
 def test_ga_is_deterministic_bounded_and_polished(small):
     b = TensionBounds.uniform(4, 0.0, 5.0)
-    kw = {"pop_size": 12, "max_gen": 6, "tol": 1e-9, "window": 3}
-    r1 = maximize_reach(small, LOAD, b, seed=1, **kw)
-    r2 = maximize_reach(small, LOAD, b, seed=1, **kw)
-    r3 = maximize_reach(small, LOAD, b, seed=2, **kw)
+    r1 = ga(small, b, seed=1)
+    r2 = ga(small, b, seed=1)
+    r3 = ga(small, b, seed=2)
     assert np.array_equal(r1.tensions, r2.tensions) and r1.history == r2.history
     assert r1.history["best"] != r3.history["best"]
     for r in (r1, r3):
-        assert r.reach <= small.length
+        assert r.reach <= small.length and r.ga.reach <= small.length
         # every model solve is counted: the GA's (one per individual, one per locally improved leader) and
         # its local searches'
         ls = r.history["local_search_evaluations"][-1]
         assert r.evaluations == r.history["evaluations"][-1]
         assert r.evaluations - ls <= 12 * r.generations + r.settings["local_search_runs"]
         # the memetic GA's best is a local optimum already: the final polish barely moves it
-        assert r.polish.cost_change < 1e-6
+        assert r.polish_gain < 1e-6
         assert np.all(np.diff(r.history["best"]) <= 0)  # elitist: the best never worsens
-        assert r.cost == pytest.approx(1 / r.reach)
-        assert r.polish is not None and r.polish.cost <= r.cost + 1e-12
-        assert r.polish.reach <= small.length
-        assert np.all(r.polish.tensions >= 0) and np.all(r.polish.tensions <= 5.0)
+        assert r.ga.cost == pytest.approx(1 / r.ga.reach) and r.cost == pytest.approx(1 / r.reach)
+        assert r.polished and r.cost <= r.ga.cost + 1e-12
+        assert np.all(r.tensions >= 0) and np.all(r.tensions <= 5.0)
+        # converged: the optimum's solve converged and the stopping rule was met (not the cap)
+        assert r.converged == (r.stop_reason == "tolerance")
     # the polished optimum is a stationary point of the bounded problem: a small move does not help
-    p = r1.polish
     for c in range(4):
         for step in (-0.05, 0.05):
-            t = np.clip(p.tensions + step * np.eye(4)[c], 0, 5)
+            t = np.clip(r1.tensions + step * np.eye(4)[c], 0, 5)
             s = solve(small, Loads(t, LOAD.tip_force, LOAD.tip_moment))
-            assert 1 / s.reach >= p.cost - 1e-9
+            assert 1 / s.reach >= r1.cost - 1e-9
 
 
 def test_plain_ga_without_local_search(small):
     b = TensionBounds.uniform(4, 0.0, 5.0)
-    r = maximize_reach(small, LOAD, b, pop_size=12, max_gen=4, tol=1e-9, window=3, seed=1, local_search=False)
+    r = ga(small, b, seed=1, max_gen=4, local_search=False)
     assert r.history["local_search_evaluations"][-1] == 0 and r.settings["local_search_runs"] == 0
     assert r.evaluations == r.history["evaluations"][-1] <= 12 * r.generations
+    assert r.stop_reason == "generation cap" and not r.converged
 
 
 def test_nonconverged_individuals_are_infeasible_and_counted(small):
     starved = SolverOptions(max_iter=4, load_stepping="never")  # about 20 % of these solves fail
     b = TensionBounds.uniform(4, 0.0, 8.0)
-    r = maximize_reach(small, LOAD, b, pop_size=10, max_gen=3, seed=0, polish=False, options=starved)
+    r = ga(small, b, seed=0, pop_size=10, max_gen=3, tol=1e-6, window=5, options=starved, polish=False)
     assert r.nonconverged > 0
     assert r.nonconverged == sum(r.history["nonconverged"])
     # the optimum is a converged solve (checked again with the same options)
@@ -121,8 +126,8 @@ def test_nonconverged_individuals_are_infeasible_and_counted(small):
 
 def test_polish_keeps_fixed_tensions(small):
     b = TensionBounds(np.array([0.0, 2.0, 0.0, 0.0]), np.array([4.0, 2.0, 4.0, 4.0]))
-    p = polish_reach(small, LOAD, b, np.array([1.0, 2.0, 1.0, 1.0]))
-    assert p.tensions[1] == 2.0 and p.cost_change >= -1e-12
+    p = polish_reach(ReachProblem.create(small, LOAD, b), np.array([1.0, 2.0, 1.0, 1.0]))
+    assert p.tensions[1] == 2.0 and p.polish_gain >= -1e-12
 
 
 def test_figures_have_the_data(tmp_path, small):
@@ -150,8 +155,8 @@ def test_sample_and_optimize_runs_write_their_inputs(tmp_path, small):
     assert rec["inputs"]["seed"] == 3 and rec["inputs"]["robot"]["name"] == "small"
     assert rec["inputs"]["loads"]["tip_force"] == [0.03, 0.0, -0.02]
     assert all((tmp_path / "s" / f).stat().st_size > 1000 for f in run.files if f.endswith(".png"))
-    res, files = run_optimize(small, LOAD, b, pop=8, tol=1e-6, window=2, max_gen=3, seed=0, polish=True,
-                              out=tmp_path / "o")
+    res, files = run_optimize(ReachProblem.create(small, LOAD, b), MemeticGA(pop_size=8), Termination(1e-6, 2, 3),
+                              seed=0, out=tmp_path / "o")
     assert {"fig5_convergence.png", "fig6_optimum.pdf", "history.csv"} <= set(files)
     data = json.loads((tmp_path / "o" / "optimize.json").read_text())
     assert data["result"]["reach"] == res.reach and data["inputs"]["pop"] == 8
@@ -161,8 +166,8 @@ def test_sample_and_optimize_runs_write_their_inputs(tmp_path, small):
 @pytest.mark.slow
 def test_reproduce_writes_a_report(tmp_path, small):
     out = tmp_path / "r"
-    summary = run_reproduce(small, out, seed=0, pops=(8, 10), n_samples=10, max_gen=3, bound_uppers=(5.0,),
-                            side_max_gen=2)
+    summary = run_reproduce(small, out, seed=0, settings=ReproduceSettings(pops=(8, 10), n_samples=10, max_gen=3,
+                                                                           bound_uppers=(5.0,), side_max_gen=2))
     report = (out / "report.md").read_text()
     for text in ("## Fig. 5", "| population 8 |", "| population 10 |", "fourth generation", "## Fig. 6",
                  "| 5 |", "backbone length"):

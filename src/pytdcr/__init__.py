@@ -1,5 +1,9 @@
-"""pytdcr: statics and workspace of tendon-driven continuum robots."""
+"""pytdcr: statics and workspace of tendon-driven continuum robots.
 
+Importing the package runs nothing and imports no plotting library.
+"""
+
+from .bounds import TensionBounds
 from .design import (
     Backbone,
     ConstantFriction,
@@ -8,34 +12,51 @@ from .design import (
     Robot,
     Segment,
     Tendon,
-    paper_robot,
-    rao_robot,
 )
 from .loads import Loads, PointLoad
-from .results import NotConvergedError, StaticSolution
-from .statics import BatchSolution, CosseratOptions, SolverOptions, StaticModel, solve, solve_batch
+from .paper import paper_loads, paper_robot, rao_robot
+from .results import BatchSolution, NotConvergedError, StaticSolution
+from .statics import (
+    MODELS,
+    CosseratOptions,
+    Model,
+    PCCEquations,
+    SolverOptions,
+    UnsupportedFeatureError,
+    get_model,
+    solve,
+    solve_batch,
+    tip_gradient,
+)
 
 __version__ = "0.1.0"
 
 __all__ = [
+    "MODELS",
     "Backbone",
     "BatchSolution",
     "ConstantFriction",
     "CosseratOptions",
     "ExponentialFriction",
     "Loads",
+    "Model",
     "NoFriction",
     "NotConvergedError",
+    "PCCEquations",
     "PointLoad",
     "Robot",
     "Segment",
     "SolverOptions",
-    "StaticModel",
     "StaticSolution",
     "Tendon",
+    "TensionBounds",
+    "UnsupportedFeatureError",
     "__version__",
+    "get_model",
+    "paper_loads",
     "paper_robot",
     "rao_robot",
     "solve",
     "solve_batch",
+    "tip_gradient",
 ]

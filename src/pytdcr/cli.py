@@ -7,17 +7,20 @@ Exit status: 0 success (a solve converged), 1 a solve did not converge,
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from .design import ConstantFriction, ExponentialFriction, NoFriction, Robot
 from .io import RobotFileError, dump_json, load_robot, robot_to_dict, write_robot
-from .loads import Loads
-from .statics import MODELS, CosseratOptions, SolverOptions, solve
+from .loads import Loads, check_tensions
+from .paper import DEFAULT_BOUNDS
+from .statics import DEFAULT_ATOL, MODELS, UnsupportedFeatureError, configure, get_model, resolve, solve
 
 __all__ = ["build_parser", "main"]
 
@@ -56,27 +59,39 @@ def add_model_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--release", action="store_true", help="friction for releasing actuators (default: pulling)")
 
 
+def models_help() -> str:
+    """``--model``'s help: every registered model with its one-line description."""
+    return "; ".join(f"{name}: {m.description}" for name, m in MODELS.items()) + " [pcc]"
+
+
 def add_model_choice(p: argparse.ArgumentParser) -> None:
-    """--model pcc|cosserat and the Cosserat model's option (solve, sample, optimize)."""
+    """--model NAME (the registry's models) and --shear-extension (solve, sample, optimize)."""
     g = p.add_argument_group("static model")
-    g.add_argument("--model", choices=MODELS, default="pcc",
-                   help="pcc: the paper's piecewise constant curvature model; cosserat: Cosserat rod (no friction) "
-                   "[pcc]")
+    g.add_argument("--model", choices=list(MODELS), default="pcc", help=models_help())
     g.add_argument("--shear-extension", action="store_true",
-                   help="cosserat: let the backbone shear and stretch (default inextensible)")
+                   help="let the backbone shear and stretch (models with that option; default inextensible)")
 
 
-def solver_from_args(args: argparse.Namespace, robot: Robot, atol: float = 1e-9
-                     ) -> tuple[str, SolverOptions | CosseratOptions]:
-    """The chosen model and its options; CliError if the robot has friction and the model has none."""
-    if args.model == "pcc":
-        if args.shear_extension:
-            raise CliError("--shear-extension: only for --model cosserat")
-        return "pcc", SolverOptions(atol=atol)
-    if not isinstance(robot.friction, NoFriction):
-        raise CliError(f"--model cosserat: the Cosserat model has no tendon friction and robot '{robot.name}' has "
-                       f"law '{robot.friction.law}'; add --friction none")
-    return "cosserat", CosseratOptions(atol=atol, shear_extension=args.shear_extension)
+def options_from_args(model: str, atol: float | None = None, shear_extension: bool = False) -> Any:
+    """The model's default options with the command line's overrides; CliError if the model lacks one."""
+    overrides: dict[str, Any] = {}
+    if atol is not None:
+        overrides["atol"] = atol
+    if shear_extension:
+        overrides["shear_extension"] = True
+    try:
+        return configure(model, **overrides)
+    except UnsupportedFeatureError as err:
+        flag = "--shear-extension" if err.feature == "the option 'shear_extension'" else "--atol"
+        raise CliError(f"{flag}: model '{model}' has no such option") from None
+
+
+def solver_from_args(args: argparse.Namespace, robot: Robot, loads: Loads | None = None,
+                     atol: float | None = None) -> tuple[str, Any]:
+    """The chosen model's name and options, checked against the robot (friction) by the registry."""
+    opts = options_from_args(args.model, atol, args.shear_extension)
+    model, opts = resolve(args.model, robot, loads, opts)
+    return model.name, opts
 
 
 @dataclass(frozen=True)
@@ -119,10 +134,10 @@ def parse_tensions(text: str, robot: Robot) -> np.ndarray:
     t = parse_floats(text, "--tensions")
     if t.size != robot.n_tendons:
         raise CliError(f"--tensions: robot '{robot.name}' has {robot.n_tendons} tendons, got {t.size} values")
-    bad = np.flatnonzero(t < 0)
-    if bad.size:
-        raise CliError(f"--tensions: tension {bad[0] + 1} must be >= 0 N, got {t[bad[0]]}")
-    return t
+    try:
+        return check_tensions(t, robot.n_tendons, name="--tensions")
+    except ValueError as err:
+        raise CliError(str(err)) from None
 
 
 def add_bounds_options(p: argparse.ArgumentParser) -> None:
@@ -161,7 +176,7 @@ def bounds_from_args(args: argparse.Namespace, robot: Robot):
                 raise CliError(f"--bounds-file: robot '{robot.name}' has {nt} tendons; lower has {lo.size} "
                                f"entries, upper {hi.size}")
             return TensionBounds(lo, hi)
-        lo_hi = parse_floats(args.bounds, "--bounds", 2) if args.bounds else np.array([0.0, 20.0])
+        lo_hi = parse_floats(args.bounds, "--bounds", 2) if args.bounds else np.array(DEFAULT_BOUNDS)
         return TensionBounds.uniform(nt, lo_hi[0], lo_hi[1])
     except ValueError as err:
         raise CliError(str(err).replace("bounds:", "--bounds:", 1)) from None
@@ -172,7 +187,7 @@ def _tqdm_progress(desc: str, total: int):
 
     bar = tqdm(total=total, desc=desc, unit="gen", leave=False, file=sys.stderr)
 
-    def update(gen: int, best: float, mean: float) -> None:
+    def update(_gen: int, best: float, _mean: float) -> None:
         bar.update(1)
         bar.set_postfix(best=f"{best:.6f}")
 
@@ -186,7 +201,7 @@ def _cmd_sample(args: argparse.Namespace) -> int:
         raise CliError(f"--n must be >= 1, got {args.n}")
     setup = model_from_args(args)
     bounds = bounds_from_args(args, setup.robot)
-    model, options = solver_from_args(args, setup.robot)
+    model, options = solver_from_args(args, setup.robot, setup.loads)
     out = Path(args.out)
     run = run_sample(setup.robot, setup.loads, bounds, args.n, args.seed, out, model=model, options=options)
     s = run.samples
@@ -197,34 +212,40 @@ def _cmd_sample(args: argparse.Namespace) -> int:
     return 0
 
 
+def _print_reach(res: Any, args: argparse.Namespace) -> None:
+    ga = res.ga
+    print(f"GA (population {args.pop}, seed {args.seed}): {res.generations} generations"
+          f"{'' if res.stop_reason == 'tolerance' else ' (generation cap)'}, {res.evaluations} solves, "
+          f"{res.nonconverged} not converged, {res.seconds:.1f} s")
+    print(f"  GA best: tensions {np.round(ga.tensions, 4).tolist()} N, reach {ga.reach:.6f} m, cost {ga.cost:.6f} 1/m")
+    if res.polished:
+        print(f"  polished: reach {res.reach:.6f} m (cost {res.cost:.6f}, gain {res.polish_gain:.2e}), "
+              f"tensions {np.round(res.tensions, 4).tolist()} N")
+    print(f"  optimum tip {np.round(res.tip_position, 6).tolist()} m")
+
+
 def _cmd_optimize(args: argparse.Namespace) -> int:
+    from .optimize import MemeticGA, ReachProblem, Termination
     from .study import run_optimize
 
-    for name, val, lo in (("--pop", args.pop, 2), ("--max-gen", args.max_gen, 1), ("--window", args.window, 1)):
-        if val < lo:
-            raise CliError(f"{name} must be >= {lo}, got {val}")
-    if not (np.isfinite(args.tol) and args.tol > 0):
-        raise CliError(f"--tol must be finite and > 0, got {args.tol}")
+    try:
+        algorithm = MemeticGA(pop_size=args.pop, local_search=not args.no_local_search, polish=not args.no_polish)
+        termination = Termination(tol=args.tol, window=args.window, max_gen=args.max_gen)
+    except ValueError as err:
+        name = str(err).split(" ", 1)[0]
+        flag = {"pop_size": "--pop", "max_gen": "--max-gen", "window": "--window", "tol": "--tol"}.get(name, name)
+        raise CliError(f"{flag}{str(err)[len(name):]}") from None
     setup = model_from_args(args)
     bounds = bounds_from_args(args, setup.robot)
-    model, options = solver_from_args(args, setup.robot)
+    model, options = solver_from_args(args, setup.robot, setup.loads)
+    problem = ReachProblem.create(setup.robot, setup.loads, bounds, model=model, options=options)
     out = Path(args.out) if args.out else None
-    res, files = run_optimize(setup.robot, setup.loads, bounds, pop=args.pop, tol=args.tol, window=args.window,
-                              max_gen=args.max_gen, seed=args.seed, polish=not args.no_polish, out=out,
-                              model=model, options=options, local_search=not args.no_local_search,
+    res, files = run_optimize(problem, algorithm, termination, seed=args.seed, out=out,
                               progress=None if args.json else _tqdm_progress("GA", args.max_gen))
     if args.json:
         print(dump_json(res.to_dict()))
     else:
-        print(f"GA (population {args.pop}, seed {args.seed}): {res.generations} generations"
-              f"{'' if res.converged else ' (generation cap)'}, {res.evaluations} solves, "
-              f"{res.nonconverged} not converged, {res.seconds:.1f} s")
-        print(f"  tensions {np.round(res.tensions, 4).tolist()} N")
-        print(f"  reach {res.reach:.6f} m, cost {res.cost:.6f} 1/m, tip {np.round(res.tip_position, 6).tolist()} m")
-        if res.polish is not None:
-            p = res.polish
-            print(f"  polished: reach {p.reach:.6f} m (cost {p.cost:.6f}, gain {p.cost_change:.2e}), "
-                  f"tensions {np.round(p.tensions, 4).tolist()} N")
+        _print_reach(res, args)
         if files:
             print(f"wrote {', '.join(files)} in {out}")
     return 0
@@ -274,21 +295,40 @@ def _read_cases(path: str, robot: Robot) -> np.ndarray:
     return np.array(rows, dtype=float)
 
 
+def _compare_models(args: argparse.Namespace) -> tuple[str, ...]:
+    names = tuple(x.strip() for x in args.models.split(",") if x.strip())
+    for name in names:
+        if name not in MODELS:
+            raise CliError(f"--models: {name!r} is not a model; choose from {', '.join(MODELS)}")
+    if len(names) < 2 or len(set(names)) != len(names):
+        raise CliError(f"--models: give two or more distinct models, comma-separated, got {args.models!r}")
+    return names
+
+
+def _compare_robot(args: argparse.Namespace, robot: Robot, names: tuple[str, ...]) -> tuple[Robot, str]:
+    """The robot's own friction law is turned off (for every model) when one of the models has none."""
+    frictionless = [n for n in names if not get_model(n).capabilities.friction]
+    explicit = args.friction is not None and args.friction.strip().lower() != "none"
+    if robot.friction.is_frictionless or not frictionless or explicit:
+        return robot, ""  # an explicit --friction is checked by the registry (and refused by such a model)
+    note = (f" (friction of robot '{robot.name}' turned off for every model: {', '.join(frictionless)} "
+            "has none)")
+    return robot.with_friction(NoFriction()), note
+
+
 def _cmd_compare(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from .study import run_compare
 
-    explicit_friction = args.friction is not None and args.friction.strip().lower() != "none"
-    if explicit_friction:
-        raise CliError(f"--friction {args.friction}: the Cosserat model has no tendon friction; compare runs "
-                       "both models without it")
+    names = _compare_models(args)
     setup = model_from_args(args)
-    robot = setup.robot
-    note = ""
-    if not isinstance(robot.friction, NoFriction):
-        robot = robot.with_friction(NoFriction())
-        note = f" (friction of robot '{robot.name}' turned off for both models: the Cosserat model has none)"
+    robot, note = _compare_robot(args, setup.robot, names)
+    options = {n: options_from_args(n, shear_extension=args.shear_extension and
+                                    "shear_extension" in get_model(n).options_type.__dataclass_fields__)
+               for n in names}
+    for n in names:
+        resolve(n, robot, setup.loads, options[n])  # refuses before any work
     if args.cases:
         if args.bounds or args.bounds_file:
             raise CliError("--cases: give either --cases or --n with --bounds, not both")
@@ -303,14 +343,18 @@ def _cmd_compare(args: argparse.Namespace) -> int:
                   "seed": args.seed}
     out = Path(args.out)
     with tqdm(total=T.shape[0], desc="compare", unit="case", leave=False, file=sys.stderr) as bar:
-        cmp, files = run_compare(robot, setup.loads, T, out, source=source, progress=lambda: bar.update(1),
-                                 cosserat_options=CosseratOptions(shear_extension=args.shear_extension))
+        cmp, files = run_compare(robot, setup.loads, T, out, source=source, models=names, options=options,
+                                 progress=lambda: bar.update(1))
     s = cmp.summary()
-    med = s["difference_median_mm"]
-    print(f"{s['cases']} cases on robot '{robot.name}'{note}: both converged on {s['both_converged']}; tip difference "
-          f"median {med if med is None else round(med, 3)} mm, max "
-          f"{s['difference_max_mm'] if med is None else round(s['difference_max_mm'], 3)} mm; "
-          f"median solve PCC {s['pcc_ms_median']:.2f} ms, Cosserat {s['cosserat_ms_median']:.2f} ms")
+
+    def mm(v: float | None) -> str:
+        return "n/a" if v is None else f"{v:.3f}"
+
+    diffs = "; ".join(f"{n} from {cmp.reference}: median {mm(s[f'{n}_difference_median_mm'])} mm, max "
+                      f"{mm(s[f'{n}_difference_max_mm'])} mm" for n in cmp.others)
+    times = ", ".join(f"{n} {s[f'{n}_ms_median']:.2f} ms" for n in cmp.models)
+    print(f"{s['cases']} cases on robot '{robot.name}'{note}: every model converged on {s['all_converged']}; "
+          f"tip difference {diffs}; median solve {times}")
     print(f"wrote {', '.join(files)} in {out}")
     return 0
 
@@ -323,15 +367,14 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     robot = setup.robot
     tensions = parse_tensions(args.tensions, robot)
     loads = setup.loads.with_tensions(tensions)
-    model, options = solver_from_args(args, robot, args.atol)
+    model, options = solver_from_args(args, robot, loads, args.atol)
     sol = solve(robot, loads, model=model, options=options)
     if args.json:
         print(dump_json({"robot": robot.name, **sol.to_dict()}))
     else:
         status = "converged" if sol.converged else "NOT converged"
         print(f"robot {robot.name}: {robot.n_disks} disks, {robot.n_tendons} tendons; {model} model; {status}")
-        print(f"  max |residual| {sol.residual:.3e} N m, {sol.iterations} "
-              f"{'integrations' if model == 'cosserat' else 'iterations'}, "
+        print(f"  max |residual| {sol.residual:.3e} N m, {sol.iterations} {get_model(model).iteration_unit}, "
               f"{sol.load_steps} load steps, {sol.seconds * 1e3:.2f} ms")
         if sol.converged:
             p = sol.tip_position
@@ -346,13 +389,8 @@ def _cmd_solve(args: argparse.Namespace) -> int:
     return 0 if sol.converged else 1
 
 
-def _plot_solution(sol, robot: Robot, loads: Loads, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from .plotting import plot_robot
+def _plot_solution(sol: Any, robot: Robot, loads: Loads, path: Path) -> None:
+    from .plotting import plot_robot, pyplot
 
     arrows = []
     if np.any(loads.tip_force):
@@ -362,7 +400,7 @@ def _plot_solution(sol, robot: Robot, loads: Loads, path: Path) -> None:
     ax.set_title(f"{robot.name}: tip at {np.array2string(sol.tip_position, precision=3)} m")
     path.parent.mkdir(parents=True, exist_ok=True)
     ax.figure.savefig(path, dpi=150, bbox_inches="tight")
-    plt.close(ax.figure)
+    pyplot().close(ax.figure)
 
 
 def _cmd_robot(args: argparse.Namespace) -> int:
@@ -388,7 +426,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_model_options(s)
     add_model_choice(s)
     s.add_argument("--tensions", required=True, metavar="T1,...,Tn", help="actuator tensions [N]")
-    s.add_argument("--atol", type=float, default=1e-9, help="convergence tolerance on max |residual| [N m]")
+    s.add_argument("--atol", type=float, default=DEFAULT_ATOL,
+                   help=f"convergence tolerance on max |residual| [N m] [{DEFAULT_ATOL:g}]")
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.add_argument("--plot", metavar="FILE", help="write a 3D figure of the robot (PNG, PDF, SVG)")
     s.set_defaults(func=_cmd_solve)
@@ -424,13 +463,16 @@ def build_parser() -> argparse.ArgumentParser:
     rp.add_argument("--out", default="out/reproduce", help="output folder [out/reproduce]")
     rp.set_defaults(func=_cmd_reproduce)
 
-    c = sub.add_parser("compare", help="PCC against Cosserat rod on the same cases: table and overlay figure")
+    c = sub.add_parser("compare", help="two or more models on the same cases: table and overlay figure")
     add_model_options(c)
     add_bounds_options(c)
     c.add_argument("--cases", metavar="FILE", help="CSV of tension vectors, one case per row [N]")
     c.add_argument("--n", type=int, default=20, help="number of random cases when no --cases [20]")
     c.add_argument("--seed", type=int, default=0, help="random seed [0]")
-    c.add_argument("--shear-extension", action="store_true", help="Cosserat backbone shears and stretches")
+    c.add_argument("--models", default="pcc,cosserat", metavar="A,B[,...]",
+                   help=f"models to compare, the first the reference ({', '.join(MODELS)}) [pcc,cosserat]")
+    c.add_argument("--shear-extension", action="store_true",
+                   help="backbones shear and stretch (models with that option)")
     c.add_argument("--out", default="out/compare", help="output folder [out/compare]")
     c.set_defaults(func=_cmd_compare)
 
@@ -439,8 +481,6 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--out", help="write to this file instead of stdout")
     r.set_defaults(func=_cmd_robot)
     return p
-
-
 
 
 _VALUE_OPTIONS = ("--tip-force", "--tip-moment", "--tensions", "--bounds", "--friction")
@@ -465,7 +505,12 @@ def _glue_negative_values(argv: Sequence[str]) -> list[str]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``tdcr``; returns the exit status."""
+    """Entry point of ``tdcr``; returns the exit status.
+
+    The command line writes figures to files and never opens a window: it
+    alone picks matplotlib's Agg backend (unless ``MPLBACKEND`` says otherwise).
+    """
+    os.environ.setdefault("MPLBACKEND", "Agg")
     parser = build_parser()
     args = parser.parse_args(_glue_negative_values(sys.argv[1:] if argv is None else argv))
     try:

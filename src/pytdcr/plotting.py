@@ -1,26 +1,39 @@
-"""Figures: robot shapes in 3D. Only this module (and the CLI) import matplotlib.
+"""Figures: robot shapes in 3D, samples and convergence.
 
-Every function takes ``ax=None`` (a new 3D axis is made only if none is
-given), passes ``**kwargs`` to matplotlib and returns the axis.
+Every function takes ``ax=None`` (a new axis is made only if none is given),
+passes ``**kwargs`` to matplotlib and returns the axis. matplotlib is loaded
+when a function here is first called, not when the module is imported, and
+the backend is never changed here (the command line alone picks Agg).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
 
-import matplotlib.pyplot as plt
 import numpy as np
-from mpl_toolkits.mplot3d.axes3d import Axes3D
 
 from .design import Robot
 from .results import StaticSolution
 
-__all__ = ["new_3d_axes", "plot_model_overlay", "plot_robot", "plot_robots", "set_equal_aspect"]
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from mpl_toolkits.mplot3d.axes3d import Axes3D
+
+__all__ = ["new_3d_axes", "plot_convergence", "plot_model_overlay", "plot_reach_samples", "plot_robot", "plot_robots",
+           "pyplot", "set_equal_aspect"]
+
+
+def pyplot() -> Any:
+    """``matplotlib.pyplot``, imported on first use."""
+    import matplotlib.pyplot as plt
+
+    return plt
 
 
 def new_3d_axes(figsize: tuple[float, float] = (6.0, 6.0)) -> Axes3D:
     """A fresh figure with one 3D axis."""
-    fig = plt.figure(figsize=figsize)
+    fig = pyplot().figure(figsize=figsize)
     return fig.add_subplot(projection="3d")
 
 
@@ -87,7 +100,7 @@ def plot_robot(
             pts.append(ring.T)
     if tendons and robot.n_tendons:
         anchors = robot.anchor_disks
-        cmap = plt.get_cmap("tab10")
+        cmap = pyplot().get_cmap("tab10")
         for c in range(robot.n_tendons):
             path = np.array([pos[i] + rot[i] @ holes[c] for i in range(anchors[c] + 1)])
             ax.plot(path[:, 0], path[:, 1], path[:, 2], color=cmap(c % 10), linewidth=0.9)
@@ -115,7 +128,7 @@ def plot_robots(
     """Several converged shapes on one axis (non-converged ones are skipped)."""
     if ax is None:
         ax = new_3d_axes()
-    cmap = plt.get_cmap("viridis")
+    cmap = pyplot().get_cmap("viridis")
     good = [s for s in solutions if s.converged]
     pts = []
     for k, s in enumerate(good):
@@ -128,25 +141,28 @@ def plot_robots(
 
 
 def plot_model_overlay(
-    pairs: Sequence[tuple[StaticSolution, StaticSolution]], robot: Robot, ax: Axes3D | None = None,
+    groups: Sequence[Sequence[StaticSolution]], robot: Robot, ax: Axes3D | None = None,
     labels: Sequence[str] = ("PCC", "Cosserat"),
     case_ids: Sequence[int] | None = None,
 ) -> Axes3D:
-    """Overlay two models' shapes case by case: the first solid, the second dashed, one colour per case.
+    """Overlay models' shapes case by case: the first solid, the others dashed, dotted..., one colour per case.
 
-    Pairs where either solve did not converge are skipped. ``case_ids`` name
-    the cases in the legend (default 1, 2, ...).
+    Each entry of ``groups`` holds one solution per model (two or more, in the
+    order of ``labels``); entries where any solve did not converge are
+    skipped. ``case_ids`` name the cases in the legend (default 1, 2, ...).
     """
     if ax is None:
         ax = new_3d_axes()
-    cmap = plt.get_cmap("tab10")
+    cmap = pyplot().get_cmap("tab10")
     pts = []
     k = 0
-    for j, (a, b) in enumerate(pairs):
-        if not (a.converged and b.converged):
+    styles = ("-", "--", ":", "-.")
+    for j, group in enumerate(groups):
+        if not all(s.converged for s in group):
             continue
         cid = case_ids[j] if case_ids is not None else j + 1
-        for sol, style, name in ((a, "-", labels[0]), (b, "--", labels[1])):
+        for m, (sol, name) in enumerate(zip(group, labels, strict=True)):
+            style = styles[m % len(styles)]
             plot_robot(sol, robot, ax, color=cmap(k % 10), disks=False, tendons=False, frames=False, equal=False,
                        linestyle=style, label=f"case {cid} {name}" if k < 10 else None)
             pts.append(sol.backbone_points(robot))
@@ -157,7 +173,7 @@ def plot_model_overlay(
     return ax
 
 
-def plot_reach_samples(reach: np.ndarray, converged: np.ndarray, ax=None, **kwargs):
+def plot_reach_samples(reach: np.ndarray, converged: np.ndarray, ax: Axes | None = None, **kwargs: Any) -> Axes:
     """The paper's Fig. 3(a): ||^0P_n|| against sample number.
 
     Converged samples are drawn as points with a smoothing spline through
@@ -173,7 +189,7 @@ def plot_reach_samples(reach: np.ndarray, converged: np.ndarray, ax=None, **kwar
     from scipy.interpolate import make_smoothing_spline
 
     if ax is None:
-        ax = plt.figure(figsize=(7.0, 4.0)).add_subplot()
+        ax = pyplot().figure(figsize=(7.0, 4.0)).add_subplot()
     reach = np.asarray(reach, dtype=float)
     ok = np.asarray(converged, dtype=bool)
     idx = np.arange(1, reach.size + 1)
@@ -191,10 +207,10 @@ def plot_reach_samples(reach: np.ndarray, converged: np.ndarray, ax=None, **kwar
     return ax
 
 
-def plot_convergence(best: Sequence[float], mean: Sequence[float], ax=None, **kwargs):
+def plot_convergence(best: Sequence[float], mean: Sequence[float], ax: Axes | None = None, **kwargs: Any) -> Axes:
     """The paper's Fig. 5: best and mean feasible cost (1/reach) per generation."""
     if ax is None:
-        ax = plt.figure(figsize=(6.0, 4.0)).add_subplot()
+        ax = pyplot().figure(figsize=(6.0, 4.0)).add_subplot()
     gens = np.arange(1, len(best) + 1)
     ax.plot(gens, best, "o-", color="tab:blue", markersize=4, label="best cost", **kwargs)
     ax.plot(gens, mean, "s", color="tab:red", markersize=3, label="mean cost (feasible)")

@@ -1,0 +1,201 @@
+"""The paper's whole study (sections 3-4) in one run: samples, the GA at three populations, a payload, bounds."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..bounds import TensionBounds
+from ..design import Robot
+from ..loads import Loads
+from ..optimize import MemeticGA, ReachProblem, ReachResult, Termination, maximize_reach, polish_reach
+from ..paper import DEFAULT_BOUNDS, PAYLOAD_MASS, paper_bounds, paper_loads, payload_loads
+from ..plotting import plot_robot
+from ..statics import options_record, solve
+from ..statics._batch import default_threads
+from ._output import inputs_record, load_arrows, save_figure, write_json
+from ._report import reproduce_report
+from ._runs import run_sample, write_optimize
+
+__all__ = ["ReproduceSettings", "run_reproduce"]
+
+Progress = Callable[[str, int], Callable[[int, float, float], None]]
+
+
+@dataclass(frozen=True)
+class ReproduceSettings:
+    """The budget of :func:`run_reproduce` (defaults: the paper's study).
+
+    Attributes
+    ----------
+    pops : tuple of int
+        GA populations under the paper's load (the paper: 50, 100, 200).
+    n_samples : int
+        Random tension vectors of Fig. 3(a).
+    tol, window, max_gen : float, int, int
+        The GA's termination (:class:`~pytdcr.optimize.Termination`).
+    bound_uppers : tuple of float
+        Upper tension bounds of the bounds study [N].
+    side_max_gen : int
+        Generation cap of the payload and bounds studies.
+    n_polish : int
+        Starts of each final polish.
+    """
+
+    pops: tuple[int, ...] = (50, 100, 200)
+    n_samples: int = 100
+    tol: float = 1e-6
+    window: int = 5
+    max_gen: int = 30
+    bound_uppers: tuple[float, ...] = (10.0, 20.0, 40.0)
+    side_max_gen: int = 30
+    n_polish: int = 2
+
+
+@dataclass(frozen=True)
+class _Job:
+    problem: ReachProblem
+    pop: int
+    max_gen: int
+    label: str
+
+
+def _jobs(robot: Robot, s: ReproduceSettings) -> dict[str, _Job]:
+    """Every GA run of the study, by key: ``pop50``..., ``payload``, ``bounds10``..."""
+    nt = robot.n_tendons
+    bounds = paper_bounds(nt)
+    loaded = ReachProblem.create(robot, paper_loads(np.zeros(nt)), bounds)
+    g = float(np.linalg.norm(robot.gravity)) or 9.81
+    jobs = {f"pop{p}": _Job(loaded, p, s.max_gen, f"GA population {p}") for p in s.pops}
+    jobs["payload"] = _Job(ReachProblem.create(robot, payload_loads(nt, g), bounds), s.pops[0], s.side_max_gen,
+                           "GA under a payload")
+    for h in s.bound_uppers:
+        if h != DEFAULT_BOUNDS[1] or DEFAULT_BOUNDS[0] != 0.0:
+            b = TensionBounds.uniform(nt, 0.0, h)
+            jobs[f"bounds{h:g}"] = _Job(ReachProblem.create(robot, loaded.loads, b), s.pops[0], s.side_max_gen,
+                                        f"GA, bounds [0, {h:g}] N")
+    return jobs
+
+
+def _sample_and_passive(robot: Robot, loads: Loads, bounds: TensionBounds, s: ReproduceSettings, seed: int,
+                        out: Path, summary: dict[str, Any], note: Callable) -> None:
+    """Fig. 3(a) and Fig. 4 (random samples under the paper's load), Fig. 3(b) (no tension, the load alone)."""
+    cb = note("sampling", 1)
+    sample = run_sample(robot, loads, bounds, s.n_samples, seed, out)
+    if cb:
+        cb(1, 0.0, 0.0)
+    summary["files"] += sample.files
+    smp = sample.samples
+    summary["sampling"] = {"n": s.n_samples, "converged": int(smp.converged.sum()), "seconds": smp.seconds,
+                           "reach_max": float(np.nanmax(smp.reach)), "reach_min": float(np.nanmin(smp.reach))}
+    passive = solve(robot, loads)
+    if passive.converged:
+        ax = plot_robot(passive, robot, loads=load_arrows(passive, loads, robot))
+        ax.set_title(f"no tension; tip force {tuple(loads.tip_force.tolist())} N (purple),\n"
+                     f"moment {tuple(loads.tip_moment.tolist())} N m (orange: axis)")
+        summary["files"] += save_figure(ax.figure, out, "fig3b_loaded")
+    summary["passive"] = {"converged": passive.converged,
+                          "tip": passive.tip_position.tolist() if passive.converged else None,
+                          "reach": passive.reach if passive.converged else None}
+
+
+def _adopt(r: ReachResult, other: ReachResult) -> ReachResult:
+    """``r`` with ``other``'s optimum as its final one (the GA stage of ``r`` kept)."""
+    start_cost = r.ga.cost if r.ga is not None else r.cost
+    return dataclasses.replace(r, tensions=other.tensions, tip_position=other.tip_position, reach=other.reach,
+                               cost=other.cost, value=other.value, polish_gain=start_cost - other.cost)
+
+
+def _bounds_study(robot: Robot, jobs: dict[str, _Job], done: dict[str, ReachResult], ga: dict[int, ReachResult],
+                  s: ReproduceSettings) -> list[tuple[float, ReachResult]]:
+    """How the optimum depends on the upper bound.
+
+    At the default bounds the main study's best run, else the side run; then one more polish from the
+    optimum of the next tighter bounds (which lies inside these), keeping the better.
+    """
+    loads = jobs[f"pop{s.pops[0]}"].problem.loads
+    study: list[tuple[float, ReachResult]] = []
+    for hi in sorted(s.bound_uppers):
+        b = TensionBounds.uniform(robot.n_tendons, 0.0, hi)
+        r = done.get(f"bounds{hi:g}") or min(ga.values(), key=lambda g_: g_.cost)
+        if study:
+            p2 = polish_reach(ReachProblem.create(robot, loads, b), study[-1][1].tensions)
+            if p2.cost < r.cost:
+                r = _adopt(r, p2)
+        study.append((hi, r))
+    return study
+
+
+def _run_jobs(jobs: dict[str, _Job], s: ReproduceSettings, seed: int, note: Callable,
+              between: Callable[[], None], finished: Callable[[str, ReachResult], None]) -> dict[str, ReachResult]:
+    """Run the GA jobs two at a time in worker threads (the compiled solvers release the GIL).
+
+    This thread runs ``between`` meanwhile and then ``finished`` for each job in order (pyplot, which
+    draws the figures, is not thread-safe). Each run is deterministic by its seed, whatever the interleaving.
+    """
+    def run(j: _Job) -> ReachResult:
+        return maximize_reach(j.problem, MemeticGA(pop_size=j.pop, n_polish=s.n_polish),
+                              Termination(s.tol, s.window, j.max_gen), seed=seed,
+                              on_generation=note(j.label, j.max_gen))
+
+    order = sorted(jobs, key=lambda k: -jobs[k].pop)  # largest populations first
+    pool = ThreadPoolExecutor(max_workers=max(1, min(2, default_threads())))
+    futures = {k: pool.submit(run, jobs[k]) for k in order}
+    done: dict[str, ReachResult] = {}
+    try:
+        between()
+        for k in order:
+            done[k] = futures[k].result()
+            finished(k, done[k])
+    finally:
+        pool.shutdown(cancel_futures=True)
+    return done
+
+
+def run_reproduce(robot: Robot, out: Path, *, seed: int = 0, progress: Progress | None = None,
+                  settings: ReproduceSettings | None = None) -> dict[str, Any]:
+    """The paper's whole study (sections 3-4) on ``robot``; writes figures, data and ``report.md``."""
+    s = settings or ReproduceSettings()
+    t_start = time.perf_counter()
+    out.mkdir(parents=True, exist_ok=True)
+    bounds = paper_bounds(robot.n_tendons)
+    jobs = _jobs(robot, s)
+    loaded = jobs[f"pop{s.pops[0]}"].problem
+    summary: dict[str, Any] = {"seed": seed, "files": []}
+
+    def note(stage: str, total: int) -> Callable[[int, float, float], None] | None:
+        return progress(stage, total) if progress is not None else None
+
+    def finished(key: str, r: ReachResult) -> None:
+        # Fig. 5 (each population, under the paper's load) and Fig. 6 (under a vertical payload), drawn as
+        # the runs finish
+        if key.startswith("pop") or key == "payload":
+            summary["files"] += write_optimize(r, jobs[key].problem, out, stem=key)
+
+    done = _run_jobs(jobs, s, seed, note,
+                     lambda: _sample_and_passive(robot, loaded.loads, bounds, s, seed, out, summary, note), finished)
+    ga = {pop: done[f"pop{pop}"] for pop in s.pops}
+    pay = done["payload"]
+    bound_study = _bounds_study(robot, jobs, done, ga, s)
+    seconds = time.perf_counter() - t_start
+    (out / "report.md").write_text(reproduce_report(robot, summary, ga, pay, bound_study, bounds, seconds, s))
+    summary["files"].append("report.md")
+    write_json(out / "reproduce.json", {
+        "inputs": inputs_record(robot, loaded.loads, bounds=bounds.to_dict(), seed=seed,
+                                payload_mass_kg=PAYLOAD_MASS, **dataclasses.asdict(s),
+                                solver=options_record(loaded.model, loaded.options)),
+        "summary": summary,
+        "ga": {str(p): r.to_dict() for p, r in ga.items()},
+        "payload": pay.to_dict(),
+        "bounds_study": [{"upper": hi, **r.to_dict()} for hi, r in bound_study],
+        "seconds": seconds,
+    })
+    summary["seconds"] = seconds
+    return summary
