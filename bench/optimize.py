@@ -15,13 +15,12 @@ from __future__ import annotations
 import argparse
 import time
 
-import numpy as np
 from _common import write_result
 
-from pytdcr import Loads, paper_robot
-from pytdcr.optimize import maximize_reach
+from pytdcr import paper_loads, paper_robot
+from pytdcr.optimize import MemeticGA, ReachProblem, Termination, maximize_reach
+from pytdcr.paper import paper_bounds
 from pytdcr.statics import warmup
-from pytdcr.workspace import TensionBounds
 
 
 def main() -> None:
@@ -30,30 +29,27 @@ def main() -> None:
     ap.add_argument("--json", action="store_true", help="print one JSON object as the last line")
     args = ap.parse_args()
     warmup()
-    robot = paper_robot()
-    loads = Loads(np.zeros(8), tip_force=[0.1, 0.1, -0.1], tip_moment=[-0.1, 0.1, 0.1])
-    bounds = TensionBounds.uniform(8, 0.0, 20.0)
+    problem = ReachProblem.create(paper_robot(), paper_loads(), paper_bounds())
     rows = []
     print("seed  generations  solves  polish change [1/m]  GA reach [m]  polished reach [m]  seconds")
     for seed in range(args.seeds):
         t0 = time.perf_counter()
-        r = maximize_reach(robot, loads, bounds, pop_size=50, tol=1e-6, window=5, max_gen=30, seed=seed)
-        row = {"seed": seed, "generations": r.generations, "tol_met": r.converged, "evaluations": r.evaluations,
-               "local_search_evaluations": r.history["local_search_evaluations"][-1],
-               "polish_cost_change": r.polish.cost_change, "reach": r.reach, "polished_reach": r.polish.reach,
+        r = maximize_reach(problem, MemeticGA(pop_size=50), Termination(1e-6, 5, 30), seed=seed)
+        row = {"seed": seed, "generations": r.generations, "tol_met": r.stop_reason == "tolerance",
+               "evaluations": r.evaluations, "local_search_evaluations": r.history["local_search_evaluations"][-1],
+               "polish_cost_change": r.polish_gain, "reach": r.ga.reach, "polished_reach": r.reach,
                "seconds": time.perf_counter() - t0}
         rows.append(row)
-        print(f"{seed:4d}  {r.generations:11d}  {r.evaluations:6d}  {r.polish.cost_change:19.2e}  "
-              f"{r.reach:12.7f}  {r.polish.reach:18.7f}  {row['seconds']:7.1f}")
+        print(f"{seed:4d}  {r.generations:11d}  {r.evaluations:6d}  {r.polish_gain:19.2e}  "
+              f"{r.ga.reach:12.7f}  {r.reach:18.7f}  {row['seconds']:7.1f}")
     t0 = time.perf_counter()
-    plain = maximize_reach(robot, loads, bounds, pop_size=50, tol=1e-6, window=5, max_gen=100, seed=0,
-                           local_search=False)
-    plain_row = {"generations": plain.generations, "tol_met": plain.converged, "evaluations": plain.evaluations,
-                 "polish_cost_change": plain.polish.cost_change, "reach": plain.reach,
-                 "polished_reach": plain.polish.reach, "seconds": time.perf_counter() - t0}
-    print(f"plain GA, seed 0: {plain.generations} generations ({'tol met' if plain.converged else 'cap'}), "
-          f"{plain.evaluations} solves, polish change {plain.polish.cost_change:.2e}, reach {plain.reach:.7f} -> "
-          f"{plain.polish.reach:.7f} m, {plain_row['seconds']:.1f} s")
+    plain = maximize_reach(problem, MemeticGA(pop_size=50, local_search=False), Termination(1e-6, 5, 100), seed=0)
+    plain_row = {"generations": plain.generations, "tol_met": plain.stop_reason == "tolerance",
+                 "evaluations": plain.evaluations, "polish_cost_change": plain.polish_gain, "reach": plain.ga.reach,
+                 "polished_reach": plain.reach, "seconds": time.perf_counter() - t0}
+    print(f"plain GA, seed 0: {plain.generations} generations ({plain.stop_reason}), "
+          f"{plain.evaluations} solves, polish change {plain.polish_gain:.2e}, reach {plain.ga.reach:.7f} -> "
+          f"{plain.reach:.7f} m, {plain_row['seconds']:.1f} s")
     ok = [r_ for r_ in rows if r_["generations"] <= 10 and r_["evaluations"] <= 500
           and abs(r_["polish_cost_change"]) < 1e-6]
     print(f"seeds meeting <= 10 generations, <= 500 solves and polish change < 1e-6: {len(ok)} of {len(rows)}")

@@ -51,12 +51,13 @@ def main() -> None:
     startup = [startup_seconds() for _ in range(3)]
     import pytdcr
     from pytdcr import Loads, NoFriction, SolverOptions, paper_robot, solve, solve_batch
+    from pytdcr.paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT
 
     pytdcr.statics.warmup()
     rng = np.random.default_rng(args.seed)
     paper = paper_robot()
     bare = paper.with_gravity(None).with_friction(NoFriction())
-    tip = {"tip_force": [0.1, 0.1, -0.1], "tip_moment": [-0.1, 0.1, 0.1]}
+    tip = {"tip_force": PAPER_TIP_FORCE, "tip_moment": PAPER_TIP_MOMENT}
 
     def timed(robot, make_loads, q0=None):
         ms, conv, steps = [], 0, 0

@@ -8,9 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
-from pytdcr import Loads
+from pytdcr import Loads, TensionBounds
 from pytdcr.io import read_robot
-from pytdcr.workspace import TensionBounds, sample_workspace
+from pytdcr.workspace import sample_workspace
 
 TOML = """
 schema_version = 1

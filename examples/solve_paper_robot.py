@@ -10,12 +10,11 @@ import matplotlib
 matplotlib.use("Agg")
 import numpy as np
 
-from pytdcr import Loads, paper_robot, solve
+from pytdcr import paper_loads, paper_robot, solve
 from pytdcr.plotting import plot_robot
 
 robot = paper_robot()
-loads = Loads(np.array([6.0, 0.0, 0.0, 0.0, 3.0, 0.0, 0.0, 0.0]), tip_force=[0.1, 0.1, -0.1],
-              tip_moment=[-0.1, 0.1, 0.1])
+loads = paper_loads(np.array([6.0, 0.0, 0.0, 0.0, 3.0, 0.0, 0.0, 0.0]))  # the paper's tip force and moment
 sol = solve(robot, loads)
 print(f"converged={sol.converged} residual={sol.residual:.2e} N m path={sol.path}")
 if not sol.converged:
