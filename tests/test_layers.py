@@ -134,8 +134,9 @@ def test_import_has_no_side_effects():
         "import pytdcr, pytdcr.study, pytdcr.plotting, pytdcr.workspace, pytdcr.optimize, pytdcr.compare\n"
         "bad = [m for m in ('matplotlib', 'pytdcr.cli') if m in sys.modules]\n"
         "import numba\n"
-        "from pytdcr.statics import _kernels\n"
-        "loaded = [k for k in ('solve_range', 'evaluate') if getattr(_kernels, k).signatures]\n"
+        "from pytdcr.statics import _kernels, _solver_kernels\n"
+        "loaded = [k for k, f in (('solve_range', _solver_kernels.solve_range), ('evaluate', _kernels.evaluate))\n"
+        "          if f.signatures]\n"
         "print(','.join(bad + loaded))\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()

@@ -29,13 +29,13 @@ from pytdcr.statics.pcc import PCC, PCCModel
 
 
 def test_registry_names_describe_and_resolve():
-    assert {"pcc", "cosserat"} <= set(MODELS)
+    assert {"pcc", "pcc2", "sscr", "cosserat"} <= set(MODELS)
     for name, m in MODELS.items():
         assert isinstance(m, Model) and m.name == name
         assert m.description and "\n" not in m.description
         assert isinstance(m.default_options(), m.options_type)
     assert get_model("pcc") is PCC
-    with pytest.raises(ValueError, match=r"model must be one of \['pcc', 'cosserat'"):
+    with pytest.raises(ValueError, match=r"model must be one of \['pcc', .*'cosserat'\], got 'prbm'"):
         get_model("prbm")
     with pytest.raises(TypeError, match="registered name"):
         get_model(3.0)  # type: ignore[arg-type]

@@ -9,9 +9,12 @@ from ._constants import DEFAULT_ATOL, PATH_NAMES, TIGHT_ATOL
 from .base import Capabilities, Model, UnsupportedFeatureError
 from .cosserat import CosseratModel, CosseratOptions, CosseratShooting
 from .pcc import PCCEquations, PCCModel, SolverOptions
+from .pcc2 import PCC2Model
 from .registry import MODELS, configure, get_model, options_record, resolve
 from .solve import solve, solve_batch, tip_gradient, warmup
+from .sscr import SSCREquations, SSCRModel, SSCROptions
 
 __all__ = ["DEFAULT_ATOL", "MODELS", "PATH_NAMES", "TIGHT_ATOL", "Capabilities", "CosseratModel", "CosseratOptions",
-           "CosseratShooting", "Model", "PCCEquations", "PCCModel", "SolverOptions", "UnsupportedFeatureError",
+           "CosseratShooting", "Model", "PCC2Model", "PCCEquations", "PCCModel", "SSCREquations", "SSCRModel",
+           "SSCROptions", "SolverOptions", "UnsupportedFeatureError",
            "configure", "get_model", "options_record", "resolve", "solve", "solve_batch", "tip_gradient", "warmup"]

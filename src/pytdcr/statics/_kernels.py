@@ -32,13 +32,12 @@ import numpy as np
 from numba import njit
 
 from ..kinematics import frames, subsegment
-from ._constants import PATH_DIRECT, PATH_FALLBACK, PATH_LOADING, PATH_SNAP
 
 # fast-math that keeps NaN/Inf semantics (non-convergence must stay detectable)
 _FM = {"contract", "reassoc", "arcp", "nsz"}
 
-__all__ = ["Outcome", "Packed", "Settings", "Work", "evaluate", "frames", "make_work", "newton", "relax",
-           "solve_one", "solve_range", "subsegment", "tendon_unit_load_jvp"]
+__all__ = ["BALANCE_BASE", "BALANCE_MIDPOINT", "Packed", "Work", "evaluate", "frames", "largest_angle",
+           "make_model_work", "make_work", "subsegment", "tendon_unit_load_jvp", "with_tension"]
 
 
 class Packed(NamedTuple):
@@ -52,15 +51,7 @@ class Packed(NamedTuple):
     grav: np.ndarray
     pforce: np.ndarray
     pmoment: np.ndarray
-
-
-class Settings(NamedTuple):
-    """Solver settings: tolerance [N m], Newton iterations, step limit [rad], load-stepping code."""
-
-    atol: float
-    max_iter: int
-    max_dtheta: float
-    stepping: int
+    balance: int  # where each subsegment's moment balance is taken: BALANCE_BASE or BALANCE_MIDPOINT
 
 
 class Work(NamedTuple):
@@ -83,24 +74,12 @@ class Work(NamedTuple):
     dL: np.ndarray  # (6, m)
 
 
-class Outcome(NamedTuple):
-    """What :func:`solve_one` returns."""
-
-    q: np.ndarray  # (3N,) the unknowns reached
-    converged: bool
-    residual: float  # max |residual| [N m]
-    iterations: int  # Newton iterations in all
-    jacobians: int  # exact Jacobian evaluations
-    load_steps: int
-    path: int  # a PATH_* code
-
 _H = 1e-30  # complex-step size
-_STALL = 15  # Newton gives up after this many iterations without halving the residual
-_STEP_ITER = 8  # Newton iterations allowed per load step
-_STEP_ATOL = 1e-6  # tolerance [N m] of intermediate load steps (they only track the branch)
-_MAX_DLAM = 0.25  # largest load step
-_STEP_TARGET = 0.05  # [rad] bend/twist change of a subsegment that a load step aims at
-_MAX_STEP_CHANGE = 0.1  # [rad] largest bend/twist change of a subsegment in one load step (else: a branch jump)
+
+#: the paper's balance, about each subsegment's base (MODEL.md; first order in the disk spacing)
+BALANCE_BASE = 0
+#: about the subsegment's midpoint, in the midpoint's cross-section frame (MODEL.md, appendix A; second order)
+BALANCE_MIDPOINT = 1
 
 
 @njit(cache=True, fastmath=_FM)
@@ -288,6 +267,87 @@ def make_work(n, nt):
         np.zeros((n + 2, nt)), np.zeros((n + 2, nt, m)), np.zeros((n + 1, nt, 7)), np.zeros((n + 1, nt, 7, 6)),
         np.zeros((3, m)), np.zeros((3, m)), np.zeros((6, m)),
     )
+
+
+@njit(cache=True, fastmath=_FM)
+def _midpoint_rows(q, k, ell, EI, GJ, nFx, nFy, nFz, nMx, nMy, nMz, dF, dM, want_jac, r, J):
+    """Residual rows of one subsegment, balanced about its midpoint (MODEL.md, appendix A), and their Jacobian.
+
+    The distal wrench (nF, nM: frame i-1, about the subsegment's base) is moved to the midpoint of the arc,
+    p_m = d(beta, gamma; l/2), and written in the midpoint's cross-section frame
+    R_m = Exp((l/2)[-gamma, beta, 0]) Rz(eps/2) (half the bend, half the twist), where the bending moment is
+    EI Rz(-eps/2) [-gamma, beta, 0] and the torsion GJ eps/l:
+
+        r = EI Rz(-eps/2) [-gamma, beta, 0] + [0, 0, GJ eps / l] - R_m^T (nM - p_m x nF)
+
+    ``dF``, ``dM`` (3, 3N) hold the derivatives of nF and nM by every unknown; the local derivatives of R_m
+    and p_m come from the complex step, like the subsegment's own.
+    """
+    beta = q[k]
+    gamma = q[k + 1]
+    eps = q[k + 2]
+    Rm = np.empty((3, 3))
+    pm = np.empty(3)
+    pg = np.empty(3)
+    subsegment(beta, gamma, 0.5 * eps, 0.5 * ell, Rm, pm, pg)
+    # mu = nM - pm x nF, about the midpoint, frame i-1
+    mux = nMx - (pm[1] * nFz - pm[2] * nFy)
+    muy = nMy - (pm[2] * nFx - pm[0] * nFz)
+    muz = nMz - (pm[0] * nFy - pm[1] * nFx)
+    c = np.cos(0.5 * eps)
+    s = np.sin(0.5 * eps)
+    b0 = EI * (-c * gamma + s * beta)
+    b1 = EI * (s * gamma + c * beta)
+    tz = GJ * eps / ell
+    r[k] = b0 - (Rm[0, 0] * mux + Rm[1, 0] * muy + Rm[2, 0] * muz)
+    r[k + 1] = b1 - (Rm[0, 1] * mux + Rm[1, 1] * muy + Rm[2, 1] * muz)
+    r[k + 2] = tz - (Rm[0, 2] * mux + Rm[1, 2] * muy + Rm[2, 2] * muz)
+    if not want_jac:
+        return
+    m = dF.shape[1]
+    # d(mu)/dq_j through the distal wrench (every lane), then R_m^T of it
+    for j in range(m):
+        dmx = dM[0, j] - (pm[1] * dF[2, j] - pm[2] * dF[1, j])
+        dmy = dM[1, j] - (pm[2] * dF[0, j] - pm[0] * dF[2, j])
+        dmz = dM[2, j] - (pm[0] * dF[1, j] - pm[1] * dF[0, j])
+        J[k, j] = -(Rm[0, 0] * dmx + Rm[1, 0] * dmy + Rm[2, 0] * dmz)
+        J[k + 1, j] = -(Rm[0, 1] * dmx + Rm[1, 1] * dmy + Rm[2, 1] * dmz)
+        J[k + 2, j] = -(Rm[0, 2] * dmx + Rm[1, 2] * dmy + Rm[2, 2] * dmz)
+    # local lanes: R_m and p_m move with the subsegment's own unknowns (complex step)
+    Rc = np.empty((3, 3), dtype=np.complex128)
+    pc = np.empty(3, dtype=np.complex128)
+    gc = np.empty(3, dtype=np.complex128)
+    h = _H
+    for a in range(3):
+        qb = beta + 0j
+        qg = gamma + 0j
+        qe = eps + 0j
+        if a == 0:
+            qb += 1j * h
+        elif a == 1:
+            qg += 1j * h
+        else:
+            qe += 1j * h
+        subsegment(qb, qg, 0.5 * qe, 0.5 * ell + 0j, Rc, pc, gc)
+        dpx = pc[0].imag / h
+        dpy = pc[1].imag / h
+        dpz = pc[2].imag / h
+        # d(mu) from the moving midpoint
+        dmx = -(dpy * nFz - dpz * nFy)
+        dmy = -(dpz * nFx - dpx * nFz)
+        dmz = -(dpx * nFy - dpy * nFx)
+        for u in range(3):
+            acc = Rm[0, u] * dmx + Rm[1, u] * dmy + Rm[2, u] * dmz
+            acc += (Rc[0, u].imag * mux + Rc[1, u].imag * muy + Rc[2, u].imag * muz) / h
+            J[k + u, k + a] -= acc
+    # the bending and torsion terms
+    J[k, k] += EI * s
+    J[k, k + 1] += -EI * c
+    J[k + 1, k] += EI * c
+    J[k + 1, k + 1] += EI * s
+    J[k, k + 2] += 0.5 * EI * (s * gamma + c * beta)
+    J[k + 1, k + 2] += 0.5 * EI * (c * gamma - s * beta)
+    J[k + 2, k + 2] += GJ / ell
 
 
 @njit(cache=True, fastmath=_FM, nogil=True)
@@ -490,9 +550,10 @@ def evaluate(q, lam, model, want_jac, r, J, work):
         # residual
         EI = sub[i - 1, 1]
         tau = sub[i - 1, 2] * q[k + 2] / ell
-        r[k] = -EI * q[k + 1] + R[0, 2] * tau - nMx
-        r[k + 1] = EI * q[k] + R[1, 2] * tau - nMy
-        r[k + 2] = R[2, 2] * tau - nMz
+        if model.balance == BALANCE_BASE:
+            r[k] = -EI * q[k + 1] + R[0, 2] * tau - nMx
+            r[k + 1] = EI * q[k] + R[1, 2] * tau - nMy
+            r[k + 2] = R[2, 2] * tau - nMz
 
         if want_jac:
             dL[:, :] = 0.0
@@ -576,19 +637,22 @@ def evaluate(q, lam, model, want_jac, r, J, work):
                 dM[0, k + a] += gmx + ddy * RFz - ddz * RFy + d[1] * gfz - d[2] * gfy
                 dM[1, k + a] += gmy + ddz * RFx - ddx * RFz + d[2] * gfx - d[0] * gfz
                 dM[2, k + a] += gmz + ddx * RFy - ddy * RFx + d[0] * gfy - d[1] * gfx
-            # Jacobian rows of subsegment i
-            for j in range(m):
-                J[k, j] = -dM[0, j]
-                J[k + 1, j] = -dM[1, j]
-                J[k + 2, j] = -dM[2, j]
-            GJl = sub[i - 1, 2] / ell
-            for a in range(3):
+            if model.balance == BALANCE_BASE:
+                # Jacobian rows of subsegment i
+                for j in range(m):
+                    J[k, j] = -dM[0, j]
+                    J[k + 1, j] = -dM[1, j]
+                    J[k + 2, j] = -dM[2, j]
+                GJl = sub[i - 1, 2] / ell
+                for a in range(3):
+                    for u in range(3):
+                        J[k + u, k + a] += dRs[i, a, u, 2] * tau
+                J[k, k + 1] += -EI
+                J[k + 1, k] += EI
                 for u in range(3):
-                    J[k + u, k + a] += dRs[i, a, u, 2] * tau
-            J[k, k + 1] += -EI
-            J[k + 1, k] += EI
-            for u in range(3):
-                J[k + u, k + 2] += R[u, 2] * GJl
+                    J[k + u, k + 2] += R[u, 2] * GJl
+        if model.balance == BALANCE_MIDPOINT:
+            _midpoint_rows(q, k, ell, EI, sub[i - 1, 2], nFx, nFy, nFz, nMx, nMy, nMz, dF, dM, want_jac, r, J)
         Fx = nFx
         Fy = nFy
         Fz = nFz
@@ -597,340 +661,26 @@ def evaluate(q, lam, model, want_jac, r, J, work):
         Mz = nMz
 
 
-@njit(cache=True, inline="always")
-def _maxabs(r):
-    s = 0.0
-    for x in r:
-        ax = abs(x)
-        if not ax <= s:  # also catches NaN
-            s = ax if ax == ax else np.inf
-    return s
-
-
-@njit(cache=True, inline="always")
-def _sumsq(r):
-    s = 0.0
-    for x in r:
-        s += x * x
-    return s
 
 
 @njit(cache=True)
-def _step_scale(dx, sub, max_dtheta):
-    """Largest factor <= 1 keeping every subsegment's bend and twist change <= max_dtheta."""
-    n = sub.shape[0]
-    big = 0.0
-    for i in range(n):
-        dth = np.sqrt(dx[3 * i] ** 2 + dx[3 * i + 1] ** 2) * sub[i, 0]
-        if dth > big:
-            big = dth
-        if abs(dx[3 * i + 2]) > big:
-            big = abs(dx[3 * i + 2])
-    if big > max_dtheta:
-        return max_dtheta / big
-    return 1.0
+def make_model_work(model):
+    """Scratch arrays for ``model``."""
+    return make_work(model.sub.shape[0], model.holes.shape[0])
 
 
 @njit(cache=True)
-def newton(q, lam, m, atol, max_iter, max_dtheta, work, H, reuse):
-    """Quasi-Newton iteration from ``q`` (modified in place) at load factor ``lam``.
-
-    ``H`` (3N, 3N) holds the inverse Jacobian: computed from the exact
-    Jacobian unless ``reuse`` (then the caller's ``H``, e.g. from the last load
-    step, is the start), and left updated on return. Later steps update the inverse with
-    Broyden's rank-one formula and the exact Jacobian is recomputed only when a
-    step stops making good progress. Steps are scaled so that no subsegment's
-    bend angle or twist changes by more than ``max_dtheta`` [rad] and
-    backtracked on ||r||^2. Where the Newton direction fails on a fresh
-    Jacobian (near a fold), Levenberg-Marquardt steps take over.
-    Returns ``(converged, max|r|, iterations, jacobian evaluations)``.
-    """
-    nq = q.shape[0]
-    r = np.empty(nq)
-    rt = np.empty(nq)
-    J = np.empty((nq, nq))
-    qt = np.empty(nq)
-    if reuse:
-        evaluate(q, lam, m, False, r, J, work)
-        njac = 0
-        fresh = False
-    else:
-        evaluate(q, lam, m, True, r, J, work)
-        njac = 1
-        fresh = True
-        try:
-            H[:, :] = np.linalg.inv(J)
-        except Exception:
-            H[:, :] = 0.0
-    res = _maxabs(r)
-    it = 0
-    best = res
-    since = 0
-    while it < max_iter:
-        if res <= atol:
-            return True, res, it, njac
-        if not np.isfinite(res):
-            return False, res, it, njac
-        # give up on stagnation: no halving of the residual in _STALL iterations
-        if res < 0.5 * best:
-            best = res
-            since = 0
-        else:
-            since += 1
-            if since > _STALL:
-                return False, res, it, njac
-        it += 1
-        dx = -(H @ r)
-        alpha = _step_scale(dx, m.sub, max_dtheta)
-        f0 = _sumsq(r)
-        accepted = False
-        nls = 8 if not fresh else 12
-        for _ls in range(nls):
-            for u in range(nq):
-                qt[u] = q[u] + alpha * dx[u]
-            evaluate(qt, lam, m, False, rt, J, work)
-            f1 = _sumsq(rt)
-            if f1 <= (1.0 - 1e-4 * alpha) * f0:
-                accepted = True
-                break
-            alpha *= 0.5
-        if not accepted and fresh:
-            # Levenberg-Marquardt on the exact Jacobian (robust where J is near singular)
-            A = J.T @ J
-            g = J.T @ r
-            mu = 1e-5
-            dmax = 0.0
-            for u in range(nq):
-                if A[u, u] > dmax:
-                    dmax = A[u, u]
-            for _lm in range(8):
-                B = A.copy()
-                for u in range(nq):
-                    B[u, u] += mu * dmax
-                try:
-                    dx = -np.linalg.solve(B, g)
-                except Exception:
-                    mu *= 10.0
-                    continue
-                alpha = _step_scale(dx, m.sub, max_dtheta)
-                for u in range(nq):
-                    qt[u] = q[u] + alpha * dx[u]
-                evaluate(qt, lam, m, False, rt, J, work)
-                f1 = _sumsq(rt)
-                if f1 < f0:
-                    accepted = True
-                    break
-                mu *= 10.0
-            if not accepted:
-                return False, res, it, njac
-        if not accepted:
-            # stale Broyden inverse: recompute the exact Jacobian here and retry
-            evaluate(q, lam, m, True, r, J, work)
-            njac += 1
-            fresh = True
-            try:
-                H[:, :] = np.linalg.inv(J)
-            except Exception:
-                H[:, :] = 0.0
-            continue
-        # Broyden update of the inverse with s = qt - q, y = rt - r
-        s = qt - q
-        y = rt - r
-        Hy = H @ y
-        sHy = s @ Hy
-        if abs(sHy) > 1e-300:
-            sH = s @ H
-            H += np.outer(s - Hy, sH) / sHy
-        for u in range(nq):
-            q[u] = qt[u]
-            r[u] = rt[u]
-        res = _maxabs(r)
-        fresh = False
-        if f1 > 0.25 * f0 and res > atol:
-            evaluate(q, lam, m, True, r, J, work)
-            njac += 1
-            fresh = True
-            try:
-                H[:, :] = np.linalg.inv(J)
-            except Exception:
-                H[:, :] = 0.0
-    return res <= atol, res, it, njac
-
-
-@njit(cache=True)
-def relax(q, lam, m, atol, max_iter, max_dtheta, work):
-    """Pseudo-transient continuation from ``q`` (in place): implicit Euler on dq/dt = -D^-1 r.
-
-    Used where Newton fails at a fold: the pseudo-time flow follows the
-    snap-through to a neighbouring stable equilibrium; the time step grows as
-    the residual falls (switched evolution relaxation), ending in Newton steps.
-    Returns ``(converged, max|r|, iterations, jacobian evaluations)``.
-    """
-    nq = q.shape[0]
-    r = np.empty(nq)
-    J = np.empty((nq, nq))
-    D = np.empty(nq)
-    evaluate(q, lam, m, True, r, J, work)
-    for u in range(nq):
-        D[u] = abs(J[u, u]) + 1e-12
-    r0 = np.sqrt(_sumsq(r))
-    rprev = r0
-    dt = 0.05
-    res = _maxabs(r)
-    for it in range(max_iter):
-        if res <= atol:
-            return True, res, it, it + 1
-        A = J.copy()
-        for u in range(nq):
-            A[u, u] += D[u] / dt
-        try:
-            dx = -np.linalg.solve(A, r)
-        except Exception:
-            return False, res, it, it + 1
-        alpha = _step_scale(dx, m.sub, max_dtheta)
-        for u in range(nq):
-            q[u] += alpha * dx[u]
-        evaluate(q, lam, m, True, r, J, work)
-        res = _maxabs(r)
-        if not np.isfinite(res):
-            return False, res, it + 1, it + 2
-        rn = np.sqrt(_sumsq(r))
-        grow = dt * 2.0 if rn < rprev else dt * 0.5
-        dt = min(1e12, max(grow, 0.05 * r0 / max(rn, 1e-300)))
-        rprev = rn
-    return res <= atol, res, max_iter, max_iter + 1
-
-
-@njit(cache=True)
-def _change(qa, qb, sub):
-    """Largest change of bend angle or twist of one subsegment between ``qa`` and ``qb`` [rad]."""
+def largest_angle(dq, model):
+    """Largest change of bend angle or twist of one subsegment for a change ``dq`` (3N,) of the unknowns [rad]."""
+    sub = model.sub
     big = 0.0
     for i in range(sub.shape[0]):
-        dth = np.sqrt((qa[3 * i] - qb[3 * i]) ** 2 + (qa[3 * i + 1] - qb[3 * i + 1]) ** 2) * sub[i, 0]
-        big = max(big, dth, abs(qa[3 * i + 2] - qb[3 * i + 2]))
+        dth = np.sqrt(dq[3 * i] ** 2 + dq[3 * i + 1] ** 2) * sub[i, 0]
+        big = max(big, dth, abs(dq[3 * i + 2]))
     return big
 
 
-
-@njit(cache=True, nogil=True)
-def solve_one(q0, m, settings, work):
-    """Solve at full load.
-
-    ``stepping``: 0 Newton from ``q0`` only; 1 Newton from ``q0``, then the
-    loading path if that fails; 2 the loading path from the unloaded,
-    straight robot. The loading path ramps every load by a factor lam from 0
-    to 1 (secant predictor, adaptive steps): the branch quasi-static loading
-    follows. Where it stalls at a fold it relaxes at full load from the last
-    equilibrium (the snap-through); if that fails too, Newton at full load
-    from the last equilibrium and then from ``q0`` gives another equilibrium
-    (path code 3).
-    ``settings`` (:class:`Settings`) carries ``stepping`` and the tolerances. Returns an :class:`Outcome`.
-    """
-    atol, max_iter, max_dtheta, stepping = settings.atol, settings.max_iter, settings.max_dtheta, settings.stepping
-    nq = q0.shape[0]
-    q = q0.copy()
-    H = np.zeros((nq, nq))
-    iters = 0
-    nj = 0
-    if stepping != 2:
-        ok, res, it, ne = newton(q, 1.0, m, atol, max_iter, max_dtheta, work, H, False)
-        iters += it
-        nj += ne
-        if ok or stepping == 0:
-            return Outcome(q, ok, res, iters, nj, 0, PATH_DIRECT)
-    path = PATH_LOADING
-    q[:] = 0.0
-    qprev = np.zeros(nq)
-    lprev = 0.0
-    qs = np.zeros(nq)
-    lam = 0.0
-    dlam = 0.25
-    steps = 0
-    ok = False
-    res = np.inf
-    step_iter = min(max_iter, _STEP_ITER)
-    have_h = False  # an inverse Jacobian from the last converged load step
-    while lam < 1.0 and steps < 400:
-        lt = min(1.0, lam + dlam)
-        # secant predictor from the last two equilibria
-        if lam > lprev:
-            w = (lt - lam) / (lam - lprev)
-            for u in range(nq):
-                qs[u] = q[u] + w * (q[u] - qprev[u])
-        else:
-            qs[:] = q
-        tol = atol if lt >= 1.0 else max(atol, _STEP_ATOL)
-        ok, res, it, ne = newton(qs, lt, m, tol, step_iter, max_dtheta, work, H, have_h)
-        if not ok and lam > lprev:  # retry without the predictor, from a fresh Jacobian
-            qs[:] = q
-            ok, res, it2, ne2 = newton(qs, lt, m, tol, step_iter, max_dtheta, work, H, False)
-            it += it2
-            ne += ne2
-        iters += it
-        nj += ne
-        steps += 1
-        if ok and dlam >= 1.0 / 64.0 and _change(qs, q, m.sub) > _MAX_STEP_CHANGE:
-            ok = False  # a converged step that moved far has jumped to another branch: take a smaller step
-        have_h = ok
-        if ok:
-            qprev[:] = q
-            lprev = lam
-            q[:] = qs
-            lam = lt
-            # next step from the secant rate of change: aim at _STEP_TARGET per subsegment
-            rate = _change(q, qprev, m.sub) / (lam - lprev)
-            dlam = min(2.0 * dlam, _MAX_DLAM, _STEP_TARGET / rate if rate > 0.0 else _MAX_DLAM)
-        else:
-            dlam *= 0.5
-            if dlam < 1.0 / 128.0:
-                # a fold: relax from the last equilibrium at full load (the snap-through)
-                qs[:] = q
-                ok, res, it, ne = relax(qs, 1.0, m, atol, 4 * max_iter, max_dtheta, work)
-                iters += it
-                nj += ne
-                steps += 1
-                if ok:
-                    q[:] = qs
-                    lam = 1.0
-                    path = PATH_SNAP
-                break
-    if lam < 1.0:
-        # last resort: any equilibrium at full load, from the last equilibrium, then from q0
-        for start in range(2):
-            if start == 0:
-                qs[:] = q
-            else:
-                qs[:] = q0
-            ok, res, it, ne = newton(qs, 1.0, m, atol, max_iter, max_dtheta, work, H, False)
-            iters += it
-            nj += ne
-            if ok:
-                return Outcome(qs, True, res, iters, nj, steps, PATH_FALLBACK)
-        r = np.empty(nq)
-        J = np.empty((1, 1))
-        evaluate(q, 1.0, m, False, r, J, work)
-        return Outcome(q, False, _maxabs(r), iters, nj, steps, PATH_LOADING)
-    return Outcome(q, ok, res, iters, nj, steps, path)
-
-
-@njit(cache=True, nogil=True)
-def solve_range(q0, m, tensions, settings, start, stop, out_q, out_ok, out_res, out_it, out_steps, out_path):
-    """Solve the cases ``start <= b < stop`` of a batch, one after the other (the GIL released).
-
-    ``q0`` (B, 3N) start points, ``tensions`` (B, nt) actuator tensions [N]; ``m`` gives every other
-    load. Writes ``out_q`` (B, 3N), ``out_ok``, ``out_res``, ``out_it``, ``out_steps`` and ``out_path`` (B,) for those
-    cases. Callers run disjoint ranges in threads: each case is solved by the same compiled code
-    whatever the thread, so a batch's results do not depend on how it is split.
-    """
-    n = m.sub.shape[0]
-    nt = m.holes.shape[0]
-    work = make_work(n, nt)
-    for b in range(start, stop):
-        mb = Packed(m.sub, m.holes, m.anchor, m.fric, tensions[b], m.grav, m.pforce, m.pmoment)
-        o = solve_one(q0[b], mb, settings, work)
-        out_q[b, :] = o.q
-        out_ok[b] = o.converged
-        out_res[b] = o.residual
-        out_it[b] = o.iterations
-        out_steps[b] = o.load_steps
-        out_path[b] = o.path
+@njit(cache=True)
+def with_tension(m, tension):
+    """The packed model with other actuator tensions (nt,) [N]."""
+    return Packed(m.sub, m.holes, m.anchor, m.fric, tension, m.grav, m.pforce, m.pmoment, m.balance)

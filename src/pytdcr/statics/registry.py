@@ -16,11 +16,13 @@ from ..loads import Loads
 from .base import Model, UnsupportedFeatureError
 from .cosserat import COSSERAT
 from .pcc import PCC
+from .pcc2 import PCC2
+from .sscr import SSCR
 
 __all__ = ["MODELS", "configure", "get_model", "options_record", "resolve"]
 
 #: every registered model by name
-MODELS: dict[str, Model] = {"pcc": PCC, "cosserat": COSSERAT}
+MODELS: dict[str, Model] = {"pcc": PCC, "pcc2": PCC2, "sscr": SSCR, "cosserat": COSSERAT}
 
 
 def get_model(model: str | Model) -> Model:

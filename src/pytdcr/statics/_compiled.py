@@ -1,0 +1,229 @@
+"""What the models solved by the shared compiled solver (``pcc``, ``pcc2``, ``sscr``) have in common.
+
+A model here provides its packed equations (:class:`Equations`); the base class
+:class:`CompiledModel` solves them, one tension vector or a batch (threads over
+chunks of cases, each by the same compiled code), wraps the outcome and
+differentiates the tip by the tensions (implicit function theorem).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any, Literal, NamedTuple, Protocol
+
+import numpy as np
+
+from ..design import Robot
+from ..loads import Loads
+from ..results import BatchSolution, StaticSolution
+from . import _solver_kernels as SV
+from ._batch import run_in_chunks
+from ._constants import DEFAULT_ATOL, LOAD_STEPPING, PATH_NAMES
+from ._options import check_common_options
+
+__all__ = ["CompiledModel", "Equations", "Evaluation", "SolverOptions"]
+
+_FOLDS = {"relax": SV.FOLD_RELAX, "arclength": SV.FOLD_ARCLENGTH}
+
+
+class Evaluation(NamedTuple):
+    """One evaluation of the equations: residual (m,) [N m], Jacobian (m, m) or None, tensions (nt, N) [N]."""
+
+    residual: np.ndarray
+    jacobian: np.ndarray | None
+    tensions: np.ndarray
+
+
+class Equations(Protocol):
+    """The packed equations of one robot under its loads, for the compiled solver."""
+
+    packed: Any
+
+    @property
+    def n_disks(self) -> int: ...
+
+    @property
+    def n_unknowns(self) -> int: ...
+
+    def check_q(self, q: np.ndarray, name: str = "q") -> np.ndarray: ...
+
+    def evaluate(self, q: np.ndarray, load_factor: float = 1.0, jacobian: bool = False) -> Evaluation: ...
+
+    def with_tensions(self, tensions: np.ndarray) -> Equations: ...
+
+    def shape(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]: ...
+
+    def tip_jacobian(self, q: np.ndarray) -> np.ndarray: ...
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Options of the compiled solver (the ``pcc`` and ``pcc2`` models).
+
+    Parameters
+    ----------
+    atol : float
+        Converged when max |residual| <= atol [N m].
+    max_iter : int
+        Newton iterations per attempt (per load step when stepping).
+    max_dtheta : float
+        Largest change of bend angle or twist of one subsegment per step [rad].
+    load_stepping : {'always', 'auto', 'never'}
+        'always' (default) follows the loading path from the unloaded robot;
+        'auto' tries Newton at full load first and ramps only if it fails;
+        'never' is Newton alone.
+    step_iter : int
+        Newton iterations allowed per load step before the step is halved.
+    fold : {'relax', 'arclength'}
+        Where the loading path meets a fold: 'relax' at full load from the
+        last equilibrium (pseudo-transient continuation: the snap-through),
+        or 'arclength': follow the equilibrium curve through its turning
+        points (pseudo-arclength continuation) to full load.
+    """
+
+    atol: float = DEFAULT_ATOL
+    max_iter: int = 50
+    max_dtheta: float = 0.5
+    load_stepping: Literal["always", "auto", "never"] = "always"
+    step_iter: int = 8
+    fold: Literal["relax", "arclength"] = "relax"
+
+    def __post_init__(self) -> None:
+        check_common_options(self.atol, self.load_stepping)
+        if isinstance(self.max_iter, bool) or int(self.max_iter) != self.max_iter or self.max_iter < 1:
+            raise ValueError(f"max_iter must be an integer >= 1, got {self.max_iter!r}")
+        if not (np.isfinite(self.max_dtheta) and self.max_dtheta > 0):
+            raise ValueError(f"max_dtheta must be finite and > 0, got {self.max_dtheta}")
+        if isinstance(self.step_iter, bool) or int(self.step_iter) != self.step_iter or self.step_iter < 1:
+            raise ValueError(f"step_iter must be an integer >= 1, got {self.step_iter!r}")
+        if self.fold not in _FOLDS:
+            raise ValueError(f"fold must be one of {sorted(_FOLDS)}, got {self.fold!r}")
+
+    def settings(self, warm: bool = False) -> SV.Settings:
+        """The kernel's settings; a warm start is followed directly first."""
+        mode = LOAD_STEPPING[self.load_stepping]
+        if warm and mode == LOAD_STEPPING["always"]:
+            mode = LOAD_STEPPING["auto"]
+        return SV.Settings(float(self.atol), int(self.max_iter), float(self.max_dtheta), mode, int(self.step_iter),
+                           _FOLDS[self.fold])
+
+
+def _start_points(eq: Equations, q0: np.ndarray | None, nb: int) -> np.ndarray:
+    """Start points (nb, m): zeros, one warm start for all, or one per case (always a fresh, writeable array:
+    the kernels are compiled for writeable arrays only)."""
+    m = eq.n_unknowns
+    if q0 is None:
+        return np.zeros((nb, m))
+    arr = np.asarray(q0, dtype=float)
+    if arr.size == m:
+        return np.repeat(eq.check_q(arr, "q0")[None, :], nb, axis=0)
+    if arr.size != nb * m:
+        per = m // eq.n_disks
+        raise ValueError(f"q0 must have shape ({eq.n_disks}, {per}) or ({nb}, {eq.n_disks}, {per}), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError("q0 must be finite")
+    return np.array(arr.reshape(nb, m), dtype=float, order="C")
+
+
+class _BatchOut(NamedTuple):
+    q: np.ndarray
+    converged: np.ndarray
+    residual: np.ndarray
+    iterations: np.ndarray
+    load_steps: np.ndarray
+    path: np.ndarray
+
+
+def _solve_rows(eq: Equations, Q0: np.ndarray, T: np.ndarray, settings: SV.Settings,
+                threads: int | None) -> _BatchOut:
+    """Every row of ``T`` (B, nt) from ``Q0`` (B, m), in chunks over ``threads`` threads (the GIL released)."""
+    nb = T.shape[0]
+    out = _BatchOut(np.empty((nb, eq.n_unknowns)), np.empty(nb, dtype=np.bool_), np.empty(nb),
+                    np.empty(nb, dtype=np.int64), np.empty(nb, dtype=np.int64), np.empty(nb, dtype=np.int64))
+
+    def chunk(start: int, stop: int) -> None:
+        SV.solve_range(Q0, eq.packed, T, settings, start, stop, *out)
+
+    run_in_chunks(chunk, nb, threads)
+    return out
+
+
+class CompiledModel:
+    """Solving, batching and differentiating for a model whose equations the compiled solver takes.
+
+    Subclasses set the registry attributes and implement :meth:`equations`.
+    """
+
+    name: str
+    description: str
+    options_type: type
+    capabilities: Any
+    unknowns: str
+    iteration_unit = "Newton iterations"
+
+    def default_options(self) -> Any:
+        """Default options."""
+        return self.options_type()
+
+    def equations(self, robot: Robot, loads: Loads, options: Any) -> Equations:  # pragma: no cover - abstract
+        """The packed equations of ``robot`` under ``loads``."""
+        raise NotImplementedError
+
+    def solve(self, robot: Robot, loads: Loads, q0: np.ndarray | None, options: Any) -> StaticSolution:
+        """One equilibrium; see :func:`pytdcr.solve`."""
+        eq = self.equations(robot, loads, options)
+        Q0 = _start_points(eq, q0, 1)
+        t0 = time.perf_counter()
+        out = _solve_rows(eq, Q0, eq.packed.tension[None, :], options.settings(q0 is not None), 1)
+        seconds = time.perf_counter() - t0
+        return self.solution(eq, out.q[0], bool(out.converged[0]), float(out.residual[0]),
+                             int(out.iterations[0]), PATH_NAMES[out.path[0]], seconds, options.atol,
+                             int(out.load_steps[0]))
+
+    def solution(self, eq: Equations, q: np.ndarray, converged: bool, residual: float, iterations: int,
+                 path: str, seconds: float, atol: float, load_steps: int = 0) -> StaticSolution:
+        """Wrap an outcome of the solver as a :class:`StaticSolution`."""
+        pos, rot, curve = eq.shape(q)
+        ok = converged and bool(np.all(np.isfinite(q)))
+        return StaticSolution(converged=ok, residual=residual, iterations=iterations, load_steps=load_steps,
+                              path=path, q=q.reshape(eq.n_disks, -1), tensions=eq.evaluate(q).tensions,
+                              seconds=seconds, atol=atol, _positions=pos, _rotations=rot, model=self.name,
+                              _curve=curve)
+
+    def solve_batch(self, robot: Robot, tensions: np.ndarray, loads: Loads, q0: np.ndarray | None,
+                    options: Any, threads: int | None = None) -> BatchSolution:
+        """Every row of ``tensions`` (B, n_tendons) [N], on ``threads`` threads (default: all cores)."""
+        eq = self.equations(robot, loads.with_tensions(np.zeros(robot.n_tendons)), options)
+        nb = tensions.shape[0]
+        Q0 = _start_points(eq, q0, nb)
+        t0 = time.perf_counter()
+        out = _solve_rows(eq, Q0, tensions, options.settings(q0 is not None), threads)
+        seconds = time.perf_counter() - t0
+        tips = np.full((nb, 3), np.nan)
+        ok = out.converged & np.all(np.isfinite(out.q), axis=1)
+        for b in np.flatnonzero(ok):
+            tips[b] = eq.shape(out.q[b])[0][-1]
+        return BatchSolution(tensions=tensions, converged=ok, residual=out.residual, iterations=out.iterations,
+                             q=out.q.reshape(nb, eq.n_disks, -1), tip_position=tips, seconds=seconds,
+                             path=np.array(PATH_NAMES, dtype=object)[out.path], model=self.name)
+
+    def tip_gradient(self, robot: Robot, loads: Loads, solution: StaticSolution,
+                     options: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Tip position (3,) [m] of an equilibrium and its exact derivative by the tensions (3, n_tendons) [m/N].
+
+        Implicit function theorem: ``dq/dT = -J^-1 dr/dT``; the residual is
+        affine in the tensions at fixed q, so ``dr/dT_c`` is a difference of
+        residuals, and the tip's derivative by q is exact.
+        """
+        eq = self.equations(robot, loads, options)
+        q = eq.check_q(solution.q)
+        ev = eq.evaluate(q, jacobian=True)
+        nt = robot.n_tendons
+        dr = np.empty((q.size, nt))
+        for c in range(nt):
+            t = eq.packed.tension.copy()
+            t[c] += 1.0
+            dr[:, c] = eq.with_tensions(t).evaluate(q).residual - ev.residual
+        dq = -np.linalg.solve(ev.jacobian, dr)
+        return solution.tip_position, eq.tip_jacobian(q) @ dq

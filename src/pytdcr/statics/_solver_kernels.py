@@ -1,0 +1,579 @@
+"""The solver every PCC-family model shares, compiled once per packed-model type.
+
+Quasi-Newton with an exact Jacobian along the loading path (:func:`solve_one`),
+for any packed model for which the four functions below are overloaded:
+``model_evaluate`` (residual and Jacobian), ``model_work`` (scratch arrays),
+``model_angle`` (how far a change of the unknowns bends or twists a
+subsegment, for step control) and ``model_with_tension``. numba compiles one
+specialisation of the solver per packed type (the PCC models' ``Packed``, the
+subsegment Cosserat rod's ``SSCRPacked``); the branch is chosen when compiling,
+not when running.
+
+Unknowns ``q`` and residual ``r`` have the model's own layout.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+from numba.extending import overload
+
+from . import _kernels as PK
+from . import _sscr_kernels as SK
+from ._constants import PATH_DIRECT, PATH_FALLBACK, PATH_LOADING, PATH_SNAP
+
+__all__ = ["FOLD_ARCLENGTH", "FOLD_RELAX", "Outcome", "Settings", "arclength", "model_angle", "model_evaluate",
+           "model_with_tension", "model_work", "newton", "relax", "solve_one", "solve_range"]
+
+_STALL = 15  # Newton gives up after this many iterations without halving the residual
+_STEP_ATOL = 1e-6  # tolerance [N m] of intermediate load steps (they only track the branch)
+_MAX_DLAM = 0.25  # largest load step
+_STEP_TARGET = 0.05  # [rad] bend/twist change of a subsegment that a load step aims at
+_MAX_STEP_CHANGE = 0.1  # [rad] largest bend/twist change of a subsegment in one load step (else: a branch jump)
+_ARC_STEPS = 300  # pseudo-arclength steps allowed through a fold
+
+#: at a fold, relax at full load from the last equilibrium (pseudo-transient continuation): the snap-through
+FOLD_RELAX = 0
+#: at a fold, follow the equilibrium curve through its turning points (pseudo-arclength) to full load
+FOLD_ARCLENGTH = 1
+
+
+class Settings(NamedTuple):
+    """Solver settings: tolerance [N m], Newton iterations, step limit [rad], load-stepping code, iterations per
+    load step, what to do at a fold."""
+
+    atol: float
+    max_iter: int
+    max_dtheta: float
+    stepping: int
+    step_iter: int  # Newton iterations allowed per load step
+    fold: int  # at a fold of the loading path: FOLD_RELAX or FOLD_ARCLENGTH
+
+
+
+
+class Outcome(NamedTuple):
+    """What :func:`solve_one` returns."""
+
+    q: np.ndarray  # (3N,) the unknowns reached
+    converged: bool
+    residual: float  # max |residual| [N m]
+    iterations: int  # Newton iterations in all
+    jacobians: int  # exact Jacobian evaluations
+    load_steps: int
+    path: int  # a PATH_* code
+
+
+
+
+# ------------------------------------------------------------------ dispatch on the packed model's type
+_IMPLS = {PK.Packed: PK, SK.SSCRPacked: SK}
+
+
+def _module_for(model):
+    cls = getattr(model, "instance_class", None)
+    return _IMPLS.get(cls)
+
+
+def model_evaluate(q, lam, model, want_jac, r, J, work):  # pragma: no cover - compiled code only
+    """Residual ``r`` and, if ``want_jac``, its Jacobian ``J`` at load factor ``lam``."""
+    raise NotImplementedError
+
+
+def model_work(model):  # pragma: no cover - compiled code only
+    """Scratch arrays of ``model_evaluate``."""
+    raise NotImplementedError
+
+
+def model_angle(dq, model):  # pragma: no cover - compiled code only
+    """Largest bend or twist of a subsegment that the change ``dq`` of the unknowns makes [rad]."""
+    raise NotImplementedError
+
+
+def model_with_tension(model, tension):  # pragma: no cover - compiled code only
+    """The packed model with other actuator tensions."""
+    raise NotImplementedError
+
+
+@overload(model_evaluate)
+def _evaluate_impl(q, lam, model, want_jac, r, J, work):
+    mod = _module_for(model)
+    if mod is not None:
+        kernel = mod.evaluate
+        return lambda q, lam, model, want_jac, r, J, work: kernel(q, lam, model, want_jac, r, J, work)
+    return None
+
+
+@overload(model_work)
+def _work_impl(model):
+    mod = _module_for(model)
+    if mod is not None:
+        kernel = mod.make_model_work
+        return lambda model: kernel(model)
+    return None
+
+
+@overload(model_angle)
+def _angle_impl(dq, model):
+    mod = _module_for(model)
+    if mod is not None:
+        kernel = mod.largest_angle
+        return lambda dq, model: kernel(dq, model)
+    return None
+
+
+@overload(model_with_tension)
+def _tension_impl(model, tension):
+    mod = _module_for(model)
+    if mod is not None:
+        kernel = mod.with_tension
+        return lambda model, tension: kernel(model, tension)
+    return None
+
+
+@njit(cache=True, inline="always")
+def _maxabs(r):
+    s = 0.0
+    for x in r:
+        ax = abs(x)
+        if not ax <= s:  # also catches NaN
+            s = ax if ax == ax else np.inf
+    return s
+
+
+@njit(cache=True, inline="always")
+def _sumsq(r):
+    s = 0.0
+    for x in r:
+        s += x * x
+    return s
+
+
+@njit(cache=True)
+def _step_scale(dx, m, max_dtheta):
+    """Largest factor <= 1 keeping every subsegment's bend and twist change <= max_dtheta."""
+    big = model_angle(dx, m)
+    if big > max_dtheta:
+        return max_dtheta / big
+    return 1.0
+
+
+@njit(cache=True)
+def newton(q, lam, m, atol, max_iter, max_dtheta, work, H, reuse):
+    """Quasi-Newton iteration from ``q`` (modified in place) at load factor ``lam``.
+
+    ``H`` (3N, 3N) holds the inverse Jacobian: computed from the exact
+    Jacobian unless ``reuse`` (then the caller's ``H``, e.g. from the last load
+    step, is the start), and left updated on return. Later steps update the inverse with
+    Broyden's rank-one formula and the exact Jacobian is recomputed only when a
+    step stops making good progress. Steps are scaled so that no subsegment's
+    bend angle or twist changes by more than ``max_dtheta`` [rad] and
+    backtracked on ||r||^2. Where the Newton direction fails on a fresh
+    Jacobian (near a fold), Levenberg-Marquardt steps take over.
+    Returns ``(converged, max|r|, iterations, jacobian evaluations)``.
+    """
+    nq = q.shape[0]
+    r = np.empty(nq)
+    rt = np.empty(nq)
+    J = np.empty((nq, nq))
+    qt = np.empty(nq)
+    if reuse:
+        model_evaluate(q, lam, m, False, r, J, work)
+        njac = 0
+        fresh = False
+    else:
+        model_evaluate(q, lam, m, True, r, J, work)
+        njac = 1
+        fresh = True
+        try:
+            H[:, :] = np.linalg.inv(J)
+        except Exception:
+            H[:, :] = 0.0
+    res = _maxabs(r)
+    it = 0
+    best = res
+    since = 0
+    while it < max_iter:
+        if res <= atol:
+            return True, res, it, njac
+        if not np.isfinite(res):
+            return False, res, it, njac
+        # give up on stagnation: no halving of the residual in _STALL iterations
+        if res < 0.5 * best:
+            best = res
+            since = 0
+        else:
+            since += 1
+            if since > _STALL:
+                return False, res, it, njac
+        it += 1
+        dx = -(H @ r)
+        alpha = _step_scale(dx, m, max_dtheta)
+        f0 = _sumsq(r)
+        accepted = False
+        nls = 8 if not fresh else 12
+        for _ls in range(nls):
+            for u in range(nq):
+                qt[u] = q[u] + alpha * dx[u]
+            model_evaluate(qt, lam, m, False, rt, J, work)
+            f1 = _sumsq(rt)
+            if f1 <= (1.0 - 1e-4 * alpha) * f0:
+                accepted = True
+                break
+            alpha *= 0.5
+        if not accepted and fresh:
+            # Levenberg-Marquardt on the exact Jacobian (robust where J is near singular)
+            A = J.T @ J
+            g = J.T @ r
+            mu = 1e-5
+            dmax = 0.0
+            for u in range(nq):
+                if A[u, u] > dmax:
+                    dmax = A[u, u]
+            for _lm in range(8):
+                B = A.copy()
+                for u in range(nq):
+                    B[u, u] += mu * dmax
+                try:
+                    dx = -np.linalg.solve(B, g)
+                except Exception:
+                    mu *= 10.0
+                    continue
+                alpha = _step_scale(dx, m, max_dtheta)
+                for u in range(nq):
+                    qt[u] = q[u] + alpha * dx[u]
+                model_evaluate(qt, lam, m, False, rt, J, work)
+                f1 = _sumsq(rt)
+                if f1 < f0:
+                    accepted = True
+                    break
+                mu *= 10.0
+            if not accepted:
+                return False, res, it, njac
+        if not accepted:
+            # stale Broyden inverse: recompute the exact Jacobian here and retry
+            model_evaluate(q, lam, m, True, r, J, work)
+            njac += 1
+            fresh = True
+            try:
+                H[:, :] = np.linalg.inv(J)
+            except Exception:
+                H[:, :] = 0.0
+            continue
+        # Broyden update of the inverse with s = qt - q, y = rt - r
+        s = qt - q
+        y = rt - r
+        Hy = H @ y
+        sHy = s @ Hy
+        if abs(sHy) > 1e-300:
+            sH = s @ H
+            H += np.outer(s - Hy, sH) / sHy
+        for u in range(nq):
+            q[u] = qt[u]
+            r[u] = rt[u]
+        res = _maxabs(r)
+        fresh = False
+        if f1 > 0.25 * f0 and res > atol:
+            model_evaluate(q, lam, m, True, r, J, work)
+            njac += 1
+            fresh = True
+            try:
+                H[:, :] = np.linalg.inv(J)
+            except Exception:
+                H[:, :] = 0.0
+    return res <= atol, res, it, njac
+
+
+@njit(cache=True)
+def relax(q, lam, m, atol, max_iter, max_dtheta, work):
+    """Pseudo-transient continuation from ``q`` (in place): implicit Euler on dq/dt = -D^-1 r.
+
+    Used where Newton fails at a fold: the pseudo-time flow follows the
+    snap-through to a neighbouring stable equilibrium; the time step grows as
+    the residual falls (switched evolution relaxation), ending in Newton steps.
+    Returns ``(converged, max|r|, iterations, jacobian evaluations)``.
+    """
+    nq = q.shape[0]
+    r = np.empty(nq)
+    J = np.empty((nq, nq))
+    D = np.empty(nq)
+    model_evaluate(q, lam, m, True, r, J, work)
+    for u in range(nq):
+        D[u] = abs(J[u, u]) + 1e-12
+    r0 = np.sqrt(_sumsq(r))
+    rprev = r0
+    dt = 0.05
+    res = _maxabs(r)
+    for it in range(max_iter):
+        if res <= atol:
+            return True, res, it, it + 1
+        A = J.copy()
+        for u in range(nq):
+            A[u, u] += D[u] / dt
+        try:
+            dx = -np.linalg.solve(A, r)
+        except Exception:
+            return False, res, it, it + 1
+        alpha = _step_scale(dx, m, max_dtheta)
+        for u in range(nq):
+            q[u] += alpha * dx[u]
+        model_evaluate(q, lam, m, True, r, J, work)
+        res = _maxabs(r)
+        if not np.isfinite(res):
+            return False, res, it + 1, it + 2
+        rn = np.sqrt(_sumsq(r))
+        grow = dt * 2.0 if rn < rprev else dt * 0.5
+        dt = min(1e12, max(grow, 0.05 * r0 / max(rn, 1e-300)))
+        rprev = rn
+    return res <= atol, res, max_iter, max_iter + 1
+
+
+@njit(cache=True)
+def _change(qa, qb, m):
+    """Largest change of bend angle or twist of one subsegment between ``qa`` and ``qb`` [rad]."""
+    return model_angle(qa - qb, m)
+
+
+
+@njit(cache=True)
+def _dr_dlam(q, lam, m, work, r0, r1, dr):
+    """d r / d lam at (q, lam) by central differences (the residual's dependence on the load factor)."""
+    J = np.empty((1, 1))
+    h = 1e-6
+    model_evaluate(q, lam + h, m, False, r0, J, work)
+    model_evaluate(q, lam - h, m, False, r1, J, work)
+    for u in range(q.shape[0]):
+        dr[u] = (r0[u] - r1[u]) / (2.0 * h)
+
+
+@njit(cache=True)
+def arclength(q, lam, m, atol, max_iter, max_dtheta, work):
+    """Pseudo-arclength continuation of the equilibrium curve from (q, lam) until lam = 1; q in place.
+
+    The tangent t of the curve r(q, lam) = 0 in (q, lam) comes from J dq = -dr/dlam; each step predicts along
+    it and corrects with Newton on the bordered system [J, dr/dlam; t^T] (the step's length fixed). Where a
+    step would pass lam = 1, it corrects at lam = 1 instead. Returns ``(converged, max|r|, iterations,
+    jacobian evaluations, steps, turned)``, ``turned`` when lam decreased somewhere (a turning point was
+    passed: the branch reached at full load is not the one the loading path started on).
+    """
+    nq = q.shape[0]
+    r = np.empty(nq)
+    r0 = np.empty(nq)
+    r1 = np.empty(nq)
+    dl = np.empty(nq)
+    J = np.empty((nq, nq))
+    A = np.empty((nq + 1, nq + 1))
+    b = np.empty(nq + 1)
+    t = np.zeros(nq + 1)
+    tprev = np.zeros(nq + 1)
+    tprev[nq] = 1.0  # the loading path goes towards larger loads
+    z = np.empty(nq + 1)
+    zs = np.empty(nq + 1)
+    ds = 0.05
+    iters = 0
+    njac = 0
+    turned = False
+    res = np.inf
+    for step in range(_ARC_STEPS):
+        model_evaluate(q, lam, m, True, r, J, work)
+        njac += 1
+        _dr_dlam(q, lam, m, work, r0, r1, dl)
+        try:
+            dq = np.linalg.solve(J, -dl)
+        except Exception:
+            return False, res, iters, njac, step, turned
+        for u in range(nq):
+            t[u] = dq[u]
+        t[nq] = 1.0
+        nt = np.sqrt(np.sum(t * t))
+        sgn = 1.0 if np.sum(t * tprev) >= 0.0 else -1.0
+        for u in range(nq + 1):
+            t[u] = sgn * t[u] / nt
+        accepted = False
+        while ds > 1e-7 and not accepted:
+            at_end = lam + ds * t[nq] >= 1.0
+            h = (1.0 - lam) / t[nq] if at_end else ds
+            for u in range(nq):
+                zs[u] = q[u] + h * t[u]
+            zs[nq] = 1.0 if at_end else lam + h * t[nq]
+            for _it in range(max_iter):
+                iters += 1
+                model_evaluate(zs[:nq], zs[nq], m, True, r, J, work)
+                njac += 1
+                res = _maxabs(r)
+                # on the last step lam is held at 1: Newton in q alone; else the arclength is held
+                g = 0.0
+                if not at_end:
+                    for u in range(nq + 1):
+                        z[u] = zs[u] - (q[u] if u < nq else lam)
+                    g = np.sum(t * z) - h
+                if res <= atol and abs(g) <= 1e-12:
+                    accepted = True
+                    break
+                if not np.isfinite(res):
+                    break
+                A[:nq, :nq] = J
+                if at_end:
+                    A[:nq, nq] = 0.0
+                    A[nq, :] = 0.0
+                    A[nq, nq] = 1.0
+                else:
+                    _dr_dlam(zs[:nq], zs[nq], m, work, r0, r1, dl)
+                    A[:nq, nq] = dl
+                    A[nq, :] = t
+                b[:nq] = -r
+                b[nq] = -g
+                try:
+                    dz = np.linalg.solve(A, b)
+                except Exception:
+                    break
+                alpha = _step_scale(dz[:nq], m, max_dtheta)
+                for u in range(nq + 1):
+                    zs[u] += alpha * dz[u]
+            if not accepted:
+                ds *= 0.5
+        if not accepted:
+            return False, res, iters, njac, step, turned
+        if zs[nq] < lam:
+            turned = True
+        for u in range(nq):
+            q[u] = zs[u]
+        lam = zs[nq]
+        for u in range(nq + 1):
+            tprev[u] = t[u]
+        if lam >= 1.0:
+            return True, res, iters, njac, step + 1, turned
+        ds = min(2.0 * ds, 0.25)
+        if lam < -0.5:
+            break
+    return False, res, iters, njac, _ARC_STEPS, turned
+
+
+@njit(cache=True, nogil=True)
+def solve_one(q0, m, settings, work):
+    """Solve at full load.
+
+    ``stepping``: 0 Newton from ``q0`` only; 1 Newton from ``q0``, then the
+    loading path if that fails; 2 the loading path from the unloaded,
+    straight robot. The loading path ramps every load by a factor lam from 0
+    to 1 (secant predictor, adaptive steps): the branch quasi-static loading
+    follows. Where it stalls at a fold it relaxes at full load from the last
+    equilibrium (the snap-through); if that fails too, Newton at full load
+    from the last equilibrium and then from ``q0`` gives another equilibrium
+    (path code 3).
+    ``settings`` (:class:`Settings`) carries ``stepping`` and the tolerances. Returns an :class:`Outcome`.
+    """
+    atol, max_iter, max_dtheta, stepping = settings.atol, settings.max_iter, settings.max_dtheta, settings.stepping
+    nq = q0.shape[0]
+    q = q0.copy()
+    H = np.zeros((nq, nq))
+    iters = 0
+    nj = 0
+    if stepping != 2:
+        ok, res, it, ne = newton(q, 1.0, m, atol, max_iter, max_dtheta, work, H, False)
+        iters += it
+        nj += ne
+        if ok or stepping == 0:
+            return Outcome(q, ok, res, iters, nj, 0, PATH_DIRECT)
+    path = PATH_LOADING
+    q[:] = 0.0
+    qprev = np.zeros(nq)
+    lprev = 0.0
+    qs = np.zeros(nq)
+    lam = 0.0
+    dlam = 0.25
+    steps = 0
+    ok = False
+    res = np.inf
+    step_iter = min(max_iter, settings.step_iter)
+    have_h = False  # an inverse Jacobian from the last converged load step
+    while lam < 1.0 and steps < 400:
+        lt = min(1.0, lam + dlam)
+        # secant predictor from the last two equilibria
+        if lam > lprev:
+            w = (lt - lam) / (lam - lprev)
+            for u in range(nq):
+                qs[u] = q[u] + w * (q[u] - qprev[u])
+        else:
+            qs[:] = q
+        tol = atol if lt >= 1.0 else max(atol, _STEP_ATOL)
+        ok, res, it, ne = newton(qs, lt, m, tol, step_iter, max_dtheta, work, H, have_h)
+        if not ok and lam > lprev:  # retry without the predictor, from a fresh Jacobian
+            qs[:] = q
+            ok, res, it2, ne2 = newton(qs, lt, m, tol, step_iter, max_dtheta, work, H, False)
+            it += it2
+            ne += ne2
+        iters += it
+        nj += ne
+        steps += 1
+        if ok and dlam >= 1.0 / 64.0 and _change(qs, q, m) > _MAX_STEP_CHANGE:
+            ok = False  # a converged step that moved far has jumped to another branch: take a smaller step
+        have_h = ok
+        if ok:
+            qprev[:] = q
+            lprev = lam
+            q[:] = qs
+            lam = lt
+            # next step from the secant rate of change: aim at _STEP_TARGET per subsegment
+            rate = _change(q, qprev, m) / (lam - lprev)
+            dlam = min(2.0 * dlam, _MAX_DLAM, _STEP_TARGET / rate if rate > 0.0 else _MAX_DLAM)
+        else:
+            dlam *= 0.5
+            if dlam < 1.0 / 128.0:
+                qs[:] = q
+                if settings.fold == FOLD_ARCLENGTH:
+                    # follow the equilibrium curve through the fold, in (q, lam)
+                    ok, res, it, ne, st, turned = arclength(qs, lam, m, atol, max_iter, max_dtheta, work)
+                    steps += st
+                else:
+                    # a fold: relax from the last equilibrium at full load (the snap-through)
+                    ok, res, it, ne = relax(qs, 1.0, m, atol, 4 * max_iter, max_dtheta, work)
+                    steps += 1
+                    turned = True
+                iters += it
+                nj += ne
+                if ok:
+                    q[:] = qs
+                    lam = 1.0
+                    path = PATH_SNAP if turned else PATH_LOADING
+                break
+    if lam < 1.0:
+        # last resort: any equilibrium at full load, from the last equilibrium, then from q0
+        for start in range(2):
+            if start == 0:
+                qs[:] = q
+            else:
+                qs[:] = q0
+            ok, res, it, ne = newton(qs, 1.0, m, atol, max_iter, max_dtheta, work, H, False)
+            iters += it
+            nj += ne
+            if ok:
+                return Outcome(qs, True, res, iters, nj, steps, PATH_FALLBACK)
+        r = np.empty(nq)
+        J = np.empty((1, 1))
+        model_evaluate(q, 1.0, m, False, r, J, work)
+        return Outcome(q, False, _maxabs(r), iters, nj, steps, PATH_LOADING)
+    return Outcome(q, ok, res, iters, nj, steps, path)
+
+
+@njit(cache=True, nogil=True)
+def solve_range(q0, m, tensions, settings, start, stop, out_q, out_ok, out_res, out_it, out_steps, out_path):
+    """Solve the cases ``start <= b < stop`` of a batch, one after the other (the GIL released).
+
+    ``q0`` (B, 3N) start points, ``tensions`` (B, nt) actuator tensions [N]; ``m`` gives every other
+    load. Writes ``out_q`` (B, 3N), ``out_ok``, ``out_res``, ``out_it``, ``out_steps`` and ``out_path`` (B,) for those
+    cases. Callers run disjoint ranges in threads: each case is solved by the same compiled code
+    whatever the thread, so a batch's results do not depend on how it is split.
+    """
+    work = model_work(m)
+    for b in range(start, stop):
+        mb = model_with_tension(m, tensions[b])
+        o = solve_one(q0[b], mb, settings, work)
+        out_q[b, :] = o.q
+        out_ok[b] = o.converged
+        out_res[b] = o.residual
+        out_it[b] = o.iterations
+        out_steps[b] = o.load_steps
+        out_path[b] = o.path

@@ -1,0 +1,172 @@
+"""``sscr``: the subsegment Cosserat rod, the reference model of disk-type TDCRs.
+
+The backbone between neighbouring disks is a Cosserat rod (Kirchhoff by
+default: inextensible and unshearable; shear and extension as an option); each
+disk is a rigid body on the rod that receives the tendon forces through its
+holes along the actual chords to the neighbouring disks (MODEL.md's pull rule,
+the full pull at the anchor disk), the tendon-disk friction laws of the PCC
+model (none, constant, the paper's; pull and release), the disk's weight and
+any external wrench. The backbone's own weight acts along the rod.
+
+Solved by multiple shooting: one unknown base wrench per subsegment (6N
+unknowns), the disks' balances as the residual, the exact Jacobian of the
+discrete scheme (forward mode through every Runge-Kutta step), and the PCC
+solver's loading path from the unloaded robot. Equations and Jacobian:
+:mod:`pytdcr.statics._sscr_kernels`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Literal
+
+import numpy as np
+
+from ..design import Robot
+from ..loads import Loads
+from . import _sscr_kernels as SK
+from ._compiled import CompiledModel, Evaluation, SolverOptions
+from .base import Capabilities
+from .pcc import PCCEquations
+
+__all__ = ["SSCR", "SSCREquations", "SSCRModel", "SSCROptions"]
+
+
+@dataclass(frozen=True)
+class SSCROptions(SolverOptions):
+    """Options of the subsegment Cosserat rod: the solver's (see :class:`SolverOptions`) and the rod's.
+
+    Defaults differ from the PCC solver's where this model needs it: 12 Newton
+    iterations per load step (its base-wrench unknowns make each step more
+    nonlinear), and pseudo-arclength continuation through folds.
+
+    Parameters
+    ----------
+    steps_per_subsegment : int
+        Classical Runge-Kutta steps between neighbouring disks.
+    shear_extension : bool
+        The rod shears (GA) and stretches (EA); default inextensible and unshearable.
+    """
+
+    step_iter: int = 12
+    fold: Literal["relax", "arclength"] = "arclength"
+    steps_per_subsegment: int = 4
+    shear_extension: bool = False
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        n = self.steps_per_subsegment
+        if isinstance(n, bool) or int(n) != n or not 1 <= n <= 1000:
+            raise ValueError(f"steps_per_subsegment must be an integer in [1, 1000], got {n!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class SSCREquations:
+    """The 6N disk balances of ``robot`` under ``loads`` (see :mod:`pytdcr.statics._sscr_kernels`).
+
+    Attributes
+    ----------
+    robot : Robot
+    loads : Loads
+    packed : pytdcr.statics._sscr_kernels.SSCRPacked
+        The PCC model's packed loads and routing, plus the rod's shear and
+        axial stiffness, mass per length, extensibility and integration steps.
+    """
+
+    robot: Robot
+    loads: Loads
+    packed: SK.SSCRPacked
+
+    @classmethod
+    def build(cls, robot: Robot, loads: Loads, options: SSCROptions | None = None) -> SSCREquations:
+        """Pack ``robot`` and ``loads`` with the rod's options."""
+        opts = options or SSCROptions()
+        p = PCCEquations.build(robot, loads).packed
+        bb = robot.backbone
+        area = np.pi * (bb.outer_radius**2 - bb.inner_radius**2)
+        rod = np.array([bb.shear * area, bb.youngs_modulus * area, bb.mass_per_length,
+                        1.0 if opts.shear_extension else 0.0, float(opts.steps_per_subsegment)])
+        packed = SK.SSCRPacked(p.sub, p.holes, p.anchor, p.fric, p.tension, p.grav, p.pforce, p.pmoment, rod)
+        return cls(robot=robot, loads=loads, packed=packed)
+
+    @property
+    def n_disks(self) -> int:
+        """N."""
+        return int(self.packed.sub.shape[0])
+
+    @property
+    def n_unknowns(self) -> int:
+        """6N."""
+        return 6 * self.n_disks
+
+    def with_tensions(self, tensions: np.ndarray) -> SSCREquations:
+        """The same equations with other actuator tensions [N], shape (n_tendons,)."""
+        return replace(self, packed=self.packed._replace(tension=np.asarray(tensions, dtype=float)))
+
+    def check_q(self, q: np.ndarray, name: str = "q") -> np.ndarray:
+        """``q`` as a finite float64 vector (6N,); ValueError naming the expected shape."""
+        arr = np.array(q, dtype=float).reshape(-1)
+        if arr.shape != (self.n_unknowns,):
+            raise ValueError(f"{name} must have {self.n_unknowns} entries (shape ({self.n_disks}, 6)), "
+                             f"got shape {np.shape(q)}")
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(f"{name} must be finite")
+        return arr
+
+    def _run(self, q: np.ndarray, load_factor: float, jacobian: bool) -> tuple[np.ndarray, np.ndarray, SK.SSCRWork]:
+        q = self.check_q(q)
+        m = self.n_unknowns
+        r = np.empty(m)
+        J = np.empty((m, m)) if jacobian else np.empty((1, 1))
+        work = SK.make_model_work(self.packed)
+        SK.evaluate(q, float(load_factor), self.packed, jacobian, r, J, work)
+        return r, J, work
+
+    def evaluate(self, q: np.ndarray, load_factor: float = 1.0, jacobian: bool = False) -> Evaluation:
+        """Residual (6N,) [N m], optionally its exact Jacobian (6N, 6N), and the tendon tensions (nt, N) [N]."""
+        r, J, work = self._run(q, load_factor, jacobian)
+        tensions = np.ascontiguousarray(work.T[1 : self.n_disks + 1].T)
+        return Evaluation(r, J if jacobian else None, tensions)
+
+    def residual(self, q: np.ndarray, load_factor: float = 1.0) -> np.ndarray:
+        """The disk balances, shape (N, 6): l_i times the force balance [N m], then the moment balance [N m]."""
+        return self.evaluate(q, load_factor).residual.reshape(-1, 6)
+
+    def jacobian(self, q: np.ndarray, load_factor: float = 1.0) -> np.ndarray:
+        """Exact Jacobian of the flattened residual, shape (6N, 6N)."""
+        return self.evaluate(q, load_factor, jacobian=True).jacobian
+
+    def shape(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Disk positions (N+1, 3) [m], rotations (N+1, 3, 3) and backbone points (N steps + 1, 3) [m]."""
+        n = self.n_disks
+        steps = int(self.packed.rod[4])
+        pos = np.empty((n + 1, 3))
+        rot = np.empty((n + 1, 3, 3))
+        curve = np.empty((n * steps + 1, 3))
+        SK.record_shape(np.ascontiguousarray(q, dtype=float).reshape(-1), self.packed, pos, rot, curve)
+        return pos, rot, curve
+
+    def tip_jacobian(self, q: np.ndarray) -> np.ndarray:
+        """Exact derivative of the tip position by the unknowns, shape (3, 6N) (the chained sensitivities)."""
+        work = self._run(q, 1.0, True)[2]
+        return work.S[self.n_disks, :3, :].copy()
+
+
+class SSCRModel(CompiledModel):
+    """The registry's entry for the subsegment Cosserat rod (see the module docstring)."""
+
+    name = "sscr"
+    description = ("subsegment Cosserat rod: a rod between each pair of disks, tendons as chords, friction "
+                   "(the reference)")
+    options_type = SSCROptions
+    capabilities = Capabilities(friction=True, point_wrenches=True, gradient="exact")
+    unknowns = ("q: (N, 6), per subsegment the internal force times the subsegment's length and the internal "
+                "moment at its base, world frame [N m]")
+
+    def equations(self, robot: Robot, loads: Loads, options: SSCROptions | None = None) -> SSCREquations:
+        """The packed equations of ``robot`` under ``loads``."""
+        return SSCREquations.build(robot, loads, options)
+
+
+#: the registry's instance
+SSCR = SSCRModel()
