@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import subprocess
 import sys
@@ -226,3 +227,34 @@ def test_sample_and_optimize_take_the_model_option(capsys, tmp_path):
     assert res["ga"]["reach"] <= 0.4 and res["evaluations"] >= 12
     # the polished optimum is the straight rod, whose RK4 integration hits the length up to roundoff
     assert res["reach"] <= 0.4 * (1 + 1e-12)
+
+
+def test_accuracy_writes_the_table_and_the_order_study(capsys, tmp_path):
+    out = tmp_path / "acc"
+    code, text, _ = run(capsys, "accuracy", "--robot", "rao", "--n", "3", "--bounds", "0,3", "--order-cases", "1",
+                        "--disks", "5,10", "--out", str(out))
+    assert code == 0 and "against sscr" in text
+    rows = list(csv.DictReader(open(out / "accuracy.csv")))
+    models = {r["model"] for r in rows}
+    assert {"pcc", "pcc2", "sscr", "cosserat"} <= models
+    groups = {r["group"] for r in rows}
+    assert groups == {"tendons", "+gravity", "+tip wrench", "+payload 10 g"}
+    for r in rows:  # every model converges on these light cases; the reference's own model is closest to it
+        assert r["unsupported"] == "" and int(r["converged"]) == int(r["reference_converged"]) == 3
+    by = {(r["group"], r["model"]): float(r["median_error_mm"]) for r in rows}
+    assert by[("+tip wrench", "sscr")] < by[("+tip wrench", "pcc2")] < by[("+tip wrench", "pcc")]
+    md = (out / "accuracy.md").read_text()
+    assert "## Order of convergence" in md and "| +tip wrench | pcc2 |" in md
+    data = json.loads((out / "accuracy.json").read_text())
+    orders = {o["group"]: o["order"] for o in data["summary"]["orders"]}
+    assert orders["+tip wrench"]["pcc2"] > orders["+tip wrench"]["pcc"] + 0.5  # second order against first
+    assert (out / "fig_order.png").stat().st_size > 10_000
+
+
+def test_accuracy_refuses_what_it_cannot_do(capsys, tmp_path):
+    code, _, err = run(capsys, "accuracy", "--models", "pcc,prbm", "--out", str(tmp_path))
+    assert code == 2 and "prbm" in err
+    code, _, err = run(capsys, "accuracy", "--disks", "5,x", "--out", str(tmp_path))
+    assert code == 2 and "--disks" in err
+    code, _, err = run(capsys, "accuracy", "--tip-force", "0,0,1", "--out", str(tmp_path))
+    assert code == 2 and "load groups" in err

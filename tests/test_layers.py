@@ -19,7 +19,7 @@ LAYERS = [
     {"__init__", "_version"},  # the top-level package re-exports; checked apart below
     {"design", "loads", "bounds", "paper", "kinematics", "results", "io"},
     {"statics"},
-    {"workspace", "optimize", "compare"},
+    {"workspace", "optimize", "compare", "accuracy"},
     {"plotting"},
     {"study"},
     {"cli"},

@@ -170,9 +170,10 @@ def test_reproduce_writes_a_report(tmp_path, small):
                                                                            bound_uppers=(5.0,), side_max_gen=2))
     report = (out / "report.md").read_text()
     for text in ("## Fig. 5", "| population 8 |", "| population 10 |", "fourth generation", "## Fig. 6",
-                 "| 5 |", "backbone length"):
+                 "| 5 |", "backbone length", "## The paper's optimum under better models", "| sscr |"):
         assert text in report
     for f in summary["files"]:
         assert (out / f).stat().st_size > 0
     data = json.loads((out / "reproduce.json").read_text())
     assert data["inputs"]["seed"] == 0 and set(data["ga"]) == {"8", "10"}
+    assert [v["model"] for v in data["better_models"]] == ["pcc2", "sscr"]

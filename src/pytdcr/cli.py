@@ -262,7 +262,10 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     def progress(stage: str, total: int):
         return _tqdm_progress(stage, total)
 
-    summary = run_reproduce(setup.robot, out, seed=args.seed, progress=progress)
+    from .study import ReproduceSettings
+
+    settings = ReproduceSettings.full() if args.full else ReproduceSettings()
+    summary = run_reproduce(setup.robot, out, seed=args.seed, progress=progress, settings=settings)
     print(f"reproduced the study on robot '{setup.robot.name}' in {summary['seconds']:.1f} s; "
           f"report: {out / 'report.md'}")
     return 0
@@ -356,6 +359,56 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     print(f"{s['cases']} cases on robot '{robot.name}'{note}: every model converged on {s['all_converged']}; "
           f"tip difference {diffs}; median solve {times}")
     print(f"wrote {', '.join(files)} in {out}")
+    return 0
+
+
+def _int_list(text: str, name: str) -> list[int]:
+    vals = parse_floats(text, name)
+    if np.any(vals != np.round(vals)) or np.any(vals < 1):
+        raise CliError(f"{name}: expected comma-separated integers >= 1, got {text!r}")
+    return [int(v) for v in vals]
+
+
+def _cmd_accuracy(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from .accuracy import default_groups
+    from .study import run_accuracy
+
+    setup = model_from_args(args)
+    if np.any(setup.loads.tip_force) or np.any(setup.loads.tip_moment):
+        raise CliError("accuracy: the study sets its own load groups; drop --tip-force/--tip-moment")
+    for name, val, lo in (("--n", args.n, 1), ("--order-cases", args.order_cases, 0),
+                          ("--reference-steps", args.reference_steps, 16)):
+        if val < lo:
+            raise CliError(f"{name} must be >= {lo}, got {val}")
+    if not (np.isfinite(args.payload_g) and 0 < args.payload_g <= 1000):
+        raise CliError(f"--payload-g must be in (0, 1000] g, got {args.payload_g}")
+    models = [m.strip() for m in args.models.split(",")] if args.models else list(MODELS)
+    for m in models:
+        if m not in MODELS:
+            raise CliError(f"--models: {m!r} is not a model; choose from {', '.join(MODELS)}")
+    disks = _int_list(args.disks, "--disks")
+    bounds = bounds_from_args(args, setup.robot)
+    groups = default_groups(args.payload_g / 1e3)
+    total = len(groups) * (len(models) + 1) + (len(disks) * len(groups) if args.order_cases else 0)
+    with tqdm(total=total, desc="accuracy", unit="step", leave=False, file=sys.stderr) as bar:
+        study, orders, files = run_accuracy(setup.robot, Path(args.out), n=args.n, bounds=bounds, seed=args.seed,
+                                            groups=groups, models=models, disks=disks, order_cases=args.order_cases,
+                                            reference_steps=args.reference_steps,
+                                            progress=lambda label: (bar.set_postfix_str(label), bar.update(1)))
+    print(f"{args.n} tension vectors on robot '{setup.robot.name}', {len(groups)} load groups, "
+          f"{len(study.models)} models against sscr ({study.seconds:.1f} s):")
+    for r in study.rows():
+        if r["unsupported"]:
+            print(f"  {r['group']:>18s}  {r['model']:9s} unsupported")
+            continue
+        print(f"  {r['group']:>18s}  {r['model']:9s} median {r['median_error_mm']:9.3f} mm, 95th pct "
+              f"{r['p95_error_mm']:9.3f} mm, converged {r['converged']}/{r['reference_converged']}, "
+              f"{r['median_ms']:.2f} ms")
+    for st in orders:
+        print(f"  order ({st.group}): " + ", ".join(f"{m} {o:.2f}" for m, o in st.order.items()))
+    print(f"wrote {', '.join(files)} in {args.out}")
     return 0
 
 
@@ -460,6 +513,9 @@ def build_parser() -> argparse.ArgumentParser:
     rp = sub.add_parser("reproduce", help="the paper's whole study: figures, data and report.md")
     add_model_options(rp)
     rp.add_argument("--seed", type=int, default=0, help="random seed [0]")
+    rp.add_argument("--full", action="store_true",
+                    help="the heavy version: the better models re-optimise the paper's optimum with the GA too "
+                    "(default: a gradient polish from it)")
     rp.add_argument("--out", default="out/reproduce", help="output folder [out/reproduce]")
     rp.set_defaults(func=_cmd_reproduce)
 
@@ -475,6 +531,22 @@ def build_parser() -> argparse.ArgumentParser:
                    help="backbones shear and stretch (models with that option)")
     c.add_argument("--out", default="out/compare", help="output folder [out/compare]")
     c.set_defaults(func=_cmd_compare)
+
+    a = sub.add_parser("accuracy", help="which model to trust: every model against sscr, by load group, and the "
+                       "order study")
+    add_model_options(a)
+    add_bounds_options(a)
+    a.add_argument("--n", type=int, default=20, help="random tension vectors [20]")
+    a.add_argument("--seed", type=int, default=0, help="random seed [0]")
+    a.add_argument("--models", metavar="A,B,...", help=f"models to compare (default all: {', '.join(MODELS)})")
+    a.add_argument("--disks", default="5,10,20,40", metavar="N1,N2,...",
+                   help="disks per segment of the order study [5,10,20,40]")
+    a.add_argument("--order-cases", type=int, default=3, help="tension vectors of the order study (0: none) [3]")
+    a.add_argument("--reference-steps", type=int, default=160,
+                   help="Runge-Kutta steps per segment of the reference sscr [160]")
+    a.add_argument("--payload-g", type=float, default=10.0, help="payload of the last load group [10 g]")
+    a.add_argument("--out", default="out/accuracy", help="output folder [out/accuracy]")
+    a.set_defaults(func=_cmd_accuracy)
 
     r = sub.add_parser("robot", help="print a robot as TOML (a starting point for your own)")
     r.add_argument("--robot", default="paper", help="built-in robot or TOML file [paper]")

@@ -299,3 +299,13 @@ class Robot(_Frozen):
     def with_friction(self, friction: NoFriction | ConstantFriction | ExponentialFriction) -> Robot:
         """Copy with another friction law."""
         return Robot.model_validate({**self.model_dump(), "friction": friction.model_dump()})
+
+    def with_disks(self, per_segment: int) -> Robot:
+        """Copy with ``per_segment`` equally spaced disks in every segment: same lengths, routing and total disk
+        mass per segment (a finer or coarser discretisation of the same robot)."""
+        if isinstance(per_segment, bool) or int(per_segment) != per_segment or per_segment < 1:
+            raise ValueError(f"per_segment must be an integer >= 1, got {per_segment!r}")
+        n = int(per_segment)
+        segments = [{"length": s.length, "n_disks": n, "disk_mass": s.disk_mass * s.n_disks / n}
+                    for s in self.segments]
+        return Robot.model_validate({**self.model_dump(), "segments": segments})

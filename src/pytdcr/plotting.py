@@ -20,8 +20,8 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from mpl_toolkits.mplot3d.axes3d import Axes3D
 
-__all__ = ["new_3d_axes", "plot_convergence", "plot_model_overlay", "plot_reach_samples", "plot_robot", "plot_robots",
-           "pyplot", "set_equal_aspect"]
+__all__ = ["new_3d_axes", "plot_convergence", "plot_model_overlay", "plot_order", "plot_reach_samples", "plot_robot",
+           "plot_robots", "pyplot", "set_equal_aspect"]
 
 
 def pyplot() -> Any:
@@ -217,4 +217,29 @@ def plot_convergence(best: Sequence[float], mean: Sequence[float], ax: Axes | No
     ax.set_xlabel("generation")
     ax.set_ylabel(r"cost $1/\|{}^0P_n\|_2$ [1/m]")
     ax.legend(loc="best", fontsize=8)
+    return ax
+
+
+def plot_order(studies: Sequence[Any], ax: Axes | None = None, **kwargs: Any) -> Axes:
+    """Tip error against disk spacing on log-log axes, one line per model and load group, with fitted orders.
+
+    Parameters
+    ----------
+    studies : sequence of pytdcr.accuracy.OrderStudy
+        Each holds ``spacing`` [m], ``errors_mm`` per model and the fitted ``order``.
+    """
+    if ax is None:
+        ax = pyplot().figure(figsize=(6.5, 4.5)).add_subplot()
+    markers = ("o", "s", "^", "D")
+    styles = ("-", "--", ":", "-.")
+    cmap = pyplot().get_cmap("tab10")
+    for g, st in enumerate(studies):
+        for j, (name, e) in enumerate(st.errors_mm.items()):
+            ok = np.isfinite(e) & (e > 0)
+            ax.loglog(st.spacing[ok] * 1e3, e[ok], marker=markers[j % 4], color=cmap(g % 10), linestyle=styles[j % 4],
+                      label=f"{name}, {st.group}: order {st.order[name]:.2f}", **kwargs)
+    ax.set_xlabel("disk spacing [mm]")
+    ax.set_ylabel("tip error against sscr [mm]")
+    ax.legend(loc="best", fontsize=7)
+    ax.grid(True, which="both", alpha=0.3)
     return ax

@@ -6,9 +6,10 @@ package changes no global state (the command line alone picks a matplotlib
 backend).
 """
 
+from ._accuracy import run_accuracy
 from ._output import inputs_record
 from ._reproduce import ReproduceSettings, run_reproduce
 from ._runs import SampleRun, run_compare, run_optimize, run_sample, write_optimize
 
-__all__ = ["ReproduceSettings", "SampleRun", "inputs_record", "run_compare", "run_optimize", "run_reproduce",
-           "run_sample", "write_optimize"]
+__all__ = ["ReproduceSettings", "SampleRun", "inputs_record", "run_accuracy", "run_compare", "run_optimize",
+           "run_reproduce", "run_sample", "write_optimize"]

@@ -131,7 +131,7 @@ def _payload_text(robot: Robot, pay: ReachResult) -> str:
 
 def reproduce_report(robot: Robot, summary: dict[str, Any], ga: dict[int, ReachResult], pay: ReachResult,
                      bound_study: list[tuple[float, ReachResult]], bounds: TensionBounds, seconds: float,
-                     s: ReproduceSettings) -> str:
+                     s: ReproduceSettings, extra: list[str] = ()) -> str:
     """The Markdown report of :func:`~pytdcr.study.run_reproduce`."""
     head = ("| study | GA reach [m] | GA cost [1/m] | polished reach [m] | polish gain in cost | "
             "generation within 1e-6 of final | generations | model solves | not converged | time [s] |\n"
@@ -166,6 +166,7 @@ def reproduce_report(robot: Robot, summary: dict[str, Any], ga: dict[int, ReachR
         "",
         _bounds_comment(bound_study),
         "",
+        *extra,
         "## Files",
         "",
         *[f"- `{f}`" for f in summary["files"]],

@@ -1,0 +1,249 @@
+"""Which model to trust: every model against the subsegment Cosserat rod, by load group, and the order study.
+
+The reference is ``sscr`` of the same robot with a fine integration between the
+disks (``reference_steps`` Runge-Kutta steps per subsegment). Every registered
+model solves the same tension vectors under cumulative load groups (tendons
+only; + gravity; + the paper's tip wrench; + a payload); each model's tip error
+is its distance from the reference's tip. A model that cannot honour a group
+(e.g. the smeared Cosserat rod and tendon friction) is reported as unsupported,
+with the reason, not dropped silently. The order study solves the same robot
+with 5, 10, 20 and 40 disks per segment (same lengths, routing and total disk
+mass) and fits the observed order of ``pcc`` and ``pcc2`` against ``sscr`` of
+that same robot: the slope of log(error) against log(disk spacing).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .design import Robot
+from .loads import Loads, check_tensions
+from .paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT, PAYLOAD_MASS
+from .results import StaticSolution
+from .statics import MODELS, Model, SSCROptions, UnsupportedFeatureError, get_model, resolve
+
+__all__ = ["AccuracyStudy", "LoadGroup", "ModelAccuracy", "OrderStudy", "default_groups", "model_accuracy",
+           "order_study"]
+
+#: the reference model and its integration steps per subsegment
+REFERENCE = "sscr"
+
+
+@dataclass(frozen=True)
+class LoadGroup:
+    """External loads of one group (the tensions come from the study).
+
+    Attributes
+    ----------
+    name : str
+    gravity : bool
+        Gravity on (the robot's own, or -9.81 m/s^2 along base z if it has none) or off.
+    tip_force, tip_moment : tuple of 3 floats
+        Base frame [N], [N m].
+    """
+
+    name: str
+    gravity: bool
+    tip_force: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    tip_moment: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def apply(self, robot: Robot) -> Robot:
+        """The robot with this group's gravity."""
+        if not self.gravity:
+            return robot.with_gravity(None)
+        if np.any(robot.gravity):
+            return robot
+        return robot.with_gravity((0.0, 0.0, -9.81))
+
+    def loads(self, tensions: np.ndarray) -> Loads:
+        """This group's loads with ``tensions`` [N]."""
+        return Loads(tensions, tip_force=self.tip_force, tip_moment=self.tip_moment)
+
+
+def default_groups(payload_kg: float = 2 * PAYLOAD_MASS) -> tuple[LoadGroup, ...]:
+    """Tendons only; + gravity; + the paper's tip wrench; + a payload of ``payload_kg`` instead of the wrench."""
+    return (
+        LoadGroup("tendons", gravity=False),
+        LoadGroup("+gravity", gravity=True),
+        LoadGroup("+tip wrench", gravity=True, tip_force=PAPER_TIP_FORCE, tip_moment=PAPER_TIP_MOMENT),
+        LoadGroup(f"+payload {payload_kg * 1e3:g} g", gravity=True, tip_force=(0.0, 0.0, -9.81 * payload_kg)),
+    )
+
+
+def reference_options(per_segment: int, steps_per_segment: int = 160) -> SSCROptions:
+    """The reference's options: about ``steps_per_segment`` Runge-Kutta steps over each segment (at least 4
+    per subsegment)."""
+    return SSCROptions(steps_per_subsegment=max(4, int(np.ceil(steps_per_segment / per_segment))))
+
+
+@dataclass(frozen=True)
+class ModelAccuracy:
+    """One model under one load group, against the reference.
+
+    Attributes
+    ----------
+    model, group : str
+    cases : int
+        Tension vectors solved.
+    reference_converged : int
+        Of them, where the reference converged (only those are compared).
+    converged : int
+        Of those, where this model converged.
+    errors_mm : ndarray
+        Tip distance from the reference [mm] where both converged.
+    median_ms : float
+        Median time of one of this model's solves [ms].
+    unsupported : str
+        Why the model could not take this group ("" if it could).
+    """
+
+    model: str
+    group: str
+    cases: int
+    reference_converged: int
+    converged: int
+    errors_mm: np.ndarray
+    median_ms: float
+    unsupported: str = ""
+
+    @property
+    def converged_fraction(self) -> float:
+        """Converged / reference-converged cases."""
+        return self.converged / self.reference_converged if self.reference_converged else float("nan")
+
+    def row(self) -> dict[str, Any]:
+        """A CSV/JSON-ready row."""
+        e = self.errors_mm
+        return {"model": self.model, "group": self.group, "cases": self.cases,
+                "reference_converged": self.reference_converged, "converged": self.converged,
+                "converged_fraction": self.converged_fraction,
+                "median_error_mm": float(np.median(e)) if e.size else float("nan"),
+                "p95_error_mm": float(np.percentile(e, 95)) if e.size else float("nan"),
+                "max_error_mm": float(np.max(e)) if e.size else float("nan"),
+                "median_ms": self.median_ms, "unsupported": self.unsupported}
+
+
+@dataclass(frozen=True)
+class AccuracyStudy:
+    """Every model under every load group (:func:`model_accuracy`)."""
+
+    robot: Robot
+    tensions: np.ndarray
+    groups: tuple[LoadGroup, ...]
+    models: tuple[str, ...]
+    results: tuple[ModelAccuracy, ...]
+    reference_steps: int
+    seconds: float
+
+    def rows(self) -> list[dict[str, Any]]:
+        """One row per model and group."""
+        return [r.row() for r in self.results]
+
+
+def _solve_all(model: Model, opts: Any, robot: Robot, group: LoadGroup, T: np.ndarray) -> list[StaticSolution]:
+    return [model.solve(robot, group.loads(t), None, opts) for t in T]
+
+
+def model_accuracy(robot: Robot, tensions: np.ndarray, *, groups: Sequence[LoadGroup] | None = None,
+                   models: Sequence[str | Model] | None = None, reference_steps: int = 160,
+                   progress: Callable[[str], None] | None = None) -> AccuracyStudy:
+    """Solve the rows of ``tensions`` (B, n_tendons) [N] with every model under every group; errors vs ``sscr``.
+
+    ``models`` defaults to every registered model (the reference's own model, ``sscr`` at its default
+    integration, is one of them: its row shows the integration error). ``progress`` is called with a label
+    after each model and group.
+    """
+    t0 = time.perf_counter()
+    T = check_tensions(tensions, robot.n_tendons)
+    if T.ndim != 2:
+        raise ValueError(f"tensions must have shape (B, {robot.n_tendons}), got {T.shape}")
+    groups = tuple(groups or default_groups())
+    chosen = tuple(get_model(m) for m in (models or tuple(MODELS)))
+    per = max(s.n_disks for s in robot.segments)
+    ref_model, ref_opts = resolve(REFERENCE, robot, None, reference_options(per, reference_steps))
+    results: list[ModelAccuracy] = []
+    for group in groups:
+        r = group.apply(robot)
+        ref = _solve_all(ref_model, ref_opts, r, group, T)
+        ok_ref = np.array([s.converged for s in ref])
+        if progress is not None:
+            progress(f"{group.name}: reference")
+        for m in chosen:
+            try:
+                _, opts = resolve(m, r, group.loads(T[0]))
+            except UnsupportedFeatureError as err:
+                results.append(ModelAccuracy(m.name, group.name, len(T), int(ok_ref.sum()), 0, np.zeros(0),
+                                             float("nan"), unsupported=str(err)))
+                continue
+            sols = _solve_all(m, opts, r, group, T)
+            ok = np.array([s.converged for s in sols]) & ok_ref
+            err = np.array([np.linalg.norm(sols[k].tip_position - ref[k].tip_position) * 1e3
+                            for k in np.flatnonzero(ok)])
+            results.append(ModelAccuracy(m.name, group.name, len(T), int(ok_ref.sum()), int(ok.sum()), err,
+                                         float(np.median([s.seconds for s in sols]) * 1e3)))
+            if progress is not None:
+                progress(f"{group.name}: {m.name}")
+    return AccuracyStudy(robot=robot, tensions=T, groups=groups, models=tuple(m.name for m in chosen),
+                         results=tuple(results), reference_steps=reference_steps, seconds=time.perf_counter() - t0)
+
+
+@dataclass(frozen=True)
+class OrderStudy:
+    """Errors of ``pcc``-like models against ``sscr`` of the same robot as the disks multiply.
+
+    Attributes
+    ----------
+    disks : tuple of int
+        Disks per segment.
+    spacing : ndarray, shape (len(disks),)
+        Largest subsegment length [m].
+    errors_mm : dict of str to ndarray, shape (len(disks),)
+        Per model, the median tip error over the cases [mm] (NaN where nothing converged).
+    order : dict of str to float
+        Per model, the slope of log(error) on log(spacing), least squares.
+    group : str
+    """
+
+    disks: tuple[int, ...]
+    spacing: np.ndarray
+    errors_mm: dict[str, np.ndarray]
+    order: dict[str, float]
+    group: str
+    cases: int
+    seconds: float = 0.0
+    details: dict[str, Any] = field(default_factory=dict)
+
+
+def order_study(robot: Robot, tensions: np.ndarray, group: LoadGroup, *, disks: Sequence[int] = (5, 10, 20, 40),
+                models: Sequence[str] = ("pcc", "pcc2"), reference_steps: int = 160,
+                progress: Callable[[str], None] | None = None) -> OrderStudy:
+    """The observed order of each model against ``sscr`` of the same robot, with ``disks`` per segment."""
+    t0 = time.perf_counter()
+    T = check_tensions(np.atleast_2d(tensions), robot.n_tendons)
+    errors = {m: np.full(len(disks), np.nan) for m in models}
+    spacing = np.empty(len(disks))
+    for j, n in enumerate(disks):
+        r = group.apply(robot.with_disks(n))
+        spacing[j] = float(np.max(r.subsegment_lengths))
+        ref_model, ref_opts = resolve(REFERENCE, r, None, reference_options(n, reference_steps))
+        ref = _solve_all(ref_model, ref_opts, r, group, T)
+        for name in models:
+            m, opts = resolve(name, r, group.loads(T[0]))
+            sols = _solve_all(m, opts, r, group, T)
+            e = [np.linalg.norm(s.tip_position - q.tip_position) * 1e3
+                 for s, q in zip(sols, ref, strict=True) if s.converged and q.converged]
+            if e:
+                errors[name][j] = float(np.median(e))
+        if progress is not None:
+            progress(f"order study: {n} disks per segment")
+    order = {}
+    for name, e in errors.items():
+        ok = np.isfinite(e) & (e > 0)
+        order[name] = float(np.polyfit(np.log(spacing[ok]), np.log(e[ok]), 1)[0]) if ok.sum() >= 2 else float("nan")
+    return OrderStudy(disks=tuple(int(d) for d in disks), spacing=spacing, errors_mm=errors, order=order,
+                      group=group.name, cases=len(T), seconds=time.perf_counter() - t0)
