@@ -290,9 +290,10 @@ def _read_cases(path: str, robot: Robot) -> np.ndarray:
         if len(vals) != robot.n_tendons:
             raise CliError(f"--cases {path}: line {k}: robot '{robot.name}' has {robot.n_tendons} tendons, "
                            f"got {len(vals)} values")
-        if not all(np.isfinite(v) and v >= 0 for v in vals):
-            raise CliError(f"--cases {path}: line {k}: tensions must be finite and >= 0 N, got {line!r}")
-        rows.append(vals)
+        try:
+            rows.append(check_tensions(vals, robot.n_tendons, name=f"--cases {path}: line {k}: tensions"))
+        except ValueError as err:
+            raise CliError(str(err)) from None
     if not rows:
         raise CliError(f"--cases {path}: no cases")
     return np.array(rows, dtype=float)
