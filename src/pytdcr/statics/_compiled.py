@@ -9,7 +9,7 @@ differentiates the tip by the tensions (implicit function theorem).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Literal, NamedTuple, Protocol
 
 import numpy as np
@@ -22,7 +22,7 @@ from ._batch import run_in_chunks
 from ._constants import DEFAULT_ATOL, LOAD_STEPPING, PATH_NAMES
 from ._options import check_common_options
 
-__all__ = ["CompiledModel", "Equations", "Evaluation", "SolverOptions"]
+__all__ = ["CompiledModel", "Equations", "Evaluation", "PackedEquations", "SolverOptions"]
 
 _FOLDS = {"relax": SV.FOLD_RELAX, "arclength": SV.FOLD_ARCLENGTH}
 
@@ -55,6 +55,41 @@ class Equations(Protocol):
     def shape(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]: ...
 
     def tip_jacobian(self, q: np.ndarray) -> np.ndarray: ...
+
+
+class PackedEquations:
+    """What every packed equation set has: counts, a copy with other tensions, the check of its unknowns.
+
+    Subclasses are frozen dataclasses with a ``packed`` named tuple (``sub`` (N, 5), ``tension`` (nt,), ...)
+    and set ``per_subsegment``, the unknowns per subsegment.
+    """
+
+    per_subsegment: int
+    packed: Any
+
+    @property
+    def n_disks(self) -> int:
+        """N."""
+        return int(self.packed.sub.shape[0])
+
+    @property
+    def n_unknowns(self) -> int:
+        """The unknowns, ``per_subsegment`` * N."""
+        return self.per_subsegment * self.n_disks
+
+    def with_tensions(self, tensions: np.ndarray) -> Any:
+        """The same equations with other actuator tensions [N], shape (n_tendons,)."""
+        return replace(self, packed=self.packed._replace(tension=np.asarray(tensions, dtype=float)))
+
+    def check_q(self, q: np.ndarray, name: str = "q") -> np.ndarray:
+        """``q`` as a finite float64 vector (n_unknowns,); ValueError naming the expected shape."""
+        arr = np.array(q, dtype=float).reshape(-1)
+        if arr.shape != (self.n_unknowns,):
+            raise ValueError(f"{name} must have {self.n_unknowns} entries (shape ({self.n_disks}, "
+                             f"{self.per_subsegment})), got shape {np.shape(q)}")
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(f"{name} must be finite")
+        return arr
 
 
 @dataclass(frozen=True)

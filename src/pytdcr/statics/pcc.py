@@ -21,7 +21,7 @@ first.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -29,7 +29,7 @@ from ..design import ConstantFriction, ExponentialFriction, NoFriction, Robot
 from ..kinematics import tip_jacobian
 from ..loads import Loads
 from . import _kernels as K
-from ._compiled import CompiledModel, Evaluation, SolverOptions
+from ._compiled import CompiledModel, Evaluation, PackedEquations, SolverOptions
 from .base import Capabilities
 
 __all__ = ["PCC", "PCCEquations", "PCCModel", "SolverOptions", "friction_params"]
@@ -49,7 +49,7 @@ def friction_params(robot: Robot, release: bool) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class PCCEquations:
+class PCCEquations(PackedEquations):
     """The 3N equilibrium equations of ``robot`` under ``loads`` (MODEL.md).
 
     Attributes
@@ -66,6 +66,7 @@ class PCCEquations:
         where each subsegment's moment balance is taken.
     """
 
+    per_subsegment = 3
     robot: Robot
     loads: Loads
     packed: K.Packed
@@ -104,30 +105,6 @@ class PCCEquations:
                           friction_params(robot, loads.release), np.array(loads.tensions, dtype=float),
                           np.array(robot.gravity, dtype=float), pforce, pmoment, int(balance))
         return cls(robot=robot, loads=loads, packed=packed)
-
-    @property
-    def n_disks(self) -> int:
-        """N."""
-        return int(self.packed.sub.shape[0])
-
-    @property
-    def n_unknowns(self) -> int:
-        """3N."""
-        return 3 * self.n_disks
-
-    def with_tensions(self, tensions: np.ndarray) -> PCCEquations:
-        """The same equations with other actuator tensions [N], shape (n_tendons,)."""
-        return replace(self, packed=self.packed._replace(tension=np.asarray(tensions, dtype=float)))
-
-    def check_q(self, q: np.ndarray, name: str = "q") -> np.ndarray:
-        """``q`` as a finite float64 vector (3N,); ValueError naming the expected shape."""
-        arr = np.array(q, dtype=float).reshape(-1)
-        if arr.shape != (self.n_unknowns,):
-            raise ValueError(f"{name} must have {self.n_unknowns} entries (shape ({self.n_disks}, 3)), "
-                             f"got shape {np.shape(q)}")
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(f"{name} must be finite")
-        return arr
 
     def evaluate(self, q: np.ndarray, load_factor: float = 1.0, jacobian: bool = False) -> Evaluation:
         """Residual, optionally the exact Jacobian, and the tendon tensions at ``q`` (3N,) or (N, 3)."""

@@ -17,7 +17,7 @@ solver's loading path from the unloaded robot. Equations and Jacobian:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
@@ -25,7 +25,7 @@ import numpy as np
 from ..design import Robot
 from ..loads import Loads
 from . import _sscr_kernels as SK
-from ._compiled import CompiledModel, Evaluation, SolverOptions
+from ._compiled import CompiledModel, Evaluation, PackedEquations, SolverOptions
 from .base import Capabilities
 from .pcc import PCCEquations
 
@@ -61,7 +61,7 @@ class SSCROptions(SolverOptions):
 
 
 @dataclass(frozen=True, eq=False)
-class SSCREquations:
+class SSCREquations(PackedEquations):
     """The 6N disk balances of ``robot`` under ``loads`` (see :mod:`pytdcr.statics._sscr_kernels`).
 
     Attributes
@@ -73,6 +73,7 @@ class SSCREquations:
         axial stiffness, mass per length, extensibility and integration steps.
     """
 
+    per_subsegment = 6
     robot: Robot
     loads: Loads
     packed: SK.SSCRPacked
@@ -88,30 +89,6 @@ class SSCREquations:
                         1.0 if opts.shear_extension else 0.0, float(opts.steps_per_subsegment)])
         packed = SK.SSCRPacked(p.sub, p.holes, p.anchor, p.fric, p.tension, p.grav, p.pforce, p.pmoment, rod)
         return cls(robot=robot, loads=loads, packed=packed)
-
-    @property
-    def n_disks(self) -> int:
-        """N."""
-        return int(self.packed.sub.shape[0])
-
-    @property
-    def n_unknowns(self) -> int:
-        """6N."""
-        return 6 * self.n_disks
-
-    def with_tensions(self, tensions: np.ndarray) -> SSCREquations:
-        """The same equations with other actuator tensions [N], shape (n_tendons,)."""
-        return replace(self, packed=self.packed._replace(tension=np.asarray(tensions, dtype=float)))
-
-    def check_q(self, q: np.ndarray, name: str = "q") -> np.ndarray:
-        """``q`` as a finite float64 vector (6N,); ValueError naming the expected shape."""
-        arr = np.array(q, dtype=float).reshape(-1)
-        if arr.shape != (self.n_unknowns,):
-            raise ValueError(f"{name} must have {self.n_unknowns} entries (shape ({self.n_disks}, 6)), "
-                             f"got shape {np.shape(q)}")
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(f"{name} must be finite")
-        return arr
 
     def _run(self, q: np.ndarray, load_factor: float, jacobian: bool) -> tuple[np.ndarray, np.ndarray, SK.SSCRWork]:
         q = self.check_q(q)
