@@ -221,7 +221,9 @@ def _print_reach(res: Any, args: argparse.Namespace) -> None:
     if res.polished:
         print(f"  polished: reach {res.reach:.6f} m (cost {res.cost:.6f}, gain {res.polish_gain:.2e}), "
               f"tensions {np.round(res.tensions, 4).tolist()} N")
-    print(f"  optimum tip {np.round(res.tip_position, 6).tolist()} m")
+    print(f"  optimum tip {np.round(res.tip_position, 6).tolist()} m; "
+          f"{'stable' if res.stable else 'UNSTABLE' if res.stable is False else 'stability untested'}"
+          f"{f' ({res.unstable} unstable individuals refused)' if res.unstable else ''}")
 
 
 def _cmd_optimize(args: argparse.Namespace) -> int:
@@ -238,7 +240,8 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     setup = model_from_args(args)
     bounds = bounds_from_args(args, setup.robot)
     model, options = solver_from_args(args, setup.robot, setup.loads)
-    problem = ReachProblem.create(setup.robot, setup.loads, bounds, model=model, options=options)
+    problem = ReachProblem.create(setup.robot, setup.loads, bounds, model=model, options=options,
+                                  stable_only=args.stable_only)
     out = Path(args.out) if args.out else None
     res, files = run_optimize(problem, algorithm, termination, seed=args.seed, out=out,
                               progress=None if args.json else _tqdm_progress("GA", args.max_gen))
@@ -435,12 +438,27 @@ def _cmd_solve(args: argparse.Namespace) -> int:
             print(f"  tip position  [{p[0]: .6f}, {p[1]: .6f}, {p[2]: .6f}] m, |p| = {sol.reach:.6f} m")
             z = sol.tip_rotation[:, 2]
             print(f"  tip direction [{z[0]: .4f}, {z[1]: .4f}, {z[2]: .4f}]")
+            print(f"  {_stability_text(sol.stability)}")
     if args.plot:
         if not sol.converged:
             print("tdcr: not plotting: the solve did not converge", file=sys.stderr)
         else:
             _plot_solution(sol, robot, loads, Path(args.plot))
     return 0 if sol.converged else 1
+
+
+def _stability_text(st: Any) -> str:
+    """One line on the equilibrium's static stability."""
+    if st is None:
+        return "stability: not tested by this model"
+    words = ("stable" if st.stable else
+             f"UNSTABLE: {st.n_real_nonpositive} real eigenvalue(s) of the tangent stiffness <= 0 "
+             f"(lowest {st.min_real_eigenvalue:.3g})")
+    if st.flutter_pairs:
+        z = st.least_damped
+        words += (f"; {st.flutter_pairs} complex pair(s) with a negative real part (least damped {z.real:.3g} "
+                  f"+/- {abs(z.imag):.3g}i: possible flutter, which a static model cannot decide)")
+    return f"stability: {words}"
 
 
 def _plot_solution(sol: Any, robot: Robot, loads: Loads, path: Path) -> None:
@@ -507,6 +525,8 @@ def build_parser() -> argparse.ArgumentParser:
     op.add_argument("--no-polish", action="store_true", help="skip the gradient polish of the GA's best")
     op.add_argument("--no-local-search", action="store_true",
                     help="plain GA: no gradient search on each new leader (the default GA is memetic)")
+    op.add_argument("--stable-only", action="store_true",
+                    help="an equilibrium that fails the static stability test is infeasible (models with the test)")
     op.add_argument("--json", action="store_true", help="print one JSON object")
     op.add_argument("--out", help="write figures and data to this folder")
     op.set_defaults(func=_cmd_optimize)

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -11,11 +12,43 @@ import numpy as np
 from .design import Robot
 from .kinematics import backbone_curve
 
-__all__ = ["BatchSolution", "NotConvergedError", "StaticSolution"]
+__all__ = ["BatchSolution", "NotConvergedError", "Stability", "StaticSolution"]
 
 
 class NotConvergedError(RuntimeError):
     """Raised when a shape is asked of a solve that did not converge."""
+
+
+@dataclass(frozen=True)
+class Stability:
+    """The eigenvalue test of one equilibrium.
+
+    Attributes
+    ----------
+    stable : bool
+        No real eigenvalue of K is <= 0.
+    min_real_eigenvalue : float
+        The smallest real eigenvalue of K (NaN if K has none) [N m per unit of q].
+    n_real_nonpositive : int
+        How many real eigenvalues are <= 0.
+    flutter_pairs : int
+        Complex-conjugate pairs with a negative real part (possible flutter; not called unstable).
+    least_damped : complex or None
+        Of those, the eigenvalue with the most negative real part.
+    """
+
+    stable: bool
+    min_real_eigenvalue: float
+    n_real_nonpositive: int
+    flutter_pairs: int
+    least_damped: complex | None
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form (the complex eigenvalue as [real, imag])."""
+        z = self.least_damped
+        return {"stable": self.stable, "min_real_eigenvalue": self.min_real_eigenvalue,
+                "n_real_nonpositive": self.n_real_nonpositive, "flutter_pairs": self.flutter_pairs,
+                "least_damped_pair": None if z is None else [z.real, abs(z.imag)]}
 
 
 @dataclass(frozen=True, eq=False)
@@ -50,6 +83,11 @@ class StaticSolution:
         Convergence tolerance used [N m].
     model : str
         The registered name of the model that solved it (:data:`pytdcr.statics.MODELS`).
+    stability : Stability or None
+        The static stability test of the equilibrium (computed on first use);
+        None when not converged or when the model has no such test.
+    stable : bool or None
+        ``stability.stable``.
     """
 
     converged: bool
@@ -65,6 +103,7 @@ class StaticSolution:
     _rotations: np.ndarray
     model: str = "pcc"
     _curve: np.ndarray | None = None
+    _stability_fn: Callable[[], Stability | None] | None = None
 
     def _require(self) -> None:
         if not self.converged:
@@ -107,11 +146,26 @@ class StaticSolution:
         """||^0P_n||_2 [m]."""
         return float(np.linalg.norm(self.tip_position))
 
+    @cached_property
+    def stability(self) -> Stability | None:
+        """The eigenvalue test of the equilibrium's tangent stiffness (None: not converged, or no such test)."""
+        if not self.converged or self._stability_fn is None:
+            return None
+        return self._stability_fn()
+
+    @property
+    def stable(self) -> bool | None:
+        """True when the equilibrium is statically stable, False when not, None when untested."""
+        s = self.stability
+        return None if s is None else s.stable
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary; shape fields are None when not converged."""
         ok = self.converged
         return {
             "converged": bool(ok),
+            "stable": self.stable,
+            "stability": None if self.stability is None else self.stability.to_dict(),
             "residual": float(self.residual),
             "iterations": int(self.iterations),
             "load_steps": int(self.load_steps),
@@ -158,6 +212,20 @@ class BatchSolution:
     seconds: float
     path: np.ndarray
     model: str
+    _stability_fn: Callable[[], Sequence[Stability | None]] | None = None
+
+    @cached_property
+    def stability(self) -> tuple[Stability | None, ...]:
+        """Each case's stability test (computed on first use, in parallel); None where not converged or
+        untested."""
+        if self._stability_fn is None:
+            return (None,) * len(self.converged)
+        return tuple(self._stability_fn())
+
+    @property
+    def stable(self) -> np.ndarray:
+        """Per case: 1.0 stable, 0.0 unstable, NaN not converged or untested, shape (B,)."""
+        return np.array([np.nan if s is None else float(s.stable) for s in self.stability])
 
     @classmethod
     def from_solutions(cls, tensions: np.ndarray, solutions: Sequence[StaticSolution], seconds: float,

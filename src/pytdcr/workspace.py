@@ -11,6 +11,7 @@ import numpy as np
 from .bounds import TensionBounds
 from .design import Robot
 from .loads import Loads
+from .results import BatchSolution
 from .statics import Model, solve_batch
 
 __all__ = ["WorkspaceSamples", "sample_workspace"]
@@ -42,6 +43,14 @@ class WorkspaceSamples:
     q: np.ndarray
     seed: int
     seconds: float
+    batch: BatchSolution | None = None
+
+    @property
+    def stable(self) -> np.ndarray:
+        """Per sample: 1.0 stable, 0.0 unstable, NaN not converged or untested (computed on first use)."""
+        if self.batch is None:
+            return np.full(self.converged.shape, np.nan)
+        return self.batch.stable
 
     @property
     def reach(self) -> np.ndarray:
@@ -82,4 +91,5 @@ def sample_workspace(
         q=batch.q,
         seed=seed,
         seconds=time.perf_counter() - t0,
+        batch=batch,
     )

@@ -20,9 +20,11 @@ INFEASIBLE_COST = 1e3
 
 
 class Evaluated(NamedTuple):
-    """A batch of tension vectors, evaluated: the solves and the cost of each (INFEASIBLE_COST where not converged)."""
+    """A batch of tension vectors, evaluated: the solves, which are feasible (converged, and stable when the problem
+    asks for it), and the cost of each (INFEASIBLE_COST where not feasible)."""
 
     batch: BatchSolution
+    feasible: np.ndarray
     cost: np.ndarray
 
 
@@ -45,6 +47,9 @@ class ReachProblem:
     options : the model's options type
     direction : ndarray, shape (3,), or None
         Unit vector in the base frame, or None for the paper's objective.
+    stable_only : bool
+        An equilibrium that fails the static stability test is infeasible
+        (:mod:`pytdcr.statics.stability`; the model must have the test).
     """
 
     robot: Robot
@@ -53,14 +58,15 @@ class ReachProblem:
     model: Model
     options: Any
     direction: np.ndarray | None = None
+    stable_only: bool = False
 
     @classmethod
     def create(cls, robot: Robot, loads: Loads, bounds: TensionBounds, *, model: str | Model = "pcc",
-               options: Any = None, direction: np.ndarray | None = None) -> ReachProblem:
+               options: Any = None, direction: np.ndarray | None = None, stable_only: bool = False) -> ReachProblem:
         """Check the inputs and resolve the model; ``direction`` is normalised (ValueError if zero)."""
         if not isinstance(bounds, TensionBounds):
             raise TypeError(f"bounds must be a pytdcr.TensionBounds, got {type(bounds).__name__}")
-        m, opts = resolve(model, robot, loads, options, gradient=True)
+        m, opts = resolve(model, robot, loads, options, gradient=True, stability=stable_only)
         bounds.check_robot(robot)
         if not np.any(bounds.free):
             raise ValueError("bounds: every tension is fixed (lower == upper); nothing to optimise")
@@ -72,12 +78,12 @@ class ReachProblem:
                 raise ValueError(f"direction must be 3 finite numbers, not all zero, got {direction!r}")
             d = d / norm
         return cls(robot=robot, loads=loads.with_tensions(np.zeros(robot.n_tendons)), bounds=bounds, model=m,
-                   options=opts, direction=d)
+                   options=opts, direction=d, stable_only=bool(stable_only))
 
     def with_direction(self, direction: np.ndarray | None) -> ReachProblem:
         """The same problem along another direction (None: the paper's objective)."""
         return ReachProblem.create(self.robot, self.loads, self.bounds, model=self.model, options=self.options,
-                                   direction=direction)
+                                   direction=direction, stable_only=self.stable_only)
 
     @property
     def free(self) -> np.ndarray:
@@ -114,10 +120,12 @@ class ReachProblem:
         """Solve every row of ``tensions`` (B, n_tendons) [N]: the batch and each row's cost."""
         batch = self.model.solve_batch(self.robot, np.ascontiguousarray(tensions, dtype=float), self.loads, q0,
                                        self.options)
-        cost = np.full(batch.converged.shape, INFEASIBLE_COST)
-        ok = batch.converged
+        ok = batch.converged.copy()
+        if self.stable_only:
+            ok &= batch.stable == 1.0
+        cost = np.full(ok.shape, INFEASIBLE_COST)
         cost[ok] = self.cost(batch.tip_position[ok])
-        return Evaluated(batch, cost)
+        return Evaluated(batch, ok, cost)
 
     def solve(self, tensions: np.ndarray, q0: np.ndarray | None = None, atol: float | None = None) -> StaticSolution:
         """One equilibrium at ``tensions`` (n_tendons,) [N], at the problem's tolerance or ``atol`` [N m]."""
@@ -133,7 +141,7 @@ class ReachProblem:
         when the solve does not converge. Solved at the tight tolerance ``atol`` so that the cost is smooth
         to a gradient search."""
         sol = self.solve(tensions, q0, atol)
-        if not sol.converged:
+        if not sol.converged or (self.stable_only and not sol.stable):
             return INFEASIBLE_COST, None, sol
         opts = configure(self.model, self.options, atol=atol)
         tip, dtip = self.model.tip_gradient(self.robot, self.loads.with_tensions(tensions), sol, opts)
@@ -148,4 +156,5 @@ class ReachProblem:
         """JSON-ready settings of the problem."""
         return {"model": self.model.name, "bounds": self.bounds.to_dict(),
                 "objective": "reach" if self.direction is None else "direction",
-                "direction": None if self.direction is None else self.direction.tolist()}
+                "direction": None if self.direction is None else self.direction.tolist(),
+                "stable_only": self.stable_only}

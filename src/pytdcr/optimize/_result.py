@@ -24,17 +24,20 @@ class Optimum:
         ||tip|| [m].
     cost : float
         The problem's minimised cost: 1/reach [1/m], or -d . tip [m] along a direction.
+    stable : bool or None
+        The equilibrium's static stability (None: the model has no such test).
     """
 
     tensions: np.ndarray
     tip_position: np.ndarray
     reach: float
     cost: float
+    stable: bool | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form."""
         return {"tensions": self.tensions.tolist(), "tip_position": self.tip_position.tolist(),
-                "reach": self.reach, "cost": self.cost}
+                "reach": self.reach, "cost": self.cost, "stable": self.stable}
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,6 +59,9 @@ class ReachResult:
         The minimised cost (1/reach [1/m] for the paper's objective, -d . tip [m] along d).
     value : float
         What is maximised: the reach, or d . tip [m].
+    stable : bool or None
+        Whether the optimum is statically stable (None: the model has no such test). With
+        ``ReachProblem(stable_only=True)`` unstable equilibria are infeasible.
     converged : bool
         The optimum's own solve converged *and* the stopping rule was met.
     stop_reason : str
@@ -69,6 +75,8 @@ class ReachResult:
         in ``polish_evaluations``).
     nonconverged : int
         GA evaluations whose solve did not converge (infeasible individuals).
+    unstable : int
+        GA evaluations refused as unstable (with ``stable_only``).
     seconds : float
         Wall time of the whole search [s].
     seed : int or None
@@ -90,6 +98,7 @@ class ReachResult:
     reach: float
     cost: float
     value: float
+    stable: bool | None
     converged: bool
     stop_reason: str
     generations: int
@@ -102,6 +111,7 @@ class ReachResult:
     polish_gain: float = 0.0
     polish_evaluations: int = 0
     polish_message: str = ""
+    unstable: int = 0
     settings: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -112,7 +122,7 @@ class ReachResult:
     @property
     def optimum(self) -> Optimum:
         """The final optimum as an :class:`Optimum`."""
-        return Optimum(self.tensions, self.tip_position, self.reach, self.cost)
+        return Optimum(self.tensions, self.tip_position, self.reach, self.cost, self.stable)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (the keys of ``tdcr optimize --json``)."""
@@ -124,6 +134,7 @@ class ReachResult:
             "generations": self.generations,
             "evaluations": self.evaluations,
             "nonconverged": self.nonconverged,
+            "unstable": self.unstable,
             "seconds": self.seconds,
             "seed": self.seed,
             "history": self.history,

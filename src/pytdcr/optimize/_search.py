@@ -180,11 +180,14 @@ def polish_reach(problem: ReachProblem, tensions: np.ndarray, *, q0: np.ndarray 
         raise RuntimeError("polish ended on a tension vector whose solve does not converge")
     tip = final.tip_position
     cost = float(problem.cost(tip))
+    if problem.stable_only and not final.stable:  # pragma: no cover - the optimiser only accepts stable points
+        raise RuntimeError("polish ended on an unstable equilibrium")
     begin = Optimum(start, np.full(3, np.nan), float("nan"), c0)
     return ReachResult(tensions=t, tip_position=tip, reach=final.reach, cost=cost, value=float(problem.value(tip)),
-                       converged=success, stop_reason=message, generations=0, evaluations=state["n"], nonconverged=0,
-                       seconds=time.perf_counter() - t0, seed=None, history={}, ga=begin, polish_gain=c0 - cost,
-                       polish_evaluations=state["n"], polish_message=message, settings=problem.describe())
+                       stable=final.stable, converged=success, stop_reason=message, generations=0,
+                       evaluations=state["n"], nonconverged=0, seconds=time.perf_counter() - t0, seed=None,
+                       history={}, ga=begin, polish_gain=c0 - cost, polish_evaluations=state["n"],
+                       polish_message=message, settings=problem.describe())
 
 
 # ------------------------------------------------------------------------------------------ the GA
@@ -192,6 +195,7 @@ def polish_reach(problem: ReachProblem, tensions: np.ndarray, *, q0: np.ndarray 
 class _Stats:
     evals: int = 0
     nonconv: int = 0
+    unstable: int = 0  # converged but refused as unstable (stable_only)
     ls: int = 0
     ls_runs: int = 0
     history: dict[str, list] = field(default_factory=lambda: {
@@ -220,13 +224,14 @@ class _Evaluator(Problem):
             nearest = cKDTree(np.vstack(self.archive_T) / scale).query(T / scale)[1]
             q0 = np.vstack(self.archive_q)[nearest]
         ev = self.reach.evaluate(T, q0)
-        ok = ev.batch.converged
-        self.archive_T.append(T[ok])
-        self.archive_q.append(ev.batch.q[ok])
+        conv = ev.batch.converged
+        self.archive_T.append(T[conv])
+        self.archive_q.append(ev.batch.q[conv])
         self.stats.evals += x.shape[0]
-        self.stats.nonconv += int((~ok).sum())
+        self.stats.nonconv += int((~conv).sum())
+        self.stats.unstable += int((conv & ~ev.feasible).sum())
         out["F"] = ev.cost[:, None]
-        out["G"] = np.where(ok, -1.0, 1.0)[:, None]
+        out["G"] = np.where(ev.feasible, -1.0, 1.0)[:, None]
 
 
 def _distinct(x: np.ndarray, picked: Sequence[np.ndarray], scale: np.ndarray) -> bool:
@@ -321,7 +326,7 @@ class _GARun:
         sol = self.problem.solve(T)
         if not sol.converged:
             raise RuntimeError("the GA's best does not converge when solved cold from the straight robot")
-        return Optimum(T, sol.tip_position, sol.reach, float(self.problem.cost(sol.tip_position))), sol.q
+        return Optimum(T, sol.tip_position, sol.reach, float(self.problem.cost(sol.tip_position)), sol.stable), sol.q
 
     def polish_starts(self, best: np.ndarray) -> list[np.ndarray]:
         """The GA's best, the best few distinct feasible individuals of the last population, the extra starts."""
@@ -394,8 +399,9 @@ def maximize_reach(problem: ReachProblem, algorithm: MemeticGA | None = None, te
     stats = run.stats
     return ReachResult(
         tensions=top.tensions, tip_position=top.tip_position, reach=top.reach, cost=top.cost,
-        value=float(problem.value(top.tip_position)), converged=reason == "tolerance", stop_reason=reason,
-        generations=len(stats.history["best"]), evaluations=stats.evals + stats.ls, nonconverged=stats.nonconv,
+        value=float(problem.value(top.tip_position)), stable=top.stable, converged=reason == "tolerance",
+        stop_reason=reason, generations=len(stats.history["best"]), evaluations=stats.evals + stats.ls,
+        nonconverged=stats.nonconv, unstable=stats.unstable,
         seconds=time.perf_counter() - t0, seed=int(seed), history=stats.history, ga=ga,
         polish_gain=ga.cost - top.cost if final is not None else 0.0,
         polish_evaluations=final.polish_evaluations if final is not None else 0,

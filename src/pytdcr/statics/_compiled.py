@@ -21,6 +21,7 @@ from . import _solver_kernels as SV
 from ._batch import run_in_chunks
 from ._constants import DEFAULT_ATOL, LOAD_STEPPING, PATH_NAMES
 from ._options import check_common_options
+from .stability import Stability, conjugate_stiffness, stability_of
 
 __all__ = ["CompiledModel", "Equations", "Evaluation", "PackedEquations", "SolverOptions"]
 
@@ -216,15 +217,22 @@ class CompiledModel:
                              int(out.iterations[0]), PATH_NAMES[out.path[0]], seconds, options.atol,
                              int(out.load_steps[0]))
 
+    def stability_at(self, eq: Equations, q: np.ndarray) -> Stability | None:
+        """The stability test at the equilibrium ``q`` of ``eq`` (None if the model has none)."""
+        if not self.capabilities.stability:
+            return None
+        return stability_of(conjugate_stiffness(eq.evaluate(q, jacobian=True).jacobian))
+
     def solution(self, eq: Equations, q: np.ndarray, converged: bool, residual: float, iterations: int,
                  path: str, seconds: float, atol: float, load_steps: int = 0) -> StaticSolution:
         """Wrap an outcome of the solver as a :class:`StaticSolution`."""
         pos, rot, curve = eq.shape(q)
         ok = converged and bool(np.all(np.isfinite(q)))
+        q = q.copy()
         return StaticSolution(converged=ok, residual=residual, iterations=iterations, load_steps=load_steps,
                               path=path, q=q.reshape(eq.n_disks, -1), tensions=eq.evaluate(q).tensions,
                               seconds=seconds, atol=atol, _positions=pos, _rotations=rot, model=self.name,
-                              _curve=curve)
+                              _curve=curve, _stability_fn=lambda: self.stability_at(eq, q))
 
     def solve_batch(self, robot: Robot, tensions: np.ndarray, loads: Loads, q0: np.ndarray | None,
                     options: Any, threads: int | None = None) -> BatchSolution:
@@ -239,9 +247,23 @@ class CompiledModel:
         ok = out.converged & np.all(np.isfinite(out.q), axis=1)
         for b in np.flatnonzero(ok):
             tips[b] = eq.shape(out.q[b])[0][-1]
+        def stabilities() -> list[Stability | None]:
+            found: list[Stability | None] = [None] * nb
+            if not self.capabilities.stability:
+                return found
+            rows = np.flatnonzero(ok)
+
+            def chunk(start: int, stop: int) -> None:
+                for b in rows[start:stop]:
+                    found[b] = self.stability_at(eq.with_tensions(tensions[b]), out.q[b])
+
+            run_in_chunks(chunk, rows.size, threads)
+            return found
+
         return BatchSolution(tensions=tensions, converged=ok, residual=out.residual, iterations=out.iterations,
                              q=out.q.reshape(nb, eq.n_disks, -1), tip_position=tips, seconds=seconds,
-                             path=np.array(PATH_NAMES, dtype=object)[out.path], model=self.name)
+                             path=np.array(PATH_NAMES, dtype=object)[out.path], model=self.name,
+                             _stability_fn=stabilities)
 
     def tip_gradient(self, robot: Robot, loads: Loads, solution: StaticSolution,
                      options: Any) -> tuple[np.ndarray, np.ndarray]:

@@ -52,11 +52,16 @@ class Capabilities:
         External wrenches at disks other than the tip.
     gradient : {'exact', 'finite differences'} or None
         How :meth:`Model.tip_gradient` differentiates the tip by the tensions.
+    stability : bool
+        The model tests an equilibrium's static stability (the eigenvalues of
+        its tangent stiffness, :mod:`pytdcr.statics.stability`); without it,
+        ``StaticSolution.stable`` is None.
     """
 
     friction: bool
     point_wrenches: bool
     gradient: Literal["exact", "finite differences"] | None
+    stability: bool = False
 
 
 @runtime_checkable

@@ -64,7 +64,7 @@ def configure(model: str | Model, options: Any = None, **overrides: Any) -> Any:
 
 
 def resolve(model: str | Model, robot: Robot, loads: Loads | None = None, options: Any = None, *,
-            gradient: bool = False) -> tuple[Model, Any]:
+            gradient: bool = False, stability: bool = False) -> tuple[Model, Any]:
     """Check a request against the model's capabilities; return the model and its options.
 
     Parameters
@@ -76,6 +76,8 @@ def resolve(model: str | Model, robot: Robot, loads: Loads | None = None, option
         Default: the model's defaults.
     gradient : bool
         The caller needs :meth:`Model.tip_gradient`.
+    stability : bool
+        The caller needs the static stability test.
 
     Raises
     ------
@@ -99,6 +101,8 @@ def resolve(model: str | Model, robot: Robot, loads: Loads | None = None, option
         raise UnsupportedFeatureError(m.name, "wrenches at disks other than the tip")
     if gradient and caps.gradient is None:
         raise UnsupportedFeatureError(m.name, "a tip gradient (needed by the gradient search)")
+    if stability and not caps.stability:
+        raise UnsupportedFeatureError(m.name, "the static stability test")
     return m, opts
 
 

@@ -124,7 +124,8 @@ def _adopt(r: ReachResult, other: ReachResult) -> ReachResult:
     """``r`` with ``other``'s optimum as its final one (the GA stage of ``r`` kept)."""
     start_cost = r.ga.cost if r.ga is not None else r.cost
     return dataclasses.replace(r, tensions=other.tensions, tip_position=other.tip_position, reach=other.reach,
-                               cost=other.cost, value=other.value, polish_gain=start_cost - other.cost)
+                               cost=other.cost, value=other.value, stable=other.stable,
+                               polish_gain=start_cost - other.cost)
 
 
 def _bounds_study(robot: Robot, jobs: dict[str, _Job], done: dict[str, ReachResult], ga: dict[int, ReachResult],

@@ -35,13 +35,15 @@ def _write_samples_csv(path: Path, robot: Robot, samples: WorkspaceSamples) -> N
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["sample", *[f"T{c + 1}_N" for c in range(robot.n_tendons)], "tip_x_m", "tip_y_m", "tip_z_m",
-                    "reach_m", "converged", "residual_Nm"])
+                    "reach_m", "converged", "residual_Nm", "stable"])
+        stable = samples.stable
         for k in range(samples.tensions.shape[0]):
             tip = samples.tip_position[k]
             w.writerow([k + 1, *[f"{x:.12g}" for x in samples.tensions[k]],
                         *[("" if not np.isfinite(x) else f"{x:.12g}") for x in tip],
                         "" if not samples.converged[k] else f"{samples.reach[k]:.12g}",
-                        int(samples.converged[k]), f"{samples.residual[k]:.6g}"])
+                        int(samples.converged[k]), f"{samples.residual[k]:.6g}",
+                        "" if not np.isfinite(stable[k]) else int(stable[k])])
 
 
 def run_sample(robot: Robot, loads: Loads, bounds: TensionBounds, n: int, seed: int, out: Path | None, *,
@@ -68,6 +70,7 @@ def run_sample(robot: Robot, loads: Loads, bounds: TensionBounds, n: int, seed: 
         "inputs": inputs_record(robot, loads, bounds=bounds.to_dict(), n=n, seed=seed,
                                 solver=options_record(m, opts)),
         "converged": int(samples.converged.sum()), "not_converged": int((~samples.converged).sum()),
+        "unstable": int(np.sum(samples.stable == 0.0)),
         "reach_max_m": float(np.nanmax(samples.reach)) if samples.converged.any() else None,
         "seconds": samples.seconds, "files": files,
     })
