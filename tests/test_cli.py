@@ -67,7 +67,7 @@ def test_human_summary_and_plot(capsys, tmp_path):
         (["--tensions", "1,2"], ["--tensions", "8 tendons", "got 2"]),
         (["--tensions", "1,2,3,4,5,6,7,-8"], ["tendon 8", "must be finite and >= 0"]),
         (["--tensions", "1,2,3,4,5,6,7,nan"], ["finite"]),
-        (["--tensions", "1,2,3,4,5,6,7,x"], ["comma-separated numbers"]),
+        (["--tensions", "1,2,3,4,5,6,7,x"], ["value 8 is not a number", "'x'"]),
         (["--tensions", "0,0,0,0,0,0,0,0", "--tip-force", "1,2"], ["--tip-force", "3"]),
         (["--tensions", "0,0,0,0,0,0,0,0", "--friction", "-1"], ["--friction", "[0, 10]"]),
         (["--tensions", "0,0,0,0,0,0,0,0", "--robot", "nope.toml"], ["nope.toml", "cannot read"]),

@@ -17,7 +17,7 @@ MODULES = sorted(p for p in SRC.rglob("*.py"))
 #: layers, lowest first: a module may import only from its own layer or lower ones
 LAYERS = [
     {"__init__", "_version"},  # the top-level package re-exports; checked apart below
-    {"design", "loads", "bounds", "paper", "kinematics", "results", "io"},
+    {"validate", "design", "loads", "bounds", "paper", "kinematics", "results", "io", "limits"},
     {"statics"},
     {"workspace", "optimize", "compare", "accuracy"},
     {"plotting"},

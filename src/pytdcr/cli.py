@@ -8,19 +8,21 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
 from .design import ConstantFriction, ExponentialFriction, NoFriction, Robot
-from .io import RobotFileError, dump_json, load_robot, robot_to_dict, write_robot
+from .io import RobotFileError, dump_json, load_robot, read_toml, robot_to_dict, write_robot
 from .loads import Loads, check_tensions
 from .paper import DEFAULT_BOUNDS
 from .statics import DEFAULT_ATOL, MODELS, UnsupportedFeatureError, configure, get_model, resolve, solve
+from .validate import as_real_array, parse_numbers, read_text_file, show
 
 __all__ = ["build_parser", "main"]
 
@@ -30,18 +32,41 @@ class CliError(Exception):
 
 
 def parse_floats(text: str, name: str, count: int | None = None) -> np.ndarray:
-    """Comma-separated finite numbers, e.g. ``0.1,0.1,-0.1``."""
+    """Comma-separated finite numbers, e.g. ``0.1,0.1,-0.1`` (:func:`pytdcr.validate.parse_numbers`)."""
     try:
-        vals = np.array([float(x) for x in text.split(",") if x.strip() != ""], dtype=float)
-    except ValueError:
-        raise CliError(f"{name}: expected comma-separated numbers, got {text!r}") from None
-    if count is not None and vals.size != count:
-        raise CliError(f"{name}: expected {count} comma-separated numbers, got {vals.size}")
-    if vals.size == 0:
-        raise CliError(f"{name}: expected comma-separated numbers, got {text!r}")
-    if not np.all(np.isfinite(vals)):
-        raise CliError(f"{name}: values must be finite, got {text!r}")
-    return vals
+        return parse_numbers(text, name, count)
+    except ValueError as err:
+        raise CliError(str(err)) from None
+
+
+def seed_type(text: str) -> int:
+    """argparse type of a random seed: an integer in [0, 2**32 - 1]."""
+    if not re.fullmatch(r"\d{1,10}", text.strip()) or int(text) >= 2**32:
+        raise argparse.ArgumentTypeError(f"must be an integer in [0, 4294967295], got {show(text)}")
+    return int(text)
+
+
+def count_type(text: str) -> int:
+    """argparse type of a count: a decimal integer (no underscores)."""
+    if not re.fullmatch(r"-?\d{1,12}", text.strip()):
+        raise argparse.ArgumentTypeError(f"must be an integer, got {show(text)}")
+    return int(text)
+
+
+def real_type(text: str) -> float:
+    """argparse type of a finite real number (no underscores)."""
+    try:
+        return float(parse_numbers(text, "value", 1)[0])
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err).removeprefix("value: ")) from None
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, its errors on one line (``tdcr: error: ...``, exit 2) instead of usage and a message."""
+
+    def error(self, message: str) -> NoReturn:
+        command = self.prog.removeprefix("tdcr").strip()
+        raise CliError(f"{command + ': ' if command else ''}{message}")
 
 
 def add_model_options(p: argparse.ArgumentParser) -> None:
@@ -154,24 +179,17 @@ def bounds_from_args(args: argparse.Namespace, robot: Robot):
     nt = robot.n_tendons
     try:
         if args.bounds_file:
-            import tomllib
-
-            try:
-                data = tomllib.loads(Path(args.bounds_file).read_text(encoding="utf-8"))
-            except OSError as err:
-                raise CliError(f"--bounds-file {args.bounds_file}: cannot read ({err.strerror or err})") from None
-            except tomllib.TOMLDecodeError as err:
-                raise CliError(f"--bounds-file {args.bounds_file}: not valid TOML ({err})") from None
+            data = read_toml(args.bounds_file, "--bounds-file")
             unknown = set(data) - {"lower", "upper"}
             if unknown:
-                raise CliError(f"--bounds-file: unknown key(s) {sorted(unknown)}; allowed: lower, upper")
+                raise CliError(f"--bounds-file: unknown key(s) {show(sorted(unknown))}; allowed: lower, upper")
             if "lower" not in data or "upper" not in data:
                 raise CliError("--bounds-file: needs both 'lower' and 'upper' lists")
             try:
-                lo = np.asarray(data["lower"], dtype=float).reshape(-1)
-                hi = np.asarray(data["upper"], dtype=float).reshape(-1)
-            except (TypeError, ValueError):
-                raise CliError("--bounds-file: 'lower' and 'upper' must be lists of numbers") from None
+                lo = as_real_array(data["lower"], "--bounds-file: lower").reshape(-1)
+                hi = as_real_array(data["upper"], "--bounds-file: upper").reshape(-1)
+            except TypeError as err:
+                raise CliError(f"{err}; 'lower' and 'upper' must be lists of numbers") from None
             if lo.size != nt or hi.size != nt:
                 raise CliError(f"--bounds-file: robot '{robot.name}' has {nt} tendons; lower has {lo.size} "
                                f"entries, upper {hi.size}")
@@ -275,30 +293,33 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
 
 def _read_cases(path: str, robot: Robot) -> np.ndarray:
-    """Tension vectors from a CSV file: one row per case, one column per tendon (a header row is allowed)."""
+    """Tension vectors from a CSV file: one row per case, one column per tendon.
+
+    Blank lines and ``#`` comments are skipped. A first row with no number at all is a header; a row mixing
+    numbers and words is an error, never a header. Fields are separated by commas only.
+    """
     try:
-        lines = Path(path).read_text(encoding="utf-8").splitlines()
-    except OSError as err:
-        raise CliError(f"--cases {path}: cannot read ({err.strerror or err})") from None
+        lines = read_text_file(path, "--cases file").splitlines()
+    except ValueError as err:
+        raise CliError(str(err)) from None
     rows = []
     for k, line in enumerate(lines, 1):
         if not line.strip() or line.lstrip().startswith("#"):
             continue
+        for sep in (";", "\t"):
+            if sep in line and "," not in line:
+                raise CliError(f"--cases {show(path)}: line {k}: values must be separated by commas, found "
+                               f"{show(sep)} in {show(line)}")
+        fields = [f.strip() for f in line.split(",")]
+        if not rows and all(not re.fullmatch(r"[+-]?[\d.]+(?:[eE][+-]?\d+)?", f) for f in fields):
+            continue  # a header: no field is a number
         try:
-            vals = [float(x) for x in line.split(",")]
-        except ValueError:
-            if not rows and k == 1:
-                continue  # header
-            raise CliError(f"--cases {path}: line {k}: expected {robot.n_tendons} numbers, got {line!r}") from None
-        if len(vals) != robot.n_tendons:
-            raise CliError(f"--cases {path}: line {k}: robot '{robot.name}' has {robot.n_tendons} tendons, "
-                           f"got {len(vals)} values")
-        try:
-            rows.append(check_tensions(vals, robot.n_tendons, name=f"--cases {path}: line {k}: tensions"))
+            vals = parse_numbers(line, f"--cases {show(path)}: line {k}", robot.n_tendons)
+            rows.append(check_tensions(vals, robot.n_tendons, name=f"--cases {show(path)}: line {k}: tensions"))
         except ValueError as err:
-            raise CliError(str(err)) from None
+            raise CliError(f"{err} (robot '{robot.name}' has {robot.n_tendons} tendons)") from None
     if not rows:
-        raise CliError(f"--cases {path}: no cases")
+        raise CliError(f"--cases {show(path)}: no cases (each line: {robot.n_tendons} comma-separated tensions [N])")
     return np.array(rows, dtype=float)
 
 
@@ -417,9 +438,22 @@ def _cmd_accuracy(args: argparse.Namespace) -> int:
 
 
 # ---------------------------------------------------------------- commands
+def _check_plot_path(text: str | None) -> Path | None:
+    """--plot: a file path with a figure suffix, whose folder exists or can be made; never a folder."""
+    if text is None:
+        return None
+    path = Path(text)
+    if path.is_dir():
+        raise CliError(f"--plot {show(text)}: is a folder; give a file name ending in .png, .pdf or .svg")
+    if path.suffix.lower() not in (".png", ".pdf", ".svg"):
+        raise CliError(f"--plot {show(text)}: the file name must end in .png, .pdf or .svg")
+    if path.parent.exists() and not path.parent.is_dir():
+        raise CliError(f"--plot {show(text)}: {show(str(path.parent))} is a file, not a folder")
+    return path
+
+
 def _cmd_solve(args: argparse.Namespace) -> int:
-    if not (np.isfinite(args.atol) and args.atol > 0):
-        raise CliError(f"--atol must be finite and > 0, got {args.atol}")
+    plot = _check_plot_path(args.plot)
     setup = model_from_args(args)
     robot = setup.robot
     tensions = parse_tensions(args.tensions, robot)
@@ -439,11 +473,11 @@ def _cmd_solve(args: argparse.Namespace) -> int:
             z = sol.tip_rotation[:, 2]
             print(f"  tip direction [{z[0]: .4f}, {z[1]: .4f}, {z[2]: .4f}]")
             print(f"  {_stability_text(sol.stability)}")
-    if args.plot:
+    if plot is not None:
         if not sol.converged:
             print("tdcr: not plotting: the solve did not converge", file=sys.stderr)
         else:
-            _plot_solution(sol, robot, loads, Path(args.plot))
+            _plot_solution(sol, robot, loads, plot)
     return 0 if sol.converged else 1
 
 
@@ -491,14 +525,14 @@ def _cmd_robot(args: argparse.Namespace) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``tdcr``."""
-    p = argparse.ArgumentParser(prog="tdcr", description="Statics and workspace of tendon-driven continuum robots.")
+    p = _Parser(prog="tdcr", description="Statics and workspace of tendon-driven continuum robots.")
     sub = p.add_subparsers(dest="command", required=True)
 
     s = sub.add_parser("solve", help="static equilibrium under tendon tensions and tip loads")
     add_model_options(s)
     add_model_choice(s)
     s.add_argument("--tensions", required=True, metavar="T1,...,Tn", help="actuator tensions [N]")
-    s.add_argument("--atol", type=float, default=DEFAULT_ATOL,
+    s.add_argument("--atol", type=real_type, default=DEFAULT_ATOL,
                    help=f"convergence tolerance on max |residual| [N m] [{DEFAULT_ATOL:g}]")
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.add_argument("--plot", metavar="FILE", help="write a 3D figure of the robot (PNG, PDF, SVG)")
@@ -508,8 +542,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_model_options(sm)
     add_model_choice(sm)
     add_bounds_options(sm)
-    sm.add_argument("--n", type=int, default=100, help="number of samples [100]")
-    sm.add_argument("--seed", type=int, default=0, help="random seed [0]")
+    sm.add_argument("--n", type=count_type, default=100, help="number of samples [100]")
+    sm.add_argument("--seed", type=seed_type, default=0, help="random seed [0]")
     sm.add_argument("--out", default="out/sample", help="output folder [out/sample]")
     sm.set_defaults(func=_cmd_sample)
 
@@ -517,11 +551,11 @@ def build_parser() -> argparse.ArgumentParser:
     add_model_options(op)
     add_model_choice(op)
     add_bounds_options(op)
-    op.add_argument("--pop", type=int, default=50, help="population size [50]")
-    op.add_argument("--tol", type=float, default=1e-6, help="stop when the best cost improves by less [1e-6]")
-    op.add_argument("--window", type=int, default=5, help="... over this many generations [5]")
-    op.add_argument("--max-gen", type=int, default=100, help="generation cap [100]")
-    op.add_argument("--seed", type=int, default=0, help="random seed [0]")
+    op.add_argument("--pop", type=count_type, default=50, help="population size [50]")
+    op.add_argument("--tol", type=real_type, default=1e-6, help="stop when the best cost improves by less [1e-6]")
+    op.add_argument("--window", type=count_type, default=5, help="... over this many generations [5]")
+    op.add_argument("--max-gen", type=count_type, default=100, help="generation cap [100]")
+    op.add_argument("--seed", type=seed_type, default=0, help="random seed [0]")
     op.add_argument("--no-polish", action="store_true", help="skip the gradient polish of the GA's best")
     op.add_argument("--no-local-search", action="store_true",
                     help="plain GA: no gradient search on each new leader (the default GA is memetic)")
@@ -533,7 +567,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     rp = sub.add_parser("reproduce", help="the paper's whole study: figures, data and report.md")
     add_model_options(rp)
-    rp.add_argument("--seed", type=int, default=0, help="random seed [0]")
+    rp.add_argument("--seed", type=seed_type, default=0, help="random seed [0]")
     rp.add_argument("--full", action="store_true",
                     help="the heavy version: the better models re-optimise the paper's optimum with the GA too "
                     "(default: a gradient polish from it)")
@@ -544,8 +578,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_model_options(c)
     add_bounds_options(c)
     c.add_argument("--cases", metavar="FILE", help="CSV of tension vectors, one case per row [N]")
-    c.add_argument("--n", type=int, default=20, help="number of random cases when no --cases [20]")
-    c.add_argument("--seed", type=int, default=0, help="random seed [0]")
+    c.add_argument("--n", type=count_type, default=20, help="number of random cases when no --cases [20]")
+    c.add_argument("--seed", type=seed_type, default=0, help="random seed [0]")
     c.add_argument("--models", default="pcc,cosserat", metavar="A,B[,...]",
                    help=f"models to compare, the first the reference ({', '.join(MODELS)}) [pcc,cosserat]")
     c.add_argument("--shear-extension", action="store_true",
@@ -557,15 +591,15 @@ def build_parser() -> argparse.ArgumentParser:
                        "order study")
     add_model_options(a)
     add_bounds_options(a)
-    a.add_argument("--n", type=int, default=20, help="random tension vectors [20]")
-    a.add_argument("--seed", type=int, default=0, help="random seed [0]")
+    a.add_argument("--n", type=count_type, default=20, help="random tension vectors [20]")
+    a.add_argument("--seed", type=seed_type, default=0, help="random seed [0]")
     a.add_argument("--models", metavar="A,B,...", help=f"models to compare (default all: {', '.join(MODELS)})")
     a.add_argument("--disks", default="5,10,20,40", metavar="N1,N2,...",
                    help="disks per segment of the order study [5,10,20,40]")
-    a.add_argument("--order-cases", type=int, default=3, help="tension vectors of the order study (0: none) [3]")
-    a.add_argument("--reference-steps", type=int, default=160,
+    a.add_argument("--order-cases", type=count_type, default=3, help="tension vectors of the order study (0: none) [3]")
+    a.add_argument("--reference-steps", type=count_type, default=160,
                    help="Runge-Kutta steps per segment of the reference sscr [160]")
-    a.add_argument("--payload-g", type=float, default=10.0, help="payload of the last load group [10 g]")
+    a.add_argument("--payload-g", type=real_type, default=10.0, help="payload of the last load group [10 g]")
     a.add_argument("--out", default="out/accuracy", help="output folder [out/accuracy]")
     a.set_defaults(func=_cmd_accuracy)
 
@@ -577,18 +611,19 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 _VALUE_OPTIONS = ("--tip-force", "--tip-moment", "--tensions", "--bounds", "--friction")
+_NUMBER_OPTIONS = ("--atol", "--tol", "--seed", "--n", "--pop", "--max-gen", "--window", "--payload-g")
 
 
 def _glue_negative_values(argv: Sequence[str]) -> list[str]:
-    """Let ``--tip-moment -0.1,0.1,0.1`` through argparse (which takes ``-0.1,...`` for an option)."""
+    """Let ``--tip-moment -0.1,0.1,0.1`` (or ``-inf``) through argparse, which takes ``-...`` for an option."""
     out: list[str] = []
     it = iter(argv)
     for tok in it:
-        if tok in _VALUE_OPTIONS:
+        if tok in _VALUE_OPTIONS or tok in _NUMBER_OPTIONS:
             nxt = next(it, None)
             if nxt is None:
                 out.append(tok)
-            elif (nxt[:1] == "-" and nxt[1:2].isdigit()) or nxt[:2] == "-.":
+            elif nxt[:1] == "-" and nxt[:2] != "--":
                 out.append(f"{tok}={nxt}")
             else:
                 out.extend([tok, nxt])
@@ -597,23 +632,33 @@ def _glue_negative_values(argv: Sequence[str]) -> list[str]:
     return out
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``tdcr``; returns the exit status.
+#: exit statuses (README): success, a solve that did not converge, bad input, interrupted
+EXIT_OK, EXIT_NOT_CONVERGED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
 
-    The command line writes figures to files and never opens a window: it
-    alone picks matplotlib's Agg backend (unless ``MPLBACKEND`` says otherwise).
+
+def _one_line(message: object, limit: int = 600) -> str:
+    """A message on one line: newlines folded, control characters escaped, at most ``limit`` characters."""
+    text = " ".join(str(message).split())
+    return show(text, limit)[1:-1]
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``tdcr``; returns the exit status (0 success, 1 not converged, 2 bad input, 130 Ctrl-C).
+
+    Arguments are checked before any work starts; errors are one line on stderr. The command line writes
+    figures to files and never opens a window: it alone picks matplotlib's Agg backend (unless
+    ``MPLBACKEND`` says otherwise).
     """
     os.environ.setdefault("MPLBACKEND", "Agg")
-    parser = build_parser()
-    args = parser.parse_args(_glue_negative_values(sys.argv[1:] if argv is None else argv))
     try:
+        args = build_parser().parse_args(_glue_negative_values(sys.argv[1:] if argv is None else argv))
         return int(args.func(args))
-    except CliError as err:
-        print(f"tdcr: error: {err}", file=sys.stderr)
-        return 2
-    except (ValueError, OSError) as err:
-        print(f"tdcr: error: {err}", file=sys.stderr)
-        return 2
+    except (CliError, ValueError, TypeError, OSError) as err:
+        print(f"tdcr: error: {_one_line(err)}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("tdcr: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":  # pragma: no cover

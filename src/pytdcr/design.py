@@ -1,9 +1,10 @@
 """Robot description: backbone, segments, tendons, friction law, gravity.
 
-Every class here is an immutable, validated model (pydantic). Construction from
-Python keywords and from a TOML file goes through the same validation, so a bad
-value is reported the same way in both: the field, the value and the allowed
-range. Unknown keys are errors.
+Every class here is an immutable, validated model (pydantic, strict numbers:
+an int is taken for a real number, a bool, a string or a list for a number is
+refused). Construction from Python keywords and from a TOML file goes through
+the same validation, so a bad value is reported the same way in both: the
+field, the value and the allowed range with its reason. Unknown keys are errors.
 
 All quantities are SI (m, kg, N, Pa, m/s^2) unless the name says otherwise
 (``angle_deg`` is in degrees).
@@ -16,7 +17,9 @@ from functools import cached_property
 from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from .validate import Count, Real, in_range, ranged
 
 __all__ = [
     "Backbone",
@@ -34,10 +37,25 @@ class _Frozen(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid", ignored_types=(cached_property,))
 
 
-def _finite(value: float, name: str) -> float:
-    if not math.isfinite(value):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return value
+#: the physical ranges, each with its reason
+Modulus = ranged(0.0, 2e12, "Pa", "no material is stiffer than diamond, 1.2e12 Pa", lo_open=True)
+Poisson = ranged(-1.0, 0.5, "", "the range of an isotropic elastic material", lo_open=True, hi_open=True)
+Radius = ranged(1e-5, 0.1, "m", "a backbone from 10 micrometres to 10 centimetres")
+Bore = ranged(0.0, 0.1, "m", "a hollow backbone's bore: 0 for a solid rod")
+LinearDensity = ranged(0.0, 100.0, "kg/m", "heavier than a steel bar of 12 cm diameter is not a backbone")
+Length = ranged(1e-3, 10.0, "m", "from a millimetre to ten metres")
+Piece = ranged(1e-5, 10.0, "m", "a subsegment of at least 10 micrometres")
+Mass = ranged(0.0, 10.0, "kg", "a disk of at most 10 kg")
+DiskCount = Annotated[Count, Field(ge=1, le=10_000)]
+Routing = ranged(0.0, 1.0, "m", "a routing radius up to a metre", lo_open=True)
+Angle = ranged(-360.0, 360.0, "deg", "one turn either way; larger angles repeat a routing")
+DiskRadius = ranged(1e-4, 1.0, "m", "disks from 0.1 mm to 1 m across the axis")
+Friction = ranged(0.0, 10.0, "", "a friction coefficient")
+Decay = ranged(0.0, 10.0, "1/deg", "the paper's law decays at 0.027 per degree")
+#: |g| at most 100 m/s^2: ten times the Earth's
+_GRAVITY = in_range(0.0, 100.0, "m/s^2", "ten times the Earth's gravity")
+#: a robot's disk radius when the file gives none: the largest routing radius times this
+DISK_RADIUS_FACTOR = 1.2
 
 
 class Backbone(_Frozen):
@@ -47,18 +65,12 @@ class Backbone(_Frozen):
     ``G = E / (2 (1 + nu))``.
     """
 
-    youngs_modulus: float = Field(gt=0, allow_inf_nan=False, description="Young's modulus E [Pa]")
-    poissons_ratio: float | None = Field(
-        default=None, gt=-1.0, lt=0.5, allow_inf_nan=False, description="Poisson's ratio nu [-]"
-    )
-    shear_modulus: float | None = Field(
-        default=None, gt=0, allow_inf_nan=False, description="shear modulus G [Pa]"
-    )
-    outer_radius: float = Field(gt=0, allow_inf_nan=False, description="outer radius [m]")
-    inner_radius: float = Field(default=0.0, ge=0, allow_inf_nan=False, description="inner radius [m]")
-    mass_per_length: float = Field(
-        default=0.0, ge=0, allow_inf_nan=False, description="mass per unit length [kg/m]"
-    )
+    youngs_modulus: Modulus = Field(description="Young's modulus E [Pa]")
+    poissons_ratio: Poisson | None = Field(default=None, description="Poisson's ratio nu [-]")
+    shear_modulus: Modulus | None = Field(default=None, description="shear modulus G [Pa]")
+    outer_radius: Radius = Field(description="outer radius [m]")
+    inner_radius: Bore = Field(default=0.0, description="inner radius [m]")
+    mass_per_length: LinearDensity = Field(default=0.0, description="mass per unit length [kg/m]")
 
     @model_validator(mode="after")
     def _check(self) -> Backbone:
@@ -102,10 +114,10 @@ class Segment(_Frozen):
     Subsegment lengths default to ``length / n_disks``.
     """
 
-    length: float = Field(gt=0, allow_inf_nan=False, description="segment arc length [m]")
-    n_disks: int = Field(ge=1, le=10_000, description="number of disks in the segment")
-    disk_mass: float = Field(default=0.0, ge=0, allow_inf_nan=False, description="mass of one disk [kg]")
-    subsegment_lengths: tuple[float, ...] | None = Field(
+    length: Length = Field(description="segment arc length [m]")
+    n_disks: DiskCount = Field(description="number of disks in the segment")
+    disk_mass: Mass = Field(default=0.0, description="mass of one disk [kg]")
+    subsegment_lengths: tuple[Piece, ...] | None = Field(
         default=None, description="backbone length before each disk [m]; sums to length"
     )
 
@@ -117,8 +129,6 @@ class Segment(_Frozen):
                 raise ValueError(
                     f"segment.subsegment_lengths must have n_disks={self.n_disks} entries, got {len(sl)}"
                 )
-            if any((not math.isfinite(x)) or x <= 0 for x in sl):
-                raise ValueError(f"segment.subsegment_lengths must all be finite and > 0, got {sl}")
             if abs(sum(sl) - self.length) > 1e-9 * max(1.0, self.length):
                 raise ValueError(
                     f"segment.subsegment_lengths must sum to length={self.length}, got {sum(sl)}"
@@ -140,9 +150,10 @@ class Tendon(_Frozen):
     (1-based) and is anchored at that disk.
     """
 
-    segment: int = Field(ge=1, description="1-based index of the segment whose last disk anchors it")
-    radius: float = Field(gt=0, allow_inf_nan=False, description="routing radius [m]")
-    angle_deg: float = Field(allow_inf_nan=False, description="routing angle about z [deg]")
+    segment: Annotated[Count, Field(ge=1)] = Field(description="1-based index of the segment whose last disk "
+                                                   "anchors it")
+    radius: Routing = Field(description="routing radius [m]")
+    angle_deg: Angle = Field(description="routing angle about z [deg]")
 
     @property
     def angle(self) -> float:
@@ -165,7 +176,7 @@ class ConstantFriction(_Frozen):
     """Coulomb friction with a constant coefficient."""
 
     law: Literal["constant"] = "constant"
-    mu0: float = Field(ge=0, le=10, allow_inf_nan=False, description="friction coefficient [-]")
+    mu0: Friction = Field(description="friction coefficient [-]")
 
     @property
     def is_frictionless(self) -> bool:
@@ -185,10 +196,8 @@ class ExponentialFriction(_Frozen):
     """
 
     law: Literal["exponential"] = "exponential"
-    mu0: float = Field(default=0.689, ge=0, le=10, allow_inf_nan=False, description="mu at sigma = 0")
-    decay_per_deg: float = Field(
-        default=0.027, ge=0, le=10, allow_inf_nan=False, description="decay rate [1/deg]"
-    )
+    mu0: Friction = Field(default=0.689, description="mu at sigma = 0")
+    decay_per_deg: Decay = Field(default=0.027, description="decay rate [1/deg]")
 
     @property
     def is_frictionless(self) -> bool:
@@ -209,24 +218,26 @@ class Robot(_Frozen):
     backbone tangent.
     """
 
-    name: str = Field(default="robot", min_length=1, max_length=200)
+    name: Annotated[str, Field(strict=True, min_length=1, max_length=200, pattern=r"^[^\x00-\x1f\x7f]*$")] = "robot"
     backbone: Backbone
     segments: tuple[Segment, ...] = Field(min_length=1, max_length=100)
     tendons: tuple[Tendon, ...] = Field(min_length=0, max_length=1000)
-    gravity: tuple[float, float, float] = Field(
-        default=(0.0, 0.0, -9.81), description="gravity in the base frame [m/s^2]"
+    gravity: tuple[Real, Real, Real] = Field(
+        default=(0.0, 0.0, -9.81), description="gravity in the base frame [m/s^2]; |g| <= 100"
     )
     friction: FrictionLaw = Field(default_factory=NoFriction)
-
-    @field_validator("gravity")
-    @classmethod
-    def _gravity_finite(cls, v: tuple[float, float, float]) -> tuple[float, float, float]:
-        for x in v:
-            _finite(x, "gravity")
-        return v
+    disk_radius: DiskRadius | None = Field(
+        default=None, description="radius of every disk [m]; default: 1.2 times the largest routing radius"
+    )
 
     @model_validator(mode="after")
     def _check(self) -> Robot:
+        g = math.sqrt(sum(x * x for x in self.gravity))
+        try:
+            _GRAVITY(g)
+        except ValueError as err:
+            raise ValueError(f"gravity: |g| = {g:g} m/s^2 {err}") from None
+        rd = self.disks_radius
         for k, t in enumerate(self.tendons):
             if t.segment > len(self.segments):
                 raise ValueError(
@@ -237,6 +248,9 @@ class Robot(_Frozen):
                     f"tendons.{k}.radius must exceed backbone.outer_radius="
                     f"{self.backbone.outer_radius}, got {t.radius}"
                 )
+            if t.radius >= rd:
+                raise ValueError(f"tendons.{k}.radius = {t.radius:g} m must be smaller than the disk radius "
+                                 f"{rd:g} m (the holes lie on the disks)")
         seen: set[tuple[int, float, float]] = set()
         for k, t in enumerate(self.tendons):
             key = (t.segment, round(t.radius, 12), round(t.angle_deg % 360.0, 9))
@@ -246,6 +260,16 @@ class Robot(_Frozen):
         return self
 
     # ----------------------------------------------------------------- derived
+    @property
+    def disks_radius(self) -> float:
+        """The disks' radius [m]: ``disk_radius``, or 1.2 times the largest routing radius (at least the
+        backbone's radius plus 1 mm when there are no tendons)."""
+        if self.disk_radius is not None:
+            return float(self.disk_radius)
+        if self.tendons:
+            return DISK_RADIUS_FACTOR * max(t.radius for t in self.tendons)
+        return self.backbone.outer_radius + 1e-3
+
     @property
     def n_disks(self) -> int:
         """Total number of disks N (= number of subsegments)."""

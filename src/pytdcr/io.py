@@ -41,6 +41,7 @@ from pydantic import ValidationError
 
 from .design import Robot
 from .paper import BUILTIN_ROBOTS
+from .validate import read_text_file, show
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -54,6 +55,7 @@ __all__ = [
     "format_validation_error",
     "load_robot",
     "read_robot",
+    "read_toml",
     "robot_from_dict",
     "robot_to_dict",
     "to_jsonable",
@@ -70,20 +72,43 @@ class RobotFileError(ValueError):
     """A robot file that cannot be read, parsed or validated."""
 
 
+_TYPE_WORDS = {"float_type": "must be a real number", "int_type": "must be an integer",
+               "string_type": "must be a string", "tuple_type": "must be a list", "bool_type": "must be true or false",
+               "model_type": "must be a table", "dict_type": "must be a table",
+               "float_parsing": "must be a real number", "int_parsing": "must be an integer"}
+
+
 def format_validation_error(err: ValidationError) -> str:
-    """One line per problem: ``field.path = value: what is allowed``."""
+    """Problems on one line, ``; ``-separated: ``field.path = value: what is allowed``.
+
+    Values are shortened and their control characters escaped (:func:`pytdcr.validate.show`); at most three
+    problems are listed.
+    """
     parts = []
-    for e in err.errors():
-        loc = ".".join(str(x) for x in e["loc"] if x not in _LAW_TAGS)
+    errors = err.errors()
+    # a list whose items all failed is also "too short": say only why the items failed
+    locs = [tuple(e["loc"]) for e in errors]
+    errors = [e for e in errors if not (e["type"] == "too_short" and any(
+        len(other) > len(e["loc"]) and other[: len(e["loc"])] == tuple(e["loc"]) for other in locs))]
+    # unknown keys first (often the cause of the rest), missing keys last
+    errors.sort(key=lambda e: {"extra_forbidden": 0, "missing": 2}.get(e["type"], 1))
+    for e in errors[:3]:
+        loc = ".".join(str(x) for x in e["loc"] if x not in _LAW_TAGS and not str(x).startswith("function-"))
         msg = e["msg"].removeprefix("Value error, ")
-        if e["type"] == "extra_forbidden":
+        kind = e["type"]
+        value = e.get("input")
+        if kind in _TYPE_WORDS:
+            msg = f"{_TYPE_WORDS[kind]}, not {type(value).__name__}"
+        if kind == "extra_forbidden":
             parts.append(f"{loc}: unknown key")
-        elif loc and "input" in e and not isinstance(e["input"], dict):
-            parts.append(f"{loc} = {e['input']!r}: {msg}")
+        elif loc and "input" in e and not isinstance(value, dict):
+            parts.append(f"{loc} = {show(value)}: {msg}")
         elif loc:
             parts.append(f"{loc}: {msg}")
         else:
             parts.append(msg)
+    if len(errors) > 3:
+        parts.append(f"and {len(errors) - 3} more")
     return "; ".join(parts)
 
 
@@ -108,27 +133,34 @@ def robot_from_dict(data: dict[str, Any], source: str = "robot") -> Robot:
     RobotFileError
         Naming each offending field, its value and the allowed range.
     """
+    if not isinstance(data, dict):
+        raise RobotFileError(f"{source}: a robot must be a table of keys, got {type(data).__name__}")
     data = dict(data)
     version = data.pop("schema_version", SCHEMA_VERSION)
-    if version != SCHEMA_VERSION:
-        raise RobotFileError(f"{source}: schema_version = {version!r}: only {SCHEMA_VERSION} is supported")
+    if isinstance(version, bool) or version != SCHEMA_VERSION:
+        raise RobotFileError(f"{source}: schema_version = {show(version)}: only {SCHEMA_VERSION} is supported")
     try:
         return Robot.model_validate(data)
     except ValidationError as err:
         raise RobotFileError(f"{source}: {format_validation_error(err)}") from None
 
 
-def read_robot(path: str | Path) -> Robot:
-    """Read a robot TOML file."""
-    path = Path(path)
+def read_toml(path: str | Path, what: str) -> dict[str, Any]:
+    """A small TOML file as a dict; ValueError naming the file if it cannot be read, is too large, binary or not
+    TOML."""
+    text = read_text_file(path, what)
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as err:
-        raise RobotFileError(f"{path}: cannot read ({err.strerror or err})") from None
-    try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
-        raise RobotFileError(f"{path}: not valid TOML ({err})") from None
+        raise ValueError(f"{what} {show(str(path))}: not valid TOML ({err})") from None
+
+
+def read_robot(path: str | Path) -> Robot:
+    """Read a robot TOML file (at most 1 MB of UTF-8 text)."""
+    try:
+        data = read_toml(path, "robot file")
+    except ValueError as err:
+        raise RobotFileError(str(err)) from None
     return robot_from_dict(data, str(path))
 
 
@@ -142,7 +174,7 @@ def load_robot(spec: str) -> Robot:
     if spec in BUILTIN_ROBOTS:
         return BUILTIN_ROBOTS[spec]()
     if not spec.endswith(".toml") and not Path(spec).exists():
-        raise RobotFileError(f"robot {spec!r}: not a built-in robot ({', '.join(BUILTIN_ROBOTS)}) nor a file")
+        raise RobotFileError(f"robot {show(spec)}: not a built-in robot ({', '.join(BUILTIN_ROBOTS)}) nor a file")
     return read_robot(spec)
 
 

@@ -7,16 +7,26 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-__all__ = ["Loads", "PointLoad", "check_tensions", "check_vector"]
+from .validate import as_real_array, show
+
+__all__ = ["MAX_TENSION", "Loads", "PointLoad", "check_tensions", "check_vector"]
+
+#: the largest actuator tension accepted [N]
+MAX_TENSION = 1e4
 
 
-def check_vector(value: ArrayLike, name: str, size: int = 3) -> np.ndarray:
-    """Return ``value`` as a finite float64 array of shape (size,) or raise ValueError."""
-    arr = np.asarray(value, dtype=float)
+def check_vector(value: ArrayLike, name: str, size: int = 3, limit: float = 1e6) -> np.ndarray:
+    """``value`` as a finite float64 array of shape (size,) with entries within +/- ``limit``.
+
+    Raises TypeError for booleans, complex numbers or strings, ValueError for a wrong shape or value.
+    """
+    arr = as_real_array(value, name)
     if arr.shape != (size,):
         raise ValueError(f"{name} must have shape ({size},), got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite, got {arr.tolist()}")
+        raise ValueError(f"{name} must be finite, got {show(arr.tolist())}")
+    if np.any(np.abs(arr) > limit):
+        raise ValueError(f"{name} must be within +/-{limit:g} in each component, got {show(arr.tolist())}")
     return arr
 
 
@@ -43,7 +53,7 @@ def check_tensions(value: ArrayLike, n_tendons: int | None = None, name: str = "
         Naming the first offending entry, its value and the allowed range, or
         the shape that arrived.
     """
-    arr = np.array(value, dtype=float, order="C")
+    arr = as_real_array(value, name)
     if arr.ndim not in (1, 2):
         raise ValueError(f"{name} must be a 1-D array (one per tendon) or 2-D (one row per case), "
                          f"got shape {arr.shape}")
@@ -56,6 +66,10 @@ def check_tensions(value: ArrayLike, n_tendons: int | None = None, name: str = "
         where = ", ".join(str(i) for i in idx)
         which = f"tendon {idx[-1] + 1}" if arr.ndim == 1 else f"case {idx[0] + 1}, tendon {idx[1] + 1}"
         raise ValueError(f"{name}[{where}] ({which}) must be finite and >= 0 N, got {arr[idx]}")
+    if np.any(arr > MAX_TENSION):
+        idx = tuple(int(i) for i in np.argwhere(arr > MAX_TENSION)[0])
+        raise ValueError(f"{name}[{', '.join(map(str, idx))}] must be at most {MAX_TENSION:g} N (a tendon, not a "
+                         f"crane cable), got {arr[idx]:g}")
     return arr
 
 
@@ -110,6 +124,8 @@ class Loads:
     release: bool = False
 
     def __post_init__(self) -> None:
+        if not isinstance(self.release, (bool, np.bool_)):
+            raise TypeError(f"release must be True or False, got {show(self.release)}")
         t = check_tensions(self.tensions)
         if t.ndim != 1:
             raise ValueError(f"tensions must be a 1-D array (one per tendon), got shape {t.shape}")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -14,7 +15,7 @@ from .loads import Loads
 from .results import BatchSolution
 from .statics import Model, solve_batch
 
-__all__ = ["WorkspaceSamples", "sample_workspace"]
+__all__ = ["SamplingInterrupted", "WorkspaceSamples", "sample_workspace"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -34,6 +35,8 @@ class WorkspaceSamples:
         Unknowns of every solve (meaningful only where converged): PCC (n, N, 3).
     seed : int
     seconds : float
+    batches : tuple of BatchSolution
+        The blocks the samples were solved in (for the stability test, on demand).
     """
 
     tensions: np.ndarray
@@ -43,19 +46,37 @@ class WorkspaceSamples:
     q: np.ndarray
     seed: int
     seconds: float
-    batch: BatchSolution | None = None
+    batches: tuple[BatchSolution, ...] = ()
 
     @property
     def stable(self) -> np.ndarray:
         """Per sample: 1.0 stable, 0.0 unstable, NaN not converged or untested (computed on first use)."""
-        if self.batch is None:
+        if not self.batches:
             return np.full(self.converged.shape, np.nan)
-        return self.batch.stable
+        return np.concatenate([b.stable for b in self.batches])
 
     @property
     def reach(self) -> np.ndarray:
         """||tip|| [m], shape (n,); NaN where not converged."""
         return np.linalg.norm(self.tip_position, axis=1)
+
+
+class SamplingInterrupted(KeyboardInterrupt):
+    """Ctrl-C during :func:`sample_workspace`: ``samples`` holds the blocks solved before it, ``total`` how many
+    were asked for."""
+
+    def __init__(self, samples: WorkspaceSamples, total: int) -> None:
+        super().__init__(f"{samples.converged.size} of {total} samples solved")
+        self.samples = samples
+        self.total = total
+
+
+def _gather(T: np.ndarray, parts: list[BatchSolution], seed: int, seconds: float) -> WorkspaceSamples:
+    n = sum(p.converged.size for p in parts)
+    return WorkspaceSamples(
+        tensions=T[:n], tip_position=np.concatenate([p.tip_position for p in parts]),
+        converged=np.concatenate([p.converged for p in parts]), residual=np.concatenate([p.residual for p in parts]),
+        q=np.concatenate([p.q for p in parts]), seed=seed, seconds=seconds, batches=tuple(parts))
 
 
 def sample_workspace(
@@ -68,28 +89,36 @@ def sample_workspace(
     model: str | Model = "pcc",
     options: Any = None,
     threads: int | None = None,
+    block: int = 1000,
+    progress: Callable[[int], None] | None = None,
 ) -> WorkspaceSamples:
     """Solve ``n`` random tension vectors drawn uniformly within ``bounds``.
 
     ``loads`` supplies the external wrenches and friction direction (its
     tensions are ignored). Non-converged samples are kept and flagged.
     ``model`` and ``options`` as for :func:`pytdcr.solve`; ``threads`` as for
-    :func:`pytdcr.solve_batch`.
+    :func:`pytdcr.solve_batch`. The samples are solved in blocks of ``block``
+    (the results do not depend on it); ``progress`` is called with the size of
+    each block solved. Ctrl-C raises :class:`SamplingInterrupted` with the
+    blocks solved so far.
     """
     if isinstance(n, bool) or int(n) != n or n < 1:
         raise ValueError(f"n must be an integer >= 1, got {n!r}")
+    if not isinstance(bounds, TensionBounds):
+        raise TypeError(f"bounds must be a pytdcr.TensionBounds, got {type(bounds).__name__}")
     bounds.check_robot(robot)
     rng = np.random.default_rng(seed)
     T = bounds.sample(int(n), rng)
     t0 = time.perf_counter()
-    batch = solve_batch(robot, T, loads, model=model, options=options, threads=threads)
-    return WorkspaceSamples(
-        tensions=T,
-        tip_position=batch.tip_position,
-        converged=batch.converged,
-        residual=batch.residual,
-        q=batch.q,
-        seed=seed,
-        seconds=time.perf_counter() - t0,
-        batch=batch,
-    )
+    parts: list[BatchSolution] = []
+    try:
+        for start in range(0, int(n), int(block)):
+            parts.append(solve_batch(robot, T[start : start + block], loads, model=model, options=options,
+                                     threads=threads))
+            if progress is not None:
+                progress(parts[-1].converged.size)
+    except KeyboardInterrupt:
+        if parts:
+            raise SamplingInterrupted(_gather(T, parts, seed, time.perf_counter() - t0), int(n)) from None
+        raise
+    return _gather(T, parts, seed, time.perf_counter() - t0)

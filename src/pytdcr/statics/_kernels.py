@@ -55,7 +55,8 @@ class Packed(NamedTuple):
 
 
 class Work(NamedTuple):
-    """Scratch arrays of :func:`evaluate` (N disks, nt tendons, m = 3N unknowns)."""
+    """Scratch arrays of :func:`evaluate` (N disks, nt tendons, m = 3N unknowns): O(N nt + m) numbers; the
+    Jacobian itself is the caller's (m, m)."""
 
     R: np.ndarray  # (N+2, 3, 3) subsegment rotations R[i] (index 1..N; N+1 = padding)
     d: np.ndarray  # (N+2, 3) subsegment translations
@@ -64,9 +65,9 @@ class Work(NamedTuple):
     dd: np.ndarray  # (N+2, 3, 3)
     dpg: np.ndarray  # (N+2, 3, 3)
     G: np.ndarray  # (N+1, 3, 3) G[i] = R_{0,i}^T
-    omega: np.ndarray  # (N+1, 3, m) body angular velocity of frame i per unknown
+    omega: np.ndarray  # (3, m) body angular velocity of one frame per unknown (swept base to tip and back)
     T: np.ndarray  # (N+2, nt) tension in piece i of each tendon [N]
-    dT: np.ndarray  # (N+2, nt, m)
+    dTl: np.ndarray  # (m,) one tendon's tension in one piece, by every unknown
     W: np.ndarray  # (N+1, nt, 7) unit load (force, moment) and tension ratio at disk i
     dW: np.ndarray  # (N+1, nt, 7, 6) its local derivative
     dF: np.ndarray  # (3, m)
@@ -263,10 +264,34 @@ def make_work(n, nt):
     m = 3 * n
     return Work(
         np.zeros((n + 2, 3, 3)), np.zeros((n + 2, 3)), np.zeros((n + 2, 3)), np.zeros((n + 2, 3, 3, 3)),
-        np.zeros((n + 2, 3, 3)), np.zeros((n + 2, 3, 3)), np.zeros((n + 1, 3, 3)), np.zeros((n + 1, 3, m)),
-        np.zeros((n + 2, nt)), np.zeros((n + 2, nt, m)), np.zeros((n + 1, nt, 7)), np.zeros((n + 1, nt, 7, 6)),
+        np.zeros((n + 2, 3, 3)), np.zeros((n + 2, 3, 3)), np.zeros((n + 1, 3, 3)), np.zeros((3, m)),
+        np.zeros((n + 2, nt)), np.zeros(m), np.zeros((n + 1, nt, 7)), np.zeros((n + 1, nt, 7, 6)),
         np.zeros((3, m)), np.zeros((3, m)), np.zeros((6, m)),
     )
+
+
+@njit(cache=True, fastmath=_FM, inline="always")
+def _tension_lanes(dW, W, c, i, Ti, out):
+    """d T_{i,c} / d q for the lanes of subsegments 1..i, into ``out`` (3i,): T_i times the sum of the
+    log-derivatives of the tension ratios upstream.
+
+    T_i = T_1 prod_{k<i} rho_k, and rho_k depends on the lanes of subsegments k and k+1 only (``dW[k, c, 6]``),
+    so each lane collects at most two terms. A ratio clipped to zero has no derivative and leaves no tension
+    beyond it (then T_i = 0 and the caller skips this).
+    """
+    for s in range(1, i + 1):
+        base = 3 * (s - 1)
+        for a in range(3):
+            acc = 0.0
+            if s - 1 >= 1:  # disk s-1's ratio through its next subsegment's lanes
+                rho = W[s - 1, c, 6]
+                if rho > 0.0:
+                    acc += dW[s - 1, c, 6, 3 + a] / rho
+            if s < i:  # disk s's ratio through its own lanes
+                rho = W[s, c, 6]
+                if rho > 0.0:
+                    acc += dW[s, c, 6, a] / rho
+            out[base + a] = Ti * acc
 
 
 @njit(cache=True, fastmath=_FM)
@@ -362,7 +387,7 @@ def evaluate(q, lam, model, want_jac, r, J, work):
     nt = holes.shape[0]
     m = 3 * n
     Rs, ds, pgs, dRs, dds, dpgs, G, Om = work.R, work.d, work.pg, work.dR, work.dd, work.dpg, work.G, work.omega
-    T, dT, W, dW, dF, dM, dL = work.T, work.dT, work.W, work.dW, work.dF, work.dM, work.dL
+    T, W, dW, dF, dM, dL, dTl = work.T, work.W, work.dW, work.dF, work.dM, work.dL, work.dTl
     Rc = np.empty((3, 3), dtype=np.complex128)
     dc = np.empty(3, dtype=np.complex128)
     pgc = np.empty(3, dtype=np.complex128)
@@ -404,35 +429,32 @@ def evaluate(q, lam, model, want_jac, r, J, work):
         for u in range(3):
             for v in range(3):
                 G[i, u, v] = R[0, u] * G[i - 1, 0, v] + R[1, u] * G[i - 1, 1, v] + R[2, u] * G[i - 1, 2, v]
-        if want_jac:
+        if want_jac:  # Om holds frame i-1's angular velocities per lane; it becomes frame i's
             k = 3 * (i - 1)
             for j in range(k):
-                o0 = Om[i - 1, 0, j]
-                o1 = Om[i - 1, 1, j]
-                o2 = Om[i - 1, 2, j]
-                Om[i, 0, j] = R[0, 0] * o0 + R[1, 0] * o1 + R[2, 0] * o2
-                Om[i, 1, j] = R[0, 1] * o0 + R[1, 1] * o1 + R[2, 1] * o2
-                Om[i, 2, j] = R[0, 2] * o0 + R[1, 2] * o1 + R[2, 2] * o2
+                o0 = Om[0, j]
+                o1 = Om[1, j]
+                o2 = Om[2, j]
+                Om[0, j] = R[0, 0] * o0 + R[1, 0] * o1 + R[2, 0] * o2
+                Om[1, j] = R[0, 1] * o0 + R[1, 1] * o1 + R[2, 1] * o2
+                Om[2, j] = R[0, 2] * o0 + R[1, 2] * o1 + R[2, 2] * o2
             for a in range(3):
                 # vee(R^T dR)
                 dRa = dRs[i, a]
                 s21 = R[0, 2] * dRa[0, 1] + R[1, 2] * dRa[1, 1] + R[2, 2] * dRa[2, 1]
                 s02 = R[0, 0] * dRa[0, 2] + R[1, 0] * dRa[1, 2] + R[2, 0] * dRa[2, 2]
                 s10 = R[0, 1] * dRa[0, 0] + R[1, 1] * dRa[1, 0] + R[2, 1] * dRa[2, 0]
-                Om[i, 0, k + a] = s21
-                Om[i, 1, k + a] = s02
-                Om[i, 2, k + a] = s10
+                Om[0, k + a] = s21
+                Om[1, k + a] = s02
+                Om[2, k + a] = s10
             for j in range(k + 3, m):
-                Om[i, 0, j] = 0.0
-                Om[i, 1, j] = 0.0
-                Om[i, 2, j] = 0.0
+                Om[0, j] = 0.0
+                Om[1, j] = 0.0
+                Om[2, j] = 0.0
 
     # ---- tendons, base to tip: unit loads, tension ratios, tensions
     for c in range(nt):
         T[1, c] = lam * tension[c]
-        if want_jac:
-            for j in range(m):
-                dT[1, c, j] = 0.0
     for i in range(1, n + 1):
         k = 3 * (i - 1)
         if want_jac:  # tangent lanes 0-2 move subsegment i, lanes 3-5 the hole on disk i+1
@@ -448,8 +470,6 @@ def evaluate(q, lam, model, want_jac, r, J, work):
                 T[i + 1, c] = 0.0
                 if want_jac:
                     dW[i, c, :, :] = 0.0
-                    for j in range(m):
-                        dT[i + 1, c, j] = 0.0
                 continue
             is_anchor = i == anc
             px = holes[c, 0]
@@ -475,16 +495,6 @@ def evaluate(q, lam, model, want_jac, r, J, work):
                 W[i, c, u] = out[u]
             rho = out[6]
             T[i + 1, c] = rho * T[i, c] if not is_anchor else 0.0
-            if want_jac:
-                if is_anchor:
-                    for j in range(m):
-                        dT[i + 1, c, j] = 0.0
-                else:
-                    Ti = T[i, c]
-                    for j in range(m):
-                        dT[i + 1, c, j] = rho * dT[i, c, j]
-                    for a in range(6):
-                        dT[i + 1, c, k + a] += Ti * dW[i, c, 6, a]
 
     # ---- wrenches, tip to base
     Fx = 0.0
@@ -557,23 +567,37 @@ def evaluate(q, lam, model, want_jac, r, J, work):
 
         if want_jac:
             dL[:, :] = 0.0
+            # Om: frame i's angular velocities per lane -> frame i-1's (lanes of subsegment i drop out)
+            for j in range(k):
+                o0 = Om[0, j]
+                o1 = Om[1, j]
+                o2 = Om[2, j]
+                Om[0, j] = R[0, 0] * o0 + R[0, 1] * o1 + R[0, 2] * o2
+                Om[1, j] = R[1, 0] * o0 + R[1, 1] * o1 + R[1, 2] * o2
+                Om[2, j] = R[2, 0] * o0 + R[2, 1] * o1 + R[2, 2] * o2
+            for j in range(k, k + 3):
+                Om[0, j] = 0.0
+                Om[1, j] = 0.0
+                Om[2, j] = 0.0
             # tendons: through tensions (all upstream lanes) and local geometry
             for c in range(nt):
                 if i <= anchor[c]:
                     Tc = T[i, c]
-                    for u in range(6):
-                        wu = W[i, c, u]
-                        for j in range(k + 3):
-                            dL[u, j] += wu * dT[i, c, j]
+                    if Tc != 0.0:
+                        _tension_lanes(dW, W, c, i, Tc, dTl)
+                        for u in range(6):
+                            wu = W[i, c, u]
+                            for j in range(k + 3):
+                                dL[u, j] += wu * dTl[j]
                     la = 6 if k + 6 <= m else 3
                     for a in range(la):
                         for u in range(6):
                             dL[u, k + a] += Tc * dW[i, c, u, a]
             # base-fixed loads: upstream lanes rotate them, local lanes move the points
             for j in range(k):
-                ox = Om[i - 1, 0, j]
-                oy = Om[i - 1, 1, j]
-                oz = Om[i - 1, 2, j]
+                ox = Om[0, j]
+                oy = Om[1, j]
+                oz = Om[2, j]
                 # d(v) = v x omega for each base-fixed vector v in frame i-1
                 dgx = gly * oz - glz * oy
                 dgy = glz * ox - glx * oz

@@ -1,0 +1,147 @@
+"""The one validation layer: strict numbers, physical ranges with their reason, bounded file reads.
+
+Every check here raises ``ValueError`` (or ``TypeError`` for a wrong type) with
+one line that names the field, shows the value (shortened, control characters
+escaped) and says what is allowed. The robot description (:mod:`pytdcr.design`,
+through pydantic in strict mode), the loads (:mod:`pytdcr.loads`), the robot
+and bounds files (:mod:`pytdcr.io`) and the command line all use it.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+from pydantic import AfterValidator, Strict
+
+__all__ = ["MAX_TEXT_FILE_BYTES", "Count", "Real", "as_real_array", "in_range", "parse_numbers", "read_text_file",
+           "show"]
+
+#: the largest robot, bounds, loads or cases file read [bytes]
+MAX_TEXT_FILE_BYTES = 1_000_000
+
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
+_NUMBER = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$")
+_NONFINITE = re.compile(r"^[+-]?(?:inf|infinity|nan)$", re.IGNORECASE)
+
+
+def show(value: Any, limit: int = 60) -> str:
+    """``value`` for a message: its repr (strings as typed), control characters escaped, at most ``limit`` chars."""
+    text = value if isinstance(value, str) else repr(value)
+    text = _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", text)
+    if isinstance(value, str):
+        text = f"'{text}'"
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _fmt(x: float) -> str:
+    return f"{x:g}"
+
+
+def in_range(lo: float | None, hi: float | None, unit: str, reason: str = "", *, lo_open: bool = False,
+             hi_open: bool = False) -> Callable[[float], float]:
+    """A check that a finite number lies in the interval, for pydantic's ``AfterValidator`` or direct use."""
+    left = "-inf" if lo is None else _fmt(lo)
+    right = "inf" if hi is None else _fmt(hi)
+    interval = f"{'(' if lo_open or lo is None else '['}{left}, {right}{')' if hi_open or hi is None else ']'}"
+    words = f"must be in {interval}{f' {unit}' if unit else ''}{f' ({reason})' if reason else ''}"
+
+    def check(x: float) -> float:
+        if not math.isfinite(x):
+            raise ValueError(f"must be finite ({words.removeprefix('must be ')})")
+        low_bad = lo is not None and (x <= lo if lo_open else x < lo)
+        high_bad = hi is not None and (x >= hi if hi_open else x > hi)
+        if low_bad or high_bad:
+            raise ValueError(words)
+        return x
+
+    return check
+
+
+#: a strict real number (an int is taken; a bool, a string or a complex number is refused)
+Real = Annotated[float, Strict()]
+#: a strict integer (a float, a bool or a string is refused)
+Count = Annotated[int, Strict()]
+
+
+def ranged(lo: float | None, hi: float | None, unit: str, reason: str = "", **kw: bool) -> Any:
+    """A strict real field checked to lie in the interval (see :func:`in_range`)."""
+    return Annotated[float, Strict(), AfterValidator(in_range(lo, hi, unit, reason, **kw))]
+
+
+def _has_non_real(items: list | tuple, depth: int = 0) -> bool:
+    """A bool, complex number or string anywhere in nested lists (NumPy would turn True into 1.0)."""
+    for x in items:
+        if isinstance(x, (list, tuple)):
+            if depth < 3 and _has_non_real(x, depth + 1):
+                return True
+        elif isinstance(x, (bool, np.bool_, complex, np.complexfloating, str, bytes)):
+            return True
+    return False
+
+
+def as_real_array(value: ArrayLike, name: str) -> np.ndarray:
+    """``value`` as a float64 array; TypeError for booleans, complex numbers, strings and other non-numbers."""
+    if isinstance(value, (str, bytes)):
+        raise TypeError(f"{name} must be real numbers, got a string {show(value)}")
+    if isinstance(value, (list, tuple)) and _has_non_real(value):
+        raise TypeError(f"{name} must be real numbers, got {show(value)}")
+    try:
+        arr = np.asarray(value)
+    except (ValueError, TypeError):
+        raise TypeError(f"{name} must be an array of real numbers, got {show(value)}") from None
+    if arr.dtype.kind == "O":
+        if any(isinstance(x, (bool, np.bool_, complex, str, bytes)) or not isinstance(x, (int, float, np.number))
+               for x in arr.ravel()):
+            raise TypeError(f"{name} must be real numbers, got {show(value)}")
+        arr = arr.astype(float)
+    if arr.dtype.kind not in "iuf":
+        kind = {"b": "booleans", "c": "complex numbers", "U": "strings", "S": "strings"}.get(arr.dtype.kind,
+                                                                                            arr.dtype.name)
+        raise TypeError(f"{name} must be real numbers, got {kind}: {show(value)}")
+    return np.array(arr, dtype=float, order="C")
+
+
+def parse_numbers(text: str, name: str, count: int | None = None) -> np.ndarray:
+    """Comma-separated finite numbers, e.g. ``0.1,0.1,-0.1``: no empty fields, no ``1_0``, nothing else."""
+    if not isinstance(text, str) or not text.strip():
+        raise ValueError(f"{name}: expected comma-separated numbers, got {show(text)}")
+    fields = [f.strip() for f in text.split(",")]
+    for k, f in enumerate(fields, 1):
+        if f == "":
+            raise ValueError(f"{name}: value {k} of {len(fields)} is empty in {show(text)}")
+        if _NONFINITE.match(f):
+            raise ValueError(f"{name}: value {k} is {show(f)}; values must be finite")
+        if not _NUMBER.match(f):
+            raise ValueError(f"{name}: value {k} is not a number: {show(f)}")
+    if count is not None and len(fields) != count:
+        raise ValueError(f"{name}: expected {count} comma-separated numbers, got {len(fields)}")
+    vals = np.array([float(f) for f in fields])
+    if not np.all(np.isfinite(vals)):  # e.g. 1e999
+        raise ValueError(f"{name}: values must be finite, got {show(text)}")
+    return vals
+
+
+def read_text_file(path: str | Path, what: str, limit: int = MAX_TEXT_FILE_BYTES) -> str:
+    """The text of a small UTF-8 file; ValueError naming the file when it cannot be read, is too large or binary."""
+    p = Path(path)
+    try:
+        if p.is_dir():
+            raise ValueError(f"{what} {show(str(p))}: is a folder, not a file")
+        with open(p, "rb") as fh:
+            data = fh.read(limit + 1)
+    except OSError as err:
+        raise ValueError(f"{what} {show(str(p))}: cannot read ({err.strerror or err})") from None
+    if len(data) > limit:
+        raise ValueError(f"{what} {show(str(p))}: larger than {limit:,} bytes; not a {what}")
+    if b"\x00" in data:
+        raise ValueError(f"{what} {show(str(p))}: a binary file, not a text {what}")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ValueError(f"{what} {show(str(p))}: not UTF-8 text") from None
