@@ -125,7 +125,7 @@ def test_robot_command_round_trips(capsys, tmp_path, paper):
 )
 def test_bad_bounds(capsys, args, words, tmp_path):
     for cmd in ("sample", "optimize"):
-        code, out, err = run(capsys, cmd, "--robot", "rao", *args, "--out", str(tmp_path))
+        code, out, err = run(capsys, cmd, "--robot", "rao", *args, "--out", str(tmp_path / "out"))
         assert code == 2 and out == ""
         for w in words:
             assert w in err
@@ -134,13 +134,13 @@ def test_bad_bounds(capsys, args, words, tmp_path):
 def test_bounds_file_errors(capsys, tmp_path):
     f = tmp_path / "b.toml"
     f.write_text("lower = [0, 0]\nupper = [1, 1]\n")
-    code, _, err = run(capsys, "sample", "--robot", "rao", "--bounds-file", str(f), "--out", str(tmp_path))
+    code, _, err = run(capsys, "sample", "--robot", "rao", "--bounds-file", str(f), "--out", str(tmp_path / "out"))
     assert code == 2 and "has 6 tendons" in err
     f.write_text("lower = [0, 0, 0, 0, 0, 0]\nupper = [1, 1, 1, 1, 1, 1]\nstep = 2\n")
-    code, _, err = run(capsys, "sample", "--robot", "rao", "--bounds-file", str(f), "--out", str(tmp_path))
+    code, _, err = run(capsys, "sample", "--robot", "rao", "--bounds-file", str(f), "--out", str(tmp_path / "out"))
     assert code == 2 and "unknown key" in err
     f.write_text("lower = [0, 0, ")
-    code, _, err = run(capsys, "sample", "--robot", "rao", "--bounds-file", str(f), "--out", str(tmp_path))
+    code, _, err = run(capsys, "sample", "--robot", "rao", "--bounds-file", str(f), "--out", str(tmp_path / "out"))
     assert code == 2 and "not valid TOML" in err
 
 
@@ -252,9 +252,9 @@ def test_accuracy_writes_the_table_and_the_order_study(capsys, tmp_path):
 
 
 def test_accuracy_refuses_what_it_cannot_do(capsys, tmp_path):
-    code, _, err = run(capsys, "accuracy", "--models", "pcc,prbm", "--out", str(tmp_path))
+    code, _, err = run(capsys, "accuracy", "--models", "pcc,prbm", "--out", str(tmp_path / "out"))
     assert code == 2 and "prbm" in err
-    code, _, err = run(capsys, "accuracy", "--disks", "5,x", "--out", str(tmp_path))
+    code, _, err = run(capsys, "accuracy", "--disks", "5,x", "--out", str(tmp_path / "out"))
     assert code == 2 and "--disks" in err
-    code, _, err = run(capsys, "accuracy", "--tip-force", "0,0,1", "--out", str(tmp_path))
+    code, _, err = run(capsys, "accuracy", "--tip-force", "0,0,1", "--out", str(tmp_path / "out"))
     assert code == 2 and "load groups" in err

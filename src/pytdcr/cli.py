@@ -1,15 +1,25 @@
 """The ``tdcr`` command. Nothing in the package imports this module.
 
-Exit status: 0 success (a solve converged), 1 a solve did not converge,
-2 bad input (one line on stderr naming what is wrong).
+Exit status: 0 success; 1 solved but not converged (a single solve, or a
+batch where nothing converged, or a search that found no converged tension
+vector); 2 bad input (one line on stderr naming what is wrong); 130
+interrupted (Ctrl-C or SIGTERM: one line saying what was saved).
+
+The command runs in a worker thread; the main thread waits for it and turns
+Ctrl-C into a cancellation the solvers check between small chunks of work
+(:func:`pytdcr.statics.cancellable`), so every command stops within about a
+second and saves what it has (:func:`pytdcr.study.output_folder`).
 """
 
 from __future__ import annotations
 
 import argparse
+import contextvars
 import os
 import re
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,10 +31,19 @@ from .design import ConstantFriction, ExponentialFriction, NoFriction, Robot
 from .io import RobotFileError, dump_json, load_robot, read_toml, robot_to_dict, write_robot
 from .loads import Loads, check_tensions
 from .paper import DEFAULT_BOUNDS
-from .statics import DEFAULT_ATOL, MODELS, UnsupportedFeatureError, configure, get_model, resolve, solve
-from .validate import as_real_array, parse_numbers, read_text_file, show
+from .statics import (
+    DEFAULT_ATOL,
+    MODELS,
+    UnsupportedFeatureError,
+    cancellable,
+    configure,
+    get_model,
+    resolve,
+    solve,
+)
+from .validate import as_real_array, parse_numbers, read_text_file, show, show_path
 
-__all__ = ["build_parser", "main"]
+__all__ = ["build_parser", "entry", "main"]
 
 
 class CliError(Exception):
@@ -46,11 +65,16 @@ def seed_type(text: str) -> int:
     return int(text)
 
 
-def count_type(text: str) -> int:
-    """argparse type of a count: a decimal integer (no underscores)."""
-    if not re.fullmatch(r"-?\d{1,12}", text.strip()):
-        raise argparse.ArgumentTypeError(f"must be an integer, got {show(text)}")
+def count_type(text: str, lowest: int = 1) -> int:
+    """argparse type of a count: a decimal integer >= ``lowest`` (no underscores, at most 12 digits)."""
+    if not re.fullmatch(r"[+-]?\d{1,12}", text.strip()) or int(text) < lowest:
+        raise argparse.ArgumentTypeError(f"must be an integer >= {lowest}, got {show(text)}")
     return int(text)
+
+
+def count0_type(text: str) -> int:
+    """argparse type of a count that may be 0."""
+    return count_type(text, 0)
 
 
 def real_type(text: str) -> float:
@@ -200,34 +224,64 @@ def bounds_from_args(args: argparse.Namespace, robot: Robot):
         raise CliError(str(err).replace("bounds:", "--bounds:", 1)) from None
 
 
-def _tqdm_progress(desc: str, total: int):
-    from tqdm import tqdm
+class _Bar:
+    """A tqdm progress bar on stderr, drawn from its first step: input refused before any work prints alone."""
 
-    bar = tqdm(total=total, desc=desc, unit="gen", leave=False, file=sys.stderr)
+    def __init__(self, desc: str, total: int, unit: str) -> None:
+        self.desc, self.total, self.unit = desc, total, unit
+        self.bar: Any = None
 
-    def update(_gen: int, best: float, _mean: float) -> None:
-        bar.update(1)
-        bar.set_postfix(best=f"{best:.6f}")
+    def step(self, k: int = 1, label: str | None = None) -> None:
+        """Advance by ``k``; ``label`` shows beside the bar."""
+        if self.bar is None:
+            from tqdm import tqdm
 
-    return update
+            self.bar = tqdm(total=self.total, desc=self.desc, unit=self.unit, leave=False, file=sys.stderr)
+        if label is not None:
+            self.bar.set_postfix_str(label, refresh=False)
+        self.bar.update(k)
+
+    def generation(self, _gen: int, best: float, _mean: float) -> None:
+        """The GA's progress callback."""
+        self.step(1, f"best={best:.6f}")
+
+    def __enter__(self) -> _Bar:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _check_out(text: str) -> Path:
+    """--out: refused before any work if the output-folder rule will not use it (a file, other files, in use)."""
+    from .study import check_output_folder
+
+    check_output_folder(text)
+    return Path(text)
 
 
 def _cmd_sample(args: argparse.Namespace) -> int:
+
     from .study import run_sample
 
-    if args.n < 1:
-        raise CliError(f"--n must be >= 1, got {args.n}")
+    out = _check_out(args.out)
     setup = model_from_args(args)
     bounds = bounds_from_args(args, setup.robot)
     model, options = solver_from_args(args, setup.robot, setup.loads)
-    out = Path(args.out)
-    run = run_sample(setup.robot, setup.loads, bounds, args.n, args.seed, out, model=model, options=options)
+    with _Bar("sample", args.n, "solve") as bar:
+        run = run_sample(setup.robot, setup.loads, bounds, args.n, args.seed, out, model=model, options=options,
+                         progress=bar.step)
     s = run.samples
-    print(f"{args.n} samples of robot '{setup.robot.name}' (seed {args.seed}): {int(s.converged.sum())} converged, "
-          f"{int((~s.converged).sum())} not; reach {np.nanmin(s.reach):.4f} to {np.nanmax(s.reach):.4f} m; "
-          f"{s.seconds:.2f} s")
+    ok = int(s.converged.sum())
+    reach = (f"reach {np.nanmin(s.reach):.4f} to {np.nanmax(s.reach):.4f} m" if ok else "no reach")
+    print(f"{args.n} samples of robot '{setup.robot.name}' (seed {args.seed}): {ok} converged, "
+          f"{args.n - ok} not; {reach}; {s.seconds:.2f} s")
     print(f"wrote {', '.join(run.files)} in {out}")
-    return 0
+    if ok == 0:
+        print(f"tdcr: none of the {args.n} samples converged", file=sys.stderr)
+        return EXIT_NOT_CONVERGED
+    return EXIT_OK
 
 
 def _print_reach(res: Any, args: argparse.Namespace) -> None:
@@ -245,9 +299,10 @@ def _print_reach(res: Any, args: argparse.Namespace) -> None:
 
 
 def _cmd_optimize(args: argparse.Namespace) -> int:
-    from .optimize import MemeticGA, ReachProblem, Termination
+    from .optimize import MemeticGA, ReachProblem, SearchFailed, Termination
     from .study import run_optimize
 
+    out = _check_out(args.out) if args.out else None
     try:
         algorithm = MemeticGA(pop_size=args.pop, local_search=not args.no_local_search, polish=not args.no_polish)
         termination = Termination(tol=args.tol, window=args.window, max_gen=args.max_gen)
@@ -260,16 +315,20 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     model, options = solver_from_args(args, setup.robot, setup.loads)
     problem = ReachProblem.create(setup.robot, setup.loads, bounds, model=model, options=options,
                                   stable_only=args.stable_only)
-    out = Path(args.out) if args.out else None
-    res, files = run_optimize(problem, algorithm, termination, seed=args.seed, out=out,
-                              progress=None if args.json else _tqdm_progress("GA", args.max_gen))
+    try:
+        with _Bar("GA", args.max_gen, "gen") as bar:
+            res, files = run_optimize(problem, algorithm, termination, seed=args.seed, out=out,
+                                      progress=None if args.json else bar.generation)
+    except SearchFailed as err:
+        print(f"tdcr: {_one_line(err)}; nothing written", file=sys.stderr)
+        return EXIT_NOT_CONVERGED
     if args.json:
         print(dump_json(res.to_dict()))
     else:
         _print_reach(res, args)
         if files:
             print(f"wrote {', '.join(files)} in {out}")
-    return 0
+    return EXIT_OK
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
@@ -278,10 +337,10 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     setup = model_from_args(args)
     if np.any(setup.loads.tip_force) or np.any(setup.loads.tip_moment):
         raise CliError("reproduce: the study sets its own tip loads; drop --tip-force/--tip-moment")
-    out = Path(args.out)
+    out = _check_out(args.out)
 
-    def progress(stage: str, total: int):
-        return _tqdm_progress(stage, total)
+    def progress(stage: str, total: int) -> Any:
+        return _Bar(stage, total, "gen").generation
 
     from .study import ReproduceSettings
 
@@ -308,18 +367,19 @@ def _read_cases(path: str, robot: Robot) -> np.ndarray:
             continue
         for sep in (";", "\t"):
             if sep in line and "," not in line:
-                raise CliError(f"--cases {show(path)}: line {k}: values must be separated by commas, found "
+                raise CliError(f"--cases {show_path(path)}: line {k}: values must be separated by commas, found "
                                f"{show(sep)} in {show(line)}")
         fields = [f.strip() for f in line.split(",")]
         if not rows and all(not re.fullmatch(r"[+-]?[\d.]+(?:[eE][+-]?\d+)?", f) for f in fields):
             continue  # a header: no field is a number
         try:
-            vals = parse_numbers(line, f"--cases {show(path)}: line {k}", robot.n_tendons)
-            rows.append(check_tensions(vals, robot.n_tendons, name=f"--cases {show(path)}: line {k}: tensions"))
+            vals = parse_numbers(line, f"--cases {show_path(path)}: line {k}", robot.n_tendons)
+            rows.append(check_tensions(vals, robot.n_tendons, name=f"--cases {show_path(path)}: line {k}: tensions"))
         except ValueError as err:
             raise CliError(f"{err} (robot '{robot.name}' has {robot.n_tendons} tendons)") from None
     if not rows:
-        raise CliError(f"--cases {show(path)}: no cases (each line: {robot.n_tendons} comma-separated tensions [N])")
+        raise CliError(f"--cases {show_path(path)}: no cases (each line: {robot.n_tendons} comma-separated "
+                       "tensions [N])")
     return np.array(rows, dtype=float)
 
 
@@ -345,11 +405,11 @@ def _compare_robot(args: argparse.Namespace, robot: Robot, names: tuple[str, ...
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
 
     from .study import run_compare
 
     names = _compare_models(args)
+    out = _check_out(args.out)
     setup = model_from_args(args)
     robot, note = _compare_robot(args, setup.robot, names)
     options = {n: options_from_args(n, shear_extension=args.shear_extension and
@@ -363,16 +423,13 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         T = _read_cases(args.cases, robot)
         source = {"cases": args.cases}
     else:
-        if args.n < 1:
-            raise CliError(f"--n must be >= 1, got {args.n}")
         bounds = bounds_from_args(args, robot)
         T = bounds.sample(args.n, np.random.default_rng(args.seed))
         source = {"cases": f"{args.n} random within bounds, seed {args.seed}", "bounds": bounds.to_dict(),
                   "seed": args.seed}
-    out = Path(args.out)
-    with tqdm(total=T.shape[0], desc="compare", unit="case", leave=False, file=sys.stderr) as bar:
+    with _Bar("compare", T.shape[0], "case") as bar:
         cmp, files = run_compare(robot, setup.loads, T, out, source=source, models=names, options=options,
-                                 progress=lambda: bar.update(1))
+                                 progress=bar.step)
     s = cmp.summary()
 
     def mm(v: float | None) -> str:
@@ -384,7 +441,11 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     print(f"{s['cases']} cases on robot '{robot.name}'{note}: every model converged on {s['all_converged']}; "
           f"tip difference {diffs}; median solve {times}")
     print(f"wrote {', '.join(files)} in {out}")
-    return 0
+    if s["all_converged"] == 0:
+        failed = ", ".join(f"{n} {s[f'{n}_not_converged']}" for n in cmp.models)
+        print(f"tdcr: no case converged for every model (not converged of {s['cases']}: {failed})", file=sys.stderr)
+        return EXIT_NOT_CONVERGED
+    return EXIT_OK
 
 
 def _int_list(text: str, name: str) -> list[int]:
@@ -395,11 +456,11 @@ def _int_list(text: str, name: str) -> list[int]:
 
 
 def _cmd_accuracy(args: argparse.Namespace) -> int:
-    from tqdm import tqdm
 
     from .accuracy import default_groups
     from .study import run_accuracy
 
+    out = _check_out(args.out)
     setup = model_from_args(args)
     if np.any(setup.loads.tip_force) or np.any(setup.loads.tip_moment):
         raise CliError("accuracy: the study sets its own load groups; drop --tip-force/--tip-moment")
@@ -417,11 +478,11 @@ def _cmd_accuracy(args: argparse.Namespace) -> int:
     bounds = bounds_from_args(args, setup.robot)
     groups = default_groups(args.payload_g / 1e3)
     total = len(groups) * (len(models) + 1) + (len(disks) * len(groups) if args.order_cases else 0)
-    with tqdm(total=total, desc="accuracy", unit="step", leave=False, file=sys.stderr) as bar:
-        study, orders, files = run_accuracy(setup.robot, Path(args.out), n=args.n, bounds=bounds, seed=args.seed,
+    with _Bar("accuracy", total, "step") as bar:
+        study, orders, files = run_accuracy(setup.robot, out, n=args.n, bounds=bounds, seed=args.seed,
                                             groups=groups, models=models, disks=disks, order_cases=args.order_cases,
                                             reference_steps=args.reference_steps,
-                                            progress=lambda label: (bar.set_postfix_str(label), bar.update(1)))
+                                            progress=lambda label: bar.step(1, label))
     print(f"{args.n} tension vectors on robot '{setup.robot.name}', {len(groups)} load groups, "
           f"{len(study.models)} models against sscr ({study.seconds:.1f} s):")
     for r in study.rows():
@@ -444,11 +505,11 @@ def _check_plot_path(text: str | None) -> Path | None:
         return None
     path = Path(text)
     if path.is_dir():
-        raise CliError(f"--plot {show(text)}: is a folder; give a file name ending in .png, .pdf or .svg")
+        raise CliError(f"--plot {show_path(text)}: is a folder; give a file name ending in .png, .pdf or .svg")
     if path.suffix.lower() not in (".png", ".pdf", ".svg"):
-        raise CliError(f"--plot {show(text)}: the file name must end in .png, .pdf or .svg")
+        raise CliError(f"--plot {show_path(text)}: the file name must end in .png, .pdf or .svg")
     if path.parent.exists() and not path.parent.is_dir():
-        raise CliError(f"--plot {show(text)}: {show(str(path.parent))} is a file, not a folder")
+        raise CliError(f"--plot {show_path(text)}: {show_path(path.parent)} is a file, not a folder")
     return path
 
 
@@ -505,8 +566,13 @@ def _plot_solution(sol: Any, robot: Robot, loads: Loads, path: Path) -> None:
     ax = plot_robot(sol, robot, loads=arrows)
     ax.set_title(f"{robot.name}: tip at {np.array2string(sol.tip_position, precision=3)} m")
     path.parent.mkdir(parents=True, exist_ok=True)
-    ax.figure.savefig(path, dpi=150, bbox_inches="tight")
-    pyplot().close(ax.figure)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        ax.figure.savefig(tmp, dpi=150, bbox_inches="tight", format=path.suffix[1:].lower())
+        os.replace(tmp, path)  # whole or absent
+    finally:
+        tmp.unlink(missing_ok=True)
+        pyplot().close(ax.figure)
 
 
 def _cmd_robot(args: argparse.Namespace) -> int:
@@ -596,7 +662,8 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--models", metavar="A,B,...", help=f"models to compare (default all: {', '.join(MODELS)})")
     a.add_argument("--disks", default="5,10,20,40", metavar="N1,N2,...",
                    help="disks per segment of the order study [5,10,20,40]")
-    a.add_argument("--order-cases", type=count_type, default=3, help="tension vectors of the order study (0: none) [3]")
+    a.add_argument("--order-cases", type=count0_type, default=3,
+                   help="tension vectors of the order study (0: none) [3]")
     a.add_argument("--reference-steps", type=count_type, default=160,
                    help="Runge-Kutta steps per segment of the reference sscr [160]")
     a.add_argument("--payload-g", type=real_type, default=10.0, help="payload of the last load group [10 g]")
@@ -642,24 +709,99 @@ def _one_line(message: object, limit: int = 600) -> str:
     return show(text, limit)[1:-1]
 
 
+class _Interrupted(Exception):
+    """The command was interrupted; ``str()`` says what was saved."""
+
+
+#: how long the main thread lets an interrupted command save what it has before it stops waiting [s]
+SAVE_GRACE_S = 0.8
+
+
+def _run_command(args: argparse.Namespace) -> int:
+    """Run the chosen command in a worker thread within a cancellation scope; Ctrl-C here cancels it.
+
+    The main thread waits on an event, not on ``Thread.join`` (an interrupted join can leave the thread
+    reported as finished while it still runs).
+    """
+    outcome: dict[str, Any] = {}
+    done = threading.Event()
+
+    def target() -> None:
+        try:
+            outcome["code"] = int(args.func(args))
+        except BaseException as err:  # handed to the main thread as it is
+            outcome["error"] = err
+        finally:
+            done.set()
+
+    with cancellable() as scope:
+        threading.Thread(target=contextvars.copy_context().run, args=(target,), name="tdcr-command",
+                         daemon=True).start()
+        try:
+            while not done.wait(0.1):
+                pass
+        except KeyboardInterrupt:
+            scope.cancel()
+            try:
+                if not done.wait(SAVE_GRACE_S):
+                    if not scope.saving.is_set():  # still inside one compiled call, with nothing to save
+                        raise _Interrupted("nothing saved")
+                    print("tdcr: interrupted; saving what was finished (Ctrl-C again to leave at once)",
+                          file=sys.stderr, flush=True)
+                    while not done.wait(0.1):
+                        pass
+            except KeyboardInterrupt:
+                raise _Interrupted("left at once; nothing more saved") from None
+            err = outcome.get("error")
+            raise _Interrupted(getattr(err, "message", None) or "nothing saved") from None
+    err = outcome.get("error")
+    if err is None:
+        return outcome["code"]
+    if isinstance(err, KeyboardInterrupt):
+        raise _Interrupted(getattr(err, "message", None) or "nothing saved") from None
+    raise err
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``tdcr``; returns the exit status (0 success, 1 not converged, 2 bad input, 130 Ctrl-C).
 
     Arguments are checked before any work starts; errors are one line on stderr. The command line writes
     figures to files and never opens a window: it alone picks matplotlib's Agg backend (unless
-    ``MPLBACKEND`` says otherwise).
+    ``MPLBACKEND`` says otherwise). Set ``PYTDCR_DEBUG=1`` to see the traceback behind an error message.
     """
     os.environ.setdefault("MPLBACKEND", "Agg")
     try:
         args = build_parser().parse_args(_glue_negative_values(sys.argv[1:] if argv is None else argv))
-        return int(args.func(args))
-    except (CliError, ValueError, TypeError, OSError) as err:
+        return _run_command(args)
+    except _Interrupted as stop:
+        print(f"tdcr: interrupted; {_one_line(stop)}", file=sys.stderr, flush=True)
+        return EXIT_INTERRUPTED
+    except KeyboardInterrupt:
+        print("tdcr: interrupted; nothing saved", file=sys.stderr, flush=True)
+        return EXIT_INTERRUPTED
+    except (CliError, ValueError, TypeError, OSError, MemoryError) as err:
+        if os.environ.get("PYTDCR_DEBUG"):
+            raise
         print(f"tdcr: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        print("tdcr: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+
+
+def _terminate(_signum: int, _frame: Any) -> None:
+    raise KeyboardInterrupt
+
+
+def entry() -> None:
+    """The console script: :func:`main`, with SIGTERM treated as Ctrl-C; after an interrupt the process leaves
+    without waiting for worker threads still finishing a chunk (everything saved has been written)."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _terminate)
+    code = main()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    if code == EXIT_INTERRUPTED:
+        os._exit(code)
+    sys.exit(code)
 
 
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    entry()

@@ -232,7 +232,7 @@ class Robot(_Frozen):
 
     @model_validator(mode="after")
     def _check(self) -> Robot:
-        g = math.sqrt(sum(x * x for x in self.gravity))
+        g = math.hypot(*self.gravity)
         try:
             _GRAVITY(g)
         except ValueError as err:

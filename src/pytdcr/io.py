@@ -41,7 +41,7 @@ from pydantic import ValidationError
 
 from .design import Robot
 from .paper import BUILTIN_ROBOTS
-from .validate import read_text_file, show
+from .validate import read_text_file, show, show_path
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -152,7 +152,7 @@ def read_toml(path: str | Path, what: str) -> dict[str, Any]:
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
-        raise ValueError(f"{what} {show(str(path))}: not valid TOML ({err})") from None
+        raise ValueError(f"{what} {show_path(path)}: not valid TOML ({err})") from None
 
 
 def read_robot(path: str | Path) -> Robot:

@@ -60,16 +60,13 @@ def check_tensions(value: ArrayLike, n_tendons: int | None = None, name: str = "
     if n_tendons is not None and arr.shape[-1] != n_tendons:
         want = f"({n_tendons},)" if arr.ndim == 1 else f"(B, {n_tendons})"
         raise ValueError(f"{name} must have shape {want} (one per tendon), got shape {arr.shape}")
-    bad = ~np.isfinite(arr) | (arr < 0)
-    if np.any(bad):
-        idx = tuple(int(i) for i in np.argwhere(bad)[0])
-        where = ", ".join(str(i) for i in idx)
-        which = f"tendon {idx[-1] + 1}" if arr.ndim == 1 else f"case {idx[0] + 1}, tendon {idx[1] + 1}"
-        raise ValueError(f"{name}[{where}] ({which}) must be finite and >= 0 N, got {arr[idx]}")
-    if np.any(arr > MAX_TENSION):
-        idx = tuple(int(i) for i in np.argwhere(arr > MAX_TENSION)[0])
-        raise ValueError(f"{name}[{', '.join(map(str, idx))}] must be at most {MAX_TENSION:g} N (a tendon, not a "
-                         f"crane cable), got {arr[idx]:g}")
+    for bad, rule in ((~np.isfinite(arr) | (arr < 0), "must be finite and >= 0 N"),
+                      (arr > MAX_TENSION, f"must be at most {MAX_TENSION:g} N (a tendon, not a crane cable)")):
+        if np.any(bad):
+            idx = tuple(int(i) for i in np.argwhere(bad)[0])
+            where = ", ".join(str(i) for i in idx)
+            which = f"tendon {idx[-1] + 1}" if arr.ndim == 1 else f"case {idx[0] + 1}, tendon {idx[1] + 1}"
+            raise ValueError(f"{name}[{where}] ({which}) {rule}, got {arr[idx]:g}")
     return arr
 
 

@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike
 from pydantic import AfterValidator, Strict
 
 __all__ = ["MAX_TEXT_FILE_BYTES", "Count", "Real", "as_real_array", "in_range", "parse_numbers", "read_text_file",
-           "show"]
+           "show", "show_path"]
 
 #: the largest robot, bounds, loads or cases file read [bytes]
 MAX_TEXT_FILE_BYTES = 1_000_000
@@ -30,13 +30,21 @@ _NUMBER = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$")
 _NONFINITE = re.compile(r"^[+-]?(?:inf|infinity|nan)$", re.IGNORECASE)
 
 
-def show(value: Any, limit: int = 60) -> str:
-    """``value`` for a message: its repr (strings as typed), control characters escaped, at most ``limit`` chars."""
+def show(value: Any, limit: int = 60, *, tail: bool = False) -> str:
+    """``value`` for a message: its repr (strings as typed), control characters escaped, at most ``limit`` chars
+    (the end kept when ``tail``, as for a path)."""
     text = value if isinstance(value, str) else repr(value)
     text = _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", text)
     if isinstance(value, str):
         text = f"'{text}'"
-    return text if len(text) <= limit else text[: limit - 3] + "..."
+    if len(text) <= limit:
+        return text
+    return "'..." + text[-(limit - 4):] if tail else text[: limit - 3] + "..."
+
+
+def show_path(path: Any) -> str:
+    """A file or folder path for a message: quoted, escaped, its end (the name) kept if it is long."""
+    return show(str(path), 160, tail=True)
 
 
 def _fmt(x: float) -> str:
@@ -132,16 +140,16 @@ def read_text_file(path: str | Path, what: str, limit: int = MAX_TEXT_FILE_BYTES
     p = Path(path)
     try:
         if p.is_dir():
-            raise ValueError(f"{what} {show(str(p))}: is a folder, not a file")
+            raise ValueError(f"{what} {show_path(p)}: is a folder, not a file")
         with open(p, "rb") as fh:
             data = fh.read(limit + 1)
     except OSError as err:
-        raise ValueError(f"{what} {show(str(p))}: cannot read ({err.strerror or err})") from None
+        raise ValueError(f"{what} {show_path(p)}: cannot read ({err.strerror or err})") from None
     if len(data) > limit:
-        raise ValueError(f"{what} {show(str(p))}: larger than {limit:,} bytes; not a {what}")
+        raise ValueError(f"{what} {show_path(p)}: larger than {limit:,} bytes; not a {what}")
     if b"\x00" in data:
-        raise ValueError(f"{what} {show(str(p))}: a binary file, not a text {what}")
+        raise ValueError(f"{what} {show_path(p)}: a binary file, not a text {what}")
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError:
-        raise ValueError(f"{what} {show(str(p))}: not UTF-8 text") from None
+        raise ValueError(f"{what} {show_path(p)}: not UTF-8 text") from None

@@ -11,9 +11,10 @@ import numpy as np
 
 from .bounds import TensionBounds
 from .design import Robot
+from .limits import check_memory
 from .loads import Loads
 from .results import BatchSolution
-from .statics import Model, solve_batch
+from .statics import Model, check_resources, resolve, solve_batch
 
 __all__ = ["SamplingInterrupted", "WorkspaceSamples", "sample_workspace"]
 
@@ -91,6 +92,7 @@ def sample_workspace(
     threads: int | None = None,
     block: int = 1000,
     progress: Callable[[int], None] | None = None,
+    stability: bool = False,
 ) -> WorkspaceSamples:
     """Solve ``n`` random tension vectors drawn uniformly within ``bounds``.
 
@@ -99,22 +101,30 @@ def sample_workspace(
     ``model`` and ``options`` as for :func:`pytdcr.solve`; ``threads`` as for
     :func:`pytdcr.solve_batch`. The samples are solved in blocks of ``block``
     (the results do not depend on it); ``progress`` is called with the size of
-    each block solved. Ctrl-C raises :class:`SamplingInterrupted` with the
-    blocks solved so far.
+    each block solved. ``stability=True`` tests each block's stability as it
+    is solved (else on first use of ``stable``). Ctrl-C raises
+    :class:`SamplingInterrupted` with the blocks finished so far.
     """
     if isinstance(n, bool) or int(n) != n or n < 1:
         raise ValueError(f"n must be an integer >= 1, got {n!r}")
     if not isinstance(bounds, TensionBounds):
         raise TypeError(f"bounds must be a pytdcr.TensionBounds, got {type(bounds).__name__}")
     bounds.check_robot(robot)
+    m, opts = resolve(model, robot, loads, options)
+    res = check_resources(m, robot, opts)
+    per_sample = 8.0 * ((res.unknowns if res else 3 * robot.n_disks) + robot.n_tendons + 12) + 400.0
+    check_memory(f"a sample of {int(n):,} tension vectors on robot '{robot.name}'", int(n) * per_sample,
+                 f"{per_sample:.0f} bytes per sample kept")
     rng = np.random.default_rng(seed)
     T = bounds.sample(int(n), rng)
     t0 = time.perf_counter()
     parts: list[BatchSolution] = []
     try:
         for start in range(0, int(n), int(block)):
-            parts.append(solve_batch(robot, T[start : start + block], loads, model=model, options=options,
-                                     threads=threads))
+            part = solve_batch(robot, T[start : start + block], loads, model=m, options=opts, threads=threads)
+            if stability:
+                part.stability  # noqa: B018 - computed now, while the block is current
+            parts.append(part)
             if progress is not None:
                 progress(parts[-1].converged.size)
     except KeyboardInterrupt:

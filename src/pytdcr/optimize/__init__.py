@@ -7,8 +7,9 @@ cost, the reach or the reach along a direction, and its gradient), how
 """
 
 from ._problem import INFEASIBLE_COST, Evaluated, ReachProblem
-from ._result import Optimum, ReachResult
+from ._result import Optimum, ReachResult, SearchFailed
 from ._search import MemeticGA, Termination, maximize_reach, polish_reach
 
-__all__ = ["INFEASIBLE_COST", "Evaluated", "MemeticGA", "Optimum", "ReachProblem", "ReachResult", "Termination",
+__all__ = ["INFEASIBLE_COST", "Evaluated", "MemeticGA", "Optimum", "ReachProblem", "ReachResult", "SearchFailed",
+           "Termination",
            "maximize_reach", "polish_reach"]

@@ -7,7 +7,11 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Optimum", "ReachResult"]
+__all__ = ["Optimum", "ReachResult", "SearchFailed"]
+
+
+class SearchFailed(RuntimeError):
+    """A reach search that found no converged (and, if asked, stable) tension vector to report."""
 
 
 @dataclass(frozen=True, eq=False)

@@ -31,10 +31,11 @@ from pymoo.core.problem import Problem
 from scipy.optimize import minimize as sp_minimize
 from scipy.spatial import cKDTree
 
-from ..statics import TIGHT_ATOL
-from ..statics._batch import default_threads
+from ..limits import check_memory
+from ..statics import TIGHT_ATOL, check_resources
+from ..statics._batch import default_threads, submit_in_context
 from ._problem import INFEASIBLE_COST, ReachProblem
-from ._result import Optimum, ReachResult
+from ._result import Optimum, ReachResult, SearchFailed
 
 __all__ = ["MemeticGA", "Termination", "maximize_reach", "polish_reach"]
 
@@ -139,7 +140,7 @@ def polish_reach(problem: ReachProblem, tensions: np.ndarray, *, q0: np.ndarray 
 
     Raises
     ------
-    RuntimeError
+    SearchFailed
         When the final tension vector's solve does not converge.
     """
     t0 = time.perf_counter()
@@ -177,11 +178,11 @@ def polish_reach(problem: ReachProblem, tensions: np.ndarray, *, q0: np.ndarray 
     final = problem.solve(t, state["q"] if warm else None, atol=TIGHT_ATOL)
     state["n"] += 1
     if not final.converged:  # pragma: no cover - the optimiser only accepts converged points
-        raise RuntimeError("polish ended on a tension vector whose solve does not converge")
+        raise SearchFailed("polish ended on a tension vector whose solve does not converge")
     tip = final.tip_position
     cost = float(problem.cost(tip))
     if problem.stable_only and not final.stable:  # pragma: no cover - the optimiser only accepts stable points
-        raise RuntimeError("polish ended on an unstable equilibrium")
+        raise SearchFailed("polish ended on an unstable equilibrium")
     begin = Optimum(start, np.full(3, np.nan), float("nan"), c0)
     return ReachResult(tensions=t, tip_position=tip, reach=final.reach, cost=cost, value=float(problem.value(tip)),
                        stable=final.stable, converged=success, stop_reason=message, generations=0,
@@ -275,7 +276,7 @@ class _GARun:
         for x in picked:
             try:
                 pr = polish_reach(self.problem, self.problem.full(x), max_iter=self.algo.ls_max_iter)
-            except RuntimeError:
+            except SearchFailed:
                 continue
             self.stats.ls += pr.evaluations
             self.stats.ls_runs += 1
@@ -321,11 +322,13 @@ class _GARun:
         """The GA's best, re-solved cold (independent of any warm-start history), and its unknowns."""
         opt = self.ga.opt[0]
         if not opt.get("feas"):
-            raise RuntimeError("no tension vector within the bounds gave a converged static solve")
+            what = "converged and stable" if self.problem.stable_only else "converged"
+            raise SearchFailed(f"no tension vector within the bounds gave a {what} static solve "
+                               f"({self.stats.evals} tried)")
         T = self.problem.full(opt.get("X"))
         sol = self.problem.solve(T)
         if not sol.converged:
-            raise RuntimeError("the GA's best does not converge when solved cold from the straight robot")
+            raise SearchFailed("the GA's best does not converge when solved cold from the straight robot")
         return Optimum(T, sol.tip_position, sol.reach, float(self.problem.cost(sol.tip_position)), sol.stable), sol.q
 
     def polish_starts(self, best: np.ndarray) -> list[np.ndarray]:
@@ -350,17 +353,28 @@ def _polish_many(problem: ReachProblem, starts: list[np.ndarray], q0: np.ndarray
     def one(k: int) -> ReachResult | None:
         try:
             return polish_reach(problem, starts[k], q0=q0 if k == 0 else None, warm=warm)
-        except RuntimeError:
+        except SearchFailed:
             return None
 
     with ThreadPoolExecutor(max_workers=min(len(starts), default_threads())) as pool:
-        results = [r for r in pool.map(one, range(len(starts))) if r is not None]
+        futures = [submit_in_context(pool, one, k) for k in range(len(starts))]
+        results = [r for r in (f.result() for f in futures) if r is not None]
     if not results:
         return None
     best = min(results, key=lambda r: r.cost)
     evaluations = sum(r.evaluations for r in results)
     return ReachResult(**{**best.__dict__, "evaluations": evaluations, "polish_evaluations": evaluations,
                           "polish_message": f"best of {len(results)} starts: {best.polish_message}"})
+
+
+def _check_population(problem: ReachProblem, algo: MemeticGA) -> None:
+    """Refuse a population whose individuals (pymoo keeps parents and offspring, about 3 kB each with their
+    solves' unknowns) and solves would not fit in the memory budget."""
+    robot = problem.robot
+    res = check_resources(problem.model, robot, problem.options, default_threads())
+    per = 3000.0 + 16.0 * ((res.unknowns if res else 3 * robot.n_disks) + robot.n_tendons)
+    check_memory(f"a GA population of {algo.pop_size:,} on robot '{robot.name}'",
+                 2 * algo.pop_size * per + default_threads() * (res.bytes if res else 0.0))
 
 
 def maximize_reach(problem: ReachProblem, algorithm: MemeticGA | None = None, termination: Termination | None = None,
@@ -388,6 +402,7 @@ def maximize_reach(problem: ReachProblem, algorithm: MemeticGA | None = None, te
     algo = algorithm or MemeticGA()
     term = termination or Termination()
     _check_int("seed", seed, 0)
+    _check_population(problem, algo)
     t0 = time.perf_counter()
     run = _GARun(problem, algo, term, seed, on_generation)
     reason = run.run()

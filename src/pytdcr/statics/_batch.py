@@ -4,21 +4,84 @@ The compiled solvers release the GIL, so Python threads run them on all cores.
 Each case is solved by the same compiled code whichever thread takes it, and
 the chunks are disjoint: a batch's results do not depend on the number of
 threads or on the order the chunks finish in.
+
+Work can be cancelled: inside :func:`cancellable`, cancelling the scope makes every
+chunk not yet started, in this thread or in threads started through
+:func:`submit_in_context`, raise :class:`Cancelled` (a KeyboardInterrupt).
+Chunks are small (at most 16 cases), so the work stops within a fraction of a
+second; a command line's Ctrl-C uses this to stop worker threads.
 """
 
 from __future__ import annotations
 
+import contextvars
 import os
 import threading
 from collections.abc import Callable, Iterator
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
 from functools import cache
 from typing import Any
 
 from threadpoolctl import ThreadpoolController
 
-__all__ = ["default_threads", "run_in_chunks", "single_threaded_blas"]
+__all__ = ["CancelScope", "Cancelled", "cancellable", "check_cancelled", "default_threads", "mark_saving",
+           "run_in_chunks", "single_threaded_blas", "submit_in_context"]
+
+#: the largest chunk of cases run between two checks for cancellation
+MAX_CHUNK = 16
+
+
+
+class CancelScope:
+    """Work that can be cancelled: ``cancel()`` stops it at its next chunk; ``saving`` tells that the
+    interrupted work is writing what it finished (and should be waited for)."""
+
+    def __init__(self) -> None:
+        self.cancelled = threading.Event()
+        self.saving = threading.Event()
+
+    def cancel(self) -> None:
+        """Stop the scope's work at its next chunk (from any thread)."""
+        self.cancelled.set()
+
+
+_scope: contextvars.ContextVar[CancelScope | None] = contextvars.ContextVar("pytdcr_cancel", default=None)
+
+
+class Cancelled(KeyboardInterrupt):
+    """Work stopped because the run it belongs to was interrupted (see :func:`cancellable`)."""
+
+
+@contextmanager
+def cancellable() -> Iterator[CancelScope]:
+    """A scope whose work stops, at the next chunk of solves, once the yielded scope is cancelled."""
+    scope = CancelScope()
+    token = _scope.set(scope)
+    try:
+        yield scope
+    finally:
+        _scope.reset(token)
+
+
+def check_cancelled() -> None:
+    """Raise :class:`Cancelled` if the enclosing :func:`cancellable` scope has been cancelled."""
+    scope = _scope.get()
+    if scope is not None and scope.cancelled.is_set():
+        raise Cancelled("cancelled: the run was interrupted")
+
+
+def mark_saving() -> None:
+    """Say that interrupted work is now writing what it finished (no-op outside a scope)."""
+    scope = _scope.get()
+    if scope is not None:
+        scope.saving.set()
+
+
+def submit_in_context(pool: ThreadPoolExecutor, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Future:
+    """``pool.submit(fn, *args, **kwargs)`` run in a copy of this thread's context (so it sees the cancellation
+    scope)."""
+    return pool.submit(contextvars.copy_context().run, fn, *args, **kwargs)
 
 _lock = threading.Lock()
 _depth = 0
@@ -68,23 +131,30 @@ def run_in_chunks(fn: Callable[[int, int], None], n: int, threads: int | None = 
 
     ``chunk`` defaults to a size that gives each thread several chunks (solve
     times vary by two orders of magnitude across cases, so small chunks
-    balance the load). BLAS runs single-threaded meanwhile
-    (:func:`single_threaded_blas`). Exceptions propagate; a KeyboardInterrupt
-    cancels the chunks not yet started.
+    balance the load), at most :data:`MAX_CHUNK`. BLAS runs single-threaded
+    meanwhile (:func:`single_threaded_blas`). Exceptions propagate; a
+    KeyboardInterrupt, or the cancellation of the enclosing
+    :func:`cancellable` scope, stops the chunks not yet started.
     """
     if n <= 0:
         return
     workers = min(default_threads() if threads is None else int(threads), n)
     if workers < 1:
         raise ValueError(f"threads must be >= 1, got {threads}")
+    size = int(chunk) if chunk else max(1, min(MAX_CHUNK, n // (8 * workers)))
+    bounds = [(s, min(n, s + size)) for s in range(0, n, size)]
+
+    def run(a: int, b: int) -> None:
+        check_cancelled()
+        fn(a, b)
+
     if workers == 1:
         with single_threaded_blas():
-            fn(0, n)
+            for a, b in bounds:
+                run(a, b)
         return
-    size = chunk or max(1, min(64, n // (8 * workers)))
-    bounds = [(s, min(n, s + size)) for s in range(0, n, size)]
     with single_threaded_blas(), ThreadPoolExecutor(max_workers=workers) as pool:
-        futures = [pool.submit(fn, a, b) for a, b in bounds]
+        futures = [submit_in_context(pool, run, a, b) for a, b in bounds]
         try:
             for f in futures:
                 f.result()

@@ -82,7 +82,8 @@ def constitutive(mb, nb, holes, tau, active, stiff, ext, x, A, F):
     ext : bool, solve for v too (shear and extension) or keep v = e3.
     x : (6,) u [1/m] then v [-]; A (6, 6), F (6,) scratch.
 
-    Returns True when the Newton iteration converged.
+    Returns True when the Newton iteration converged to a physical strain (with extension: v3 > 0, an
+    axial strain above -1).
     """
     n = 6 if ext else 3
     EI, GJ, GA, EA = stiff[0], stiff[1], stiff[2], stiff[3]
@@ -164,7 +165,9 @@ def constitutive(mb, nb, holes, tau, active, stiff, ext, x, A, F):
         if not np.isfinite(big):
             return False
         if big <= _NEWTON_TOL:
-            return True
+            # an axial strain of -1 or less (v3 <= 0) crushes the rod through itself: no equilibrium of
+            # this rod law, so the integration (and the solve) fails rather than report it
+            return not (ext and x[5] <= 0.0)
     return False
 
 

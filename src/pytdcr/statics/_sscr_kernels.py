@@ -141,6 +141,8 @@ def _rhs(y, kinv, ext, fw, dy, uv):
         for b in range(3):
             rtn = y[3 + b] * y[12] + y[6 + b] * y[13] + y[9 + b] * y[14]
             uv[3 + b] += kinv[3 + b] * rtn
+        if uv[5] <= 0.0:  # axial strain <= -1: the rod crushed through itself; no equilibrium (NaN residual)
+            uv[5] = np.nan
     u0, u1, u2, v0, v1, v2 = uv[0], uv[1], uv[2], uv[3], uv[4], uv[5]
     for a in range(3):
         r0, r1, r2 = y[3 + 3 * a], y[4 + 3 * a], y[5 + 3 * a]

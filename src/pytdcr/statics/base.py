@@ -16,6 +16,7 @@ if TYPE_CHECKING:
     import numpy as np
 
     from ..design import Robot
+    from ..limits import Resources
     from ..loads import Loads
     from ..results import BatchSolution, StaticSolution
 
@@ -104,3 +105,6 @@ class Model(Protocol):
     def tip_gradient(self, robot: Robot, loads: Loads, solution: StaticSolution,
                      options: Any) -> tuple[np.ndarray, np.ndarray]:
         """Tip (3,) [m] of a converged equilibrium and its derivative by the tensions (3, n_tendons) [m/N]."""
+
+    def resources(self, robot: Robot, options: Any) -> Resources:
+        """The peak memory and rough time of one solve, for the memory budget (:mod:`pytdcr.limits`)."""

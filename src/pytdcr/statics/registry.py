@@ -12,6 +12,7 @@ import dataclasses
 from typing import Any
 
 from ..design import Robot
+from ..limits import Resources, check_memory, human_seconds
 from ..loads import Loads
 from .base import Model, UnsupportedFeatureError
 from .cosserat import COSSERAT
@@ -19,7 +20,7 @@ from .pcc import PCC
 from .pcc2 import PCC2
 from .sscr import SSCR
 
-__all__ = ["MODELS", "configure", "get_model", "options_record", "resolve"]
+__all__ = ["MODELS", "check_resources", "configure", "get_model", "options_record", "resolve"]
 
 #: every registered model by name
 MODELS: dict[str, Model] = {"pcc": PCC, "pcc2": PCC2, "sscr": SSCR, "cosserat": COSSERAT}
@@ -83,6 +84,8 @@ def resolve(model: str | Model, robot: Robot, loads: Loads | None = None, option
     ------
     UnsupportedFeatureError
         Naming the model and the feature it does not model.
+    ResourceLimitError
+        When one solve would need more memory than the budget (:mod:`pytdcr.limits`), with the estimate.
     TypeError
         When ``robot``, ``loads`` or ``options`` have the wrong type.
     """
@@ -103,7 +106,27 @@ def resolve(model: str | Model, robot: Robot, loads: Loads | None = None, option
         raise UnsupportedFeatureError(m.name, "a tip gradient (needed by the gradient search)")
     if stability and not caps.stability:
         raise UnsupportedFeatureError(m.name, "the static stability test")
+    check_resources(m, robot, opts)
     return m, opts
+
+
+def check_resources(model: Model, robot: Robot, options: Any, concurrent: int = 1, extra_bytes: float = 0.0,
+                    what: str = "") -> Resources | None:
+    """Refuse work on ``robot`` that needs more memory than the budget (:mod:`pytdcr.limits`).
+
+    ``concurrent`` solves at once (a batch's threads) plus ``extra_bytes`` (its results). Returns the
+    model's estimate for one solve (None for a model object that gives none).
+    """
+    estimate = getattr(model, "resources", None)
+    if estimate is None:
+        return None
+    res = estimate(robot, options)
+    label = what or (f"a '{model.name}' solve of robot '{robot.name}' ({robot.n_disks} disks"
+                     + (f", {concurrent} at once" if concurrent > 1 else "") + ")")
+    check_memory(label, concurrent * res.bytes + extra_bytes,
+                 f"{res.unknowns:,} unknowns, a dense {res.unknowns:,} x {res.unknowns:,} Jacobian; one solve "
+                 f"would take about {human_seconds(res.seconds)}")
+    return res
 
 
 def options_record(model: str | Model, options: Any = None) -> dict[str, Any]:

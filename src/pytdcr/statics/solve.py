@@ -14,8 +14,9 @@ import numpy as np
 from ..design import Robot
 from ..loads import Loads, check_tensions
 from ..results import BatchSolution, StaticSolution
+from ._batch import default_threads
 from .base import Model
-from .registry import MODELS, resolve
+from .registry import MODELS, check_resources, resolve
 
 __all__ = ["solve", "solve_batch", "tip_gradient", "warmup"]
 
@@ -49,6 +50,8 @@ def solve(robot: Robot, loads: Loads, *, model: str | Model = "pcc", q0: np.ndar
     UnsupportedFeatureError
         When the model does not model something the robot or loads need.
     """
+    if not isinstance(loads, Loads):
+        raise TypeError(f"loads must be a pytdcr.Loads (tensions and external wrenches), got {type(loads).__name__}")
     m, opts = resolve(model, robot, loads, options)
     return m.solve(robot, loads, q0, opts)
 
@@ -68,6 +71,11 @@ def solve_batch(robot: Robot, tensions: np.ndarray, loads: Loads | None = None, 
     T = check_tensions(tensions, robot.n_tendons)  # a fresh C-ordered copy
     if T.ndim != 2:
         raise ValueError(f"tensions must have shape (B, {robot.n_tendons}), got {T.shape}")
+    workers = min(default_threads() if threads is None else max(1, int(threads)), max(1, T.shape[0]))
+    per_case = 8.0 * (robot.n_disks * 8 + robot.n_tendons + 16) + 400.0  # q, tip, residual, path, stability
+    check_resources(m, robot, opts, workers, T.shape[0] * per_case,
+                    f"a batch of {T.shape[0]:,} '{m.name}' solves of robot '{robot.name}' ({robot.n_disks} disks, "
+                    f"{workers} threads)")
     return m.solve_batch(robot, T, base.with_tensions(np.zeros(robot.n_tendons)), q0, opts, threads)
 
 

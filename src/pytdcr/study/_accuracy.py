@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -14,7 +13,8 @@ from ..bounds import TensionBounds
 from ..design import Robot
 from ..loads import Loads
 from ..plotting import plot_order
-from ._output import inputs_record, save_figure, write_json
+from ._folder import atomic_write_text, output_folder
+from ._output import inputs_record, save_figure, write_csv, write_json
 
 __all__ = ["accuracy_markdown", "run_accuracy"]
 
@@ -57,36 +57,39 @@ def accuracy_markdown(study: AccuracyStudy, orders: Sequence[OrderStudy], source
     return "\n".join(lines)
 
 
-def run_accuracy(robot: Robot, out: Path, *, n: int = 20, bounds: TensionBounds | None = None, seed: int = 0,
+def run_accuracy(robot: Robot, out: str | Path, *, n: int = 20, bounds: TensionBounds | None = None, seed: int = 0,
                  groups: Sequence[LoadGroup] | None = None, models: Sequence[str] | None = None,
                  disks: Sequence[int] = (5, 10, 20, 40), order_cases: int = 3, reference_steps: int = 160,
                  progress: Callable[[str], None] | None = None) -> tuple[AccuracyStudy, list[OrderStudy], list[str]]:
-    """The accuracy table and the order study; writes CSV, Markdown, the log-log figure and JSON in ``out``."""
+    """The accuracy table and the order study; writes CSV, Markdown, the log-log figure and JSON in ``out``
+    (the output-folder rule; an interrupted study saves nothing)."""
     b = bounds or TensionBounds.uniform(robot.n_tendons, 0.0, 20.0)
     b.check_robot(robot)
     T = b.sample(n, np.random.default_rng(seed))
     groups = tuple(groups or default_groups())
-    study = model_accuracy(robot, T, groups=groups, models=models, reference_steps=reference_steps,
-                           progress=progress)
-    orders = [order_study(robot, T[:order_cases], g, disks=disks, reference_steps=reference_steps, progress=progress)
-              for g in groups] if order_cases > 0 and disks else []
-    out.mkdir(parents=True, exist_ok=True)
+    with output_folder(out, "accuracy", {"n": n, "seed": seed, "bounds": b.to_dict()}) as run:
+        study = model_accuracy(robot, T, groups=groups, models=models, reference_steps=reference_steps,
+                               progress=progress)
+        orders = [order_study(robot, T[:order_cases], g, disks=disks, reference_steps=reference_steps,
+                              progress=progress) for g in groups] if order_cases > 0 and disks else []
+        files = _write_accuracy(run.staging, robot, study, orders, T, b, seed, groups, disks, order_cases,
+                                reference_steps)
+    return study, orders, files
+
+
+def _write_accuracy(out: Path, robot: Robot, study: AccuracyStudy, orders: list[OrderStudy], T: np.ndarray,
+                    b: TensionBounds, seed: int, groups: Sequence[LoadGroup], disks: Sequence[int], order_cases: int,
+                    reference_steps: int) -> list[str]:
     files = ["accuracy.csv", "accuracy.md"]
     rows = study.rows()
-    with open(out / "accuracy.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(out / "accuracy.csv", list(rows[0]), (list(r.values()) for r in rows))
     source = f"uniform in [{b.lower.min():g}, {b.upper.max():g}] N, seed {seed}"
-    (out / "accuracy.md").write_text(accuracy_markdown(study, orders, source))
+    atomic_write_text(out / "accuracy.md", accuracy_markdown(study, orders, source))
     if orders:
-        with open(out / "order.csv", "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(["group", "model", "disks_per_segment", "spacing_m", "median_error_mm", "order"])
-            for st in orders:
-                for name, e in st.errors_mm.items():
-                    for d, h, x in zip(st.disks, st.spacing, e, strict=True):
-                        w.writerow([st.group, name, d, f"{h:.6g}", f"{x:.6g}", f"{st.order[name]:.4f}"])
+        write_csv(out / "order.csv", ["group", "model", "disks_per_segment", "spacing_m", "median_error_mm", "order"],
+                  ([st.group, name, d, f"{h:.6g}", f"{x:.6g}", f"{st.order[name]:.4f}"]
+                   for st in orders for name, e in st.errors_mm.items()
+                   for d, h, x in zip(st.disks, st.spacing, e, strict=True)))
         files.append("order.csv")
         ax = plot_order(orders)
         ax.set_title(f"{robot.name}: PCC models against sscr as the disks multiply")
@@ -101,4 +104,4 @@ def run_accuracy(robot: Robot, out: Path, *, n: int = 20, bounds: TensionBounds 
                                 disks=list(disks), order_cases=order_cases, reference_steps=reference_steps),
         "summary": summary, "files": files})
     files.append("accuracy.json")
-    return study, orders, files
+    return files

@@ -2,7 +2,8 @@
 
 - A new or empty folder is used.
 - A folder in use (a live lock) is refused with one line.
-- A stale lock (its process gone) is taken over.
+- A stale lock (its process gone) is taken over: the lock is a ``flock`` the
+  kernel drops when the process ends, however it ends (POSIX systems).
 - A finished or interrupted run of any command is replaced as a whole: the new
   run writes aside, into a staging folder next to it, and the two are swapped
   when it ends; the folder never mixes two runs.
@@ -17,6 +18,7 @@ status ``interrupted``; one that wrote none leaves the previous run in place.
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import platform
@@ -32,9 +34,11 @@ from typing import Any
 
 from .. import __version__
 from ..io import to_jsonable
-from ..validate import show
+from ..statics import mark_saving
+from ..validate import show, show_path
 
-__all__ = ["MANIFEST", "FolderError", "OutputRun", "RunInterrupted", "atomic_write_text", "output_folder"]
+__all__ = ["MANIFEST", "FolderError", "OutputRun", "RunInterrupted", "atomic_write_text", "check_output_folder",
+           "output_folder"]
 
 #: the name of every run's manifest
 MANIFEST = "manifest.json"
@@ -59,58 +63,120 @@ def atomic_write_text(path: Path, text: str) -> None:
     os.replace(tmp, path)
 
 
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # pragma: no cover - another user's live process
-        return True
-    return True
-
-
 def _lock_path(path: Path) -> Path:
     return path.parent / f".{path.name}.lock"
 
 
-def _take_lock(path: Path, command: str) -> Path:
-    """Create the lock beside ``path`` atomically; take over a stale one; refuse a live one."""
+def _staging_path(path: Path, pid: int) -> Path:
+    return path.parent / f".{path.name}.partial-{pid}"
+
+
+def _aside_path(path: Path, pid: int) -> Path:
+    return path.parent / f".{path.name}.old-{pid}"
+
+
+def _clean_after(path: Path, pid: int) -> None:
+    """What a run killed outright (no Ctrl-C: SIGKILL, power) left beside ``path``: its staging folder goes;
+    a previous run it had moved aside for the swap comes back."""
+    if pid <= 0:
+        return
+    shutil.rmtree(_staging_path(path, pid), ignore_errors=True)
+    aside = _aside_path(path, pid)
+    if aside.is_dir():
+        if path.exists():
+            shutil.rmtree(aside, ignore_errors=True)
+        else:
+            os.replace(aside, path)
+
+
+@dataclass
+class _Lock:
+    """A held lock: the open file whose ``flock`` the kernel keeps while this process lives."""
+
+    path: Path
+    fd: int
+
+    def release(self) -> None:
+        self.path.unlink(missing_ok=True)
+        os.close(self.fd)
+
+
+def _holder(fd: int) -> dict[str, Any]:
+    try:
+        raw = os.pread(fd, 4096, 0)
+        rec = json.loads(raw.decode("utf-8"))
+        return rec if isinstance(rec, dict) else {}
+    except (OSError, ValueError):
+        return {}
+
+
+def _in_use(path: Path, rec: dict[str, Any]) -> FolderError:
+    who = show(str(rec.get("command", "another run")))[1:-1]
+    pid = rec.get("pid", "?")
+    return FolderError(f"{show_path(path)}: in use by process {pid} (tdcr {who}, started {rec.get('started', '?')}); "
+                       "wait for it or choose another --out")
+
+
+def _take_lock(path: Path, command: str) -> _Lock:
+    """Lock ``path`` for this run (an exclusive ``flock`` on ``.<name>.lock`` beside it).
+
+    The kernel drops the lock when its process ends however it ends, so a lock left by a run that is gone is
+    free and is taken over (what that run left beside the folder is cleaned up); a live one is refused.
+    """
     lock = _lock_path(path)
-    record = json.dumps({"pid": os.getpid(), "host": socket.gethostname(), "command": command,
-                         "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
-    for _ in range(3):
+    for _ in range(10):
+        fd = os.open(lock, os.O_CREAT | os.O_RDWR, 0o644)
         try:
-            fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
-        except FileExistsError:
-            try:
-                other = json.loads(lock.read_text())
-                pid, host = int(other["pid"]), str(other["host"])
-            except (OSError, ValueError, KeyError, TypeError):
-                other, pid, host = {}, -1, socket.gethostname()  # unreadable: a crash mid-write, stale
-            who = show(other.get("command", "a tdcr run"))
-            if host != socket.gethostname():
-                raise FolderError(f"{show(str(path))}: in use by {who} on host {show(host)} (lock {show(str(lock))}; "
-                                  "remove it if that run is gone)") from None
-            if pid > 0 and pid != os.getpid() and _alive(pid):
-                raise FolderError(f"{show(str(path))}: in use by process {pid} ({who}, started "
-                                  f"{other.get('started', '?')}); wait for it or choose another --out") from None
-            lock.unlink(missing_ok=True)  # stale: its process is gone
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            rec = _holder(fd)
+            os.close(fd)
+            raise _in_use(path, rec) from None
+        try:  # the file may have been unlinked by the run that held it before we locked it: start again
+            same = os.stat(lock).st_ino == os.fstat(fd).st_ino
+        except FileNotFoundError:
+            same = False
+        if not same:
+            os.close(fd)
             continue
-        with os.fdopen(fd, "w") as fh:
-            fh.write(record)
-        return lock
-    raise FolderError(f"{show(str(path))}: cannot take the lock {show(str(lock))}")  # pragma: no cover
+        previous = _holder(fd)
+        if previous.get("host") == socket.gethostname() and isinstance(previous.get("pid"), int):
+            _clean_after(path, previous["pid"])
+        record = json.dumps({"pid": os.getpid(), "host": socket.gethostname(), "command": command,
+                             "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")}).encode()
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, record, 0)
+        return _Lock(lock, fd)
+    raise FolderError(f"{show_path(path)}: cannot take the lock {show_path(lock)}")  # pragma: no cover
+
+
+def check_output_folder(path: str | Path) -> None:
+    """Refuse, before any work, an output folder the rule will not use: a file, a folder of other files, or
+    one in use by a live run (raises :class:`FolderError`)."""
+    path = Path(path).absolute()
+    _check_target(path)
+    lock = _lock_path(path)
+    try:
+        fd = os.open(lock, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        raise _in_use(path, _holder(fd)) from None
+    finally:
+        os.close(fd)
 
 
 def _check_target(path: Path) -> None:
     if path.exists() and not path.is_dir():
-        raise FolderError(f"--out {show(str(path))}: is a file, not a folder")
+        raise FolderError(f"--out {show_path(path)}: is a file, not a folder")
     if path.is_dir() and any(path.iterdir()) and not (path / MANIFEST).is_file():
-        raise FolderError(f"--out {show(str(path))}: holds files that are not a tdcr run (no {MANIFEST}); "
+        raise FolderError(f"--out {show_path(path)}: holds files that are not a tdcr run (no {MANIFEST}); "
                           "choose a new or empty folder")
     parent = path.parent
     if parent.exists() and not parent.is_dir():
-        raise FolderError(f"--out {show(str(path))}: {show(str(parent))} is a file, not a folder")
+        raise FolderError(f"--out {show_path(path)}: {show_path(parent)} is a file, not a folder")
 
 
 @dataclass
@@ -130,7 +196,7 @@ class OutputRun:
 
 def _swap(run: OutputRun) -> None:
     """Put the staging folder in the target's place; the previous run, if any, goes as a whole."""
-    old = run.path.parent / f".{run.path.name}.old-{os.getpid()}"
+    old = _aside_path(run.path, os.getpid())
     if run.path.exists():
         os.replace(run.path, old)
     os.replace(run.staging, run.path)
@@ -159,7 +225,7 @@ def output_folder(path: str | Path, command: str, inputs: dict[str, Any] | None 
     _check_target(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     lock = _take_lock(path, command)
-    staging = path.parent / f".{path.name}.partial-{os.getpid()}"
+    staging = _staging_path(path, os.getpid())
     try:
         shutil.rmtree(staging, ignore_errors=True)
         staging.mkdir()
@@ -170,6 +236,7 @@ def output_folder(path: str | Path, command: str, inputs: dict[str, Any] | None 
         try:
             yield run
         except KeyboardInterrupt:
+            mark_saving()
             written = [p.name for p in staging.iterdir() if not p.name.startswith(".")]
             if written:
                 _finish(run, "interrupted")
@@ -180,4 +247,4 @@ def output_folder(path: str | Path, command: str, inputs: dict[str, Any] | None 
         _finish(run, "complete")
     finally:
         shutil.rmtree(staging, ignore_errors=True)
-        lock.unlink(missing_ok=True)
+        lock.release()

@@ -19,10 +19,11 @@ from ..optimize import MemeticGA, ReachProblem, ReachResult, Termination, maximi
 from ..paper import DEFAULT_BOUNDS, PAYLOAD_MASS, paper_bounds, paper_loads, payload_loads
 from ..plotting import plot_robot
 from ..statics import options_record, solve
-from ..statics._batch import default_threads
+from ..statics._batch import default_threads, submit_in_context
+from ._folder import atomic_write_text, output_folder
 from ._output import inputs_record, load_arrows, save_figure, write_json
 from ._report import reproduce_report
-from ._runs import run_sample, write_optimize
+from ._runs import sample_into, write_optimize
 from ._survival import model_verdicts, verdict_text
 
 __all__ = ["ReproduceSettings", "run_reproduce"]
@@ -102,7 +103,7 @@ def _sample_and_passive(robot: Robot, loads: Loads, bounds: TensionBounds, s: Re
                         out: Path, summary: dict[str, Any], note: Callable) -> None:
     """Fig. 3(a) and Fig. 4 (random samples under the paper's load), Fig. 3(b) (no tension, the load alone)."""
     cb = note("sampling", 1)
-    sample = run_sample(robot, loads, bounds, s.n_samples, seed, out)
+    sample = sample_into(out, robot, loads, bounds, s.n_samples, seed)
     if cb:
         cb(1, 0.0, 0.0)
     summary["files"] += sample.files
@@ -162,7 +163,7 @@ def _run_jobs(jobs: dict[str, _Job], s: ReproduceSettings, seed: int, note: Call
 
     order = sorted(jobs, key=lambda k: -jobs[k].pop)  # largest populations first
     pool = ThreadPoolExecutor(max_workers=max(1, min(2, default_threads())))
-    futures = {k: pool.submit(run, jobs[k]) for k in order}
+    futures = {k: submit_in_context(pool, run, jobs[k]) for k in order}
     done: dict[str, ReachResult] = {}
     try:
         between()
@@ -174,12 +175,20 @@ def _run_jobs(jobs: dict[str, _Job], s: ReproduceSettings, seed: int, note: Call
     return done
 
 
-def run_reproduce(robot: Robot, out: Path, *, seed: int = 0, progress: Progress | None = None,
+def run_reproduce(robot: Robot, out: str | Path, *, seed: int = 0, progress: Progress | None = None,
                   settings: ReproduceSettings | None = None) -> dict[str, Any]:
-    """The paper's whole study (sections 3-4) on ``robot``; writes figures, data and ``report.md``."""
+    """The paper's whole study (sections 3-4) on ``robot``; writes figures, data and ``report.md`` in ``out``.
+
+    ``out`` follows the output-folder rule (:func:`output_folder`): Ctrl-C keeps the figures and data
+    finished so far, with the manifest's status ``interrupted``.
+    """
     s = settings or ReproduceSettings()
+    with output_folder(out, "reproduce", {"seed": seed, **dataclasses.asdict(s)}) as run:
+        return _reproduce(robot, run.staging, seed, progress, s)
+
+
+def _reproduce(robot: Robot, out: Path, seed: int, progress: Progress | None, s: ReproduceSettings) -> dict[str, Any]:
     t_start = time.perf_counter()
-    out.mkdir(parents=True, exist_ok=True)
     bounds = paper_bounds(robot.n_tendons)
     jobs = _jobs(robot, s)
     loaded = jobs[f"pop{s.pops[0]}"].problem
@@ -200,13 +209,13 @@ def run_reproduce(robot: Robot, out: Path, *, seed: int = 0, progress: Progress 
     pay = done["payload"]
     best = min(ga.values(), key=lambda r: r.cost)
     with ThreadPoolExecutor(max_workers=1) as pool:  # beside the bounds study: both mostly in compiled code
-        later = pool.submit(model_verdicts, robot, loaded.loads, bounds, best, models=s.verdict_models,
+        later = submit_in_context(pool, model_verdicts, robot, loaded.loads, bounds, best, models=s.verdict_models,
                             ga_pop=s.verdict_ga_pop, polish_iter=s.verdict_polish_iter, seed=seed)
         bound_study = _bounds_study(robot, jobs, done, ga, s)
         verdicts = later.result()
     seconds = time.perf_counter() - t_start
     report = reproduce_report(robot, summary, ga, pay, bound_study, bounds, seconds, s, verdict_text(best, verdicts))
-    (out / "report.md").write_text(report)
+    atomic_write_text(out / "report.md", report)
     summary["files"].append("report.md")
     write_json(out / "reproduce.json", {
         "inputs": inputs_record(robot, loaded.loads, bounds=bounds.to_dict(), seed=seed,

@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-import csv
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -16,11 +15,13 @@ from ..design import Robot
 from ..loads import Loads
 from ..optimize import MemeticGA, ReachProblem, ReachResult, Termination, maximize_reach
 from ..plotting import plot_convergence, plot_model_overlay, plot_reach_samples, plot_robot, plot_robots
-from ..statics import TIGHT_ATOL, Model, options_record, resolve, solve
-from ..workspace import WorkspaceSamples, sample_workspace
-from ._output import inputs_record, load_arrows, markdown_table, save_figure, write_json
+from ..results import StaticSolution
+from ..statics import TIGHT_ATOL, Model, mark_saving, options_record, resolve, solve
+from ..workspace import SamplingInterrupted, WorkspaceSamples, sample_workspace
+from ._folder import atomic_write_text, output_folder
+from ._output import inputs_record, load_arrows, markdown_table, save_figure, write_csv, write_json
 
-__all__ = ["SampleRun", "run_compare", "run_optimize", "run_sample", "write_optimize"]
+__all__ = ["SampleRun", "run_compare", "run_optimize", "run_sample", "sample_into", "write_optimize"]
 
 
 @dataclass(frozen=True)
@@ -31,68 +32,108 @@ class SampleRun:
     files: list[str]
 
 
-def _write_samples_csv(path: Path, robot: Robot, samples: WorkspaceSamples) -> None:
-    with open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["sample", *[f"T{c + 1}_N" for c in range(robot.n_tendons)], "tip_x_m", "tip_y_m", "tip_z_m",
-                    "reach_m", "converged", "residual_Nm", "stable"])
-        stable = samples.stable
-        for k in range(samples.tensions.shape[0]):
-            tip = samples.tip_position[k]
-            w.writerow([k + 1, *[f"{x:.12g}" for x in samples.tensions[k]],
-                        *[("" if not np.isfinite(x) else f"{x:.12g}") for x in tip],
-                        "" if not samples.converged[k] else f"{samples.reach[k]:.12g}",
-                        int(samples.converged[k]), f"{samples.residual[k]:.6g}",
-                        "" if not np.isfinite(stable[k]) else int(stable[k])])
+def _samples_rows(samples: WorkspaceSamples) -> Iterator[list[Any]]:
+    stable = samples.stable
+    for k in range(samples.tensions.shape[0]):
+        tip = samples.tip_position[k]
+        yield [k + 1, *[f"{x:.12g}" for x in samples.tensions[k]],
+               *[("" if not np.isfinite(x) else f"{x:.12g}") for x in tip],
+               "" if not samples.converged[k] else f"{samples.reach[k]:.12g}",
+               int(samples.converged[k]), f"{samples.residual[k]:.6g}",
+               "" if not np.isfinite(stable[k]) else int(stable[k])]
 
 
-def run_sample(robot: Robot, loads: Loads, bounds: TensionBounds, n: int, seed: int, out: Path | None, *,
-               model: str | Model = "pcc", options: Any = None, n_shapes: int = 10) -> SampleRun:
-    """Random tension samples, the CSV of their equilibria, Fig. 3(a) and Fig. 4."""
-    m, opts = resolve(model, robot, loads, options)
-    samples = sample_workspace(robot, loads, bounds, n, seed=seed, model=m, options=opts)
-    files: list[str] = []
-    if out is None:
-        return SampleRun(samples, files)
-    out.mkdir(parents=True, exist_ok=True)
-    _write_samples_csv(out / "samples.csv", robot, samples)
-    files.append("samples.csv")
-    ax = plot_reach_samples(samples.reach, samples.converged)
-    ax.set_title(f"{robot.name}: reach of {n} random tension samples (seed {seed})")
-    files += save_figure(ax.figure, out, "fig3a_samples")
-    ok = np.flatnonzero(samples.converged)[:n_shapes]
-    sols = [solve(robot, loads.with_tensions(samples.tensions[k]), model=m, q0=samples.q[k], options=opts)
-            for k in ok]
-    ax = plot_robots(sols, robot)
-    ax.set_title(f"{len(sols)} sampled configurations")
-    files += save_figure(ax.figure, out, "fig4_configurations")
+def _write_samples(out: Path, robot: Robot, loads: Loads, bounds: TensionBounds, samples: WorkspaceSamples, n: int,
+                   solver: dict[str, Any], shapes: list[StaticSolution] | None) -> list[str]:
+    """samples.csv, Fig. 3(a) and Fig. 4 (when ``shapes`` are given: not for an interrupted run, which must
+    stop within a second) and sample_run.json in ``out``."""
+    write_csv(out / "samples.csv", ["sample", *[f"T{c + 1}_N" for c in range(robot.n_tendons)], "tip_x_m",
+                                    "tip_y_m", "tip_z_m", "reach_m", "converged", "residual_Nm", "stable"],
+              _samples_rows(samples))
+    files = ["samples.csv"]
+    done = samples.converged.size
+    if shapes is not None:
+        ax = plot_reach_samples(samples.reach, samples.converged)
+        ax.set_title(f"{robot.name}: reach of {done} random tension samples (seed {samples.seed})")
+        files += save_figure(ax.figure, out, "fig3a_samples")
+        ax = plot_robots(shapes, robot)
+        ax.set_title(f"{len(shapes)} sampled configurations")
+        files += save_figure(ax.figure, out, "fig4_configurations")
     write_json(out / "sample_run.json", {
-        "inputs": inputs_record(robot, loads, bounds=bounds.to_dict(), n=n, seed=seed,
-                                solver=options_record(m, opts)),
+        "inputs": inputs_record(robot, loads, bounds=bounds.to_dict(), n=n, seed=samples.seed, solver=solver),
+        "solved": done, "complete": done == n,
         "converged": int(samples.converged.sum()), "not_converged": int((~samples.converged).sum()),
         "unstable": int(np.sum(samples.stable == 0.0)),
         "reach_max_m": float(np.nanmax(samples.reach)) if samples.converged.any() else None,
         "seconds": samples.seconds, "files": files,
     })
-    files.append("sample_run.json")
-    return SampleRun(samples, files)
+    return [*files, "sample_run.json"]
+
+
+def sample_into(out: Path, robot: Robot, loads: Loads, bounds: TensionBounds, n: int, seed: int, *,
+                model: str | Model = "pcc", options: Any = None, n_shapes: int = 10,
+                progress: Callable[[int], None] | None = None) -> SampleRun:
+    """Sample and write the files of :func:`run_sample` into ``out``, a folder the caller manages.
+
+    On Ctrl-C the samples solved so far are written (CSV and JSON with ``complete: false``) and
+    :class:`~pytdcr.workspace.SamplingInterrupted` is raised again.
+    """
+    m, opts = resolve(model, robot, loads, options)
+    solver = options_record(m, opts)
+    try:
+        samples = sample_workspace(robot, loads, bounds, n, seed=seed, model=m, options=opts, progress=progress,
+                                   stability=True)
+    except SamplingInterrupted as stop:
+        mark_saving()
+        _write_samples(out, robot, loads, bounds, stop.samples, n, solver, None)
+        raise
+    ok = np.flatnonzero(samples.converged)[:n_shapes]
+    shapes = [solve(robot, loads.with_tensions(samples.tensions[k]), model=m, q0=samples.q[k], options=opts)
+              for k in ok]
+    return SampleRun(samples, _write_samples(out, robot, loads, bounds, samples, n, solver, shapes))
+
+
+def run_sample(robot: Robot, loads: Loads, bounds: TensionBounds, n: int, seed: int, out: str | Path | None, *,
+               model: str | Model = "pcc", options: Any = None, n_shapes: int = 10,
+               progress: Callable[[int], None] | None = None) -> SampleRun:
+    """Random tension samples, the CSV of their equilibria, Fig. 3(a) and Fig. 4, in the folder ``out``.
+
+    ``out`` follows the output-folder rule (:func:`output_folder`); ``None`` writes nothing. Ctrl-C saves the
+    samples solved so far (status ``interrupted``) and raises :class:`RunInterrupted` saying so.
+    """
+    if out is None:
+        m, opts = resolve(model, robot, loads, options)
+        return SampleRun(sample_workspace(robot, loads, bounds, n, seed=seed, model=m, options=opts,
+                                          progress=progress), [])
+    with output_folder(out, "sample", {"n": n, "seed": seed, "bounds": bounds.to_dict()}) as run:
+        try:
+            return sample_into(run.staging, robot, loads, bounds, n, seed, model=model, options=options,
+                               n_shapes=n_shapes, progress=progress)
+        except SamplingInterrupted as stop:
+            run.interrupted_note = f"saved {stop.samples.converged.size} of {n} samples"
+            raise
 
 
 def run_optimize(problem: ReachProblem, algorithm: MemeticGA, termination: Termination, *, seed: int,
-                 out: Path | None, stem: str = "",
+                 out: str | Path | None, stem: str = "",
                  progress: Callable[[int, float, float], None] | None = None) -> tuple[ReachResult, list[str]]:
-    """The GA of Eq. 29, with Fig. 5 (convergence) and Fig. 6 (the optimal robot under its load)."""
-    res = maximize_reach(problem, algorithm, termination, seed=seed, on_generation=progress)
+    """The GA of Eq. 29, with Fig. 5 (convergence) and Fig. 6 (the optimal robot under its load) in ``out``.
+
+    ``out`` follows the output-folder rule; ``None`` writes nothing. An interrupted search saves nothing.
+    """
     if out is None:
-        return res, []
-    return res, write_optimize(res, problem, out, stem=stem)
+        return maximize_reach(problem, algorithm, termination, seed=seed, on_generation=progress), []
+    with output_folder(out, "optimize", {"seed": seed, "bounds": problem.bounds.to_dict(),
+                                         "pop": algorithm.pop_size}) as run:
+        res = maximize_reach(problem, algorithm, termination, seed=seed, on_generation=progress)
+        return res, write_optimize(res, problem, run.staging, stem=stem)
 
 
 def write_optimize(res: ReachResult, problem: ReachProblem, out: Path, *, stem: str = "") -> list[str]:
-    """Fig. 5, Fig. 6, the history CSV and the JSON record of a GA run; returns the file names."""
+    """Fig. 5, Fig. 6, the history CSV and the JSON record of a GA run into ``out``, a folder the caller
+    manages; returns the file names."""
     robot, loads = problem.robot, problem.loads
     files: list[str] = []
-    out.mkdir(parents=True, exist_ok=True)
     sfx = f"_{stem}" if stem else ""
     ax = plot_convergence(res.history["best"], res.history["mean"])
     ax.set_title(f"GA, population {res.settings['pop_size']}: {res.generations} generations, "
@@ -103,13 +144,11 @@ def write_optimize(res: ReachResult, problem: ReachProblem, out: Path, *, stem: 
     ax.set_title(f"optimal robot: reach {sol.reach:.4f} m\n(purple: tip force, orange: tip moment axis)"
                  if np.any(loads.tip_moment) else f"optimal robot: reach {sol.reach:.4f} m (purple: tip force)")
     files += save_figure(ax.figure, out, f"fig6_optimum{sfx}")
-    with open(out / f"history{sfx}.csv", "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["generation", "best_cost_per_m", "mean_cost_per_m", "evaluations", "nonconverged"])
-        h = res.history
-        for g in range(res.generations):
-            w.writerow([g + 1, f"{h['best'][g]:.12g}", f"{h['mean'][g]:.12g}", h["evaluations"][g],
-                        h["nonconverged"][g]])
+    h = res.history
+    write_csv(out / f"history{sfx}.csv",
+              ["generation", "best_cost_per_m", "mean_cost_per_m", "evaluations", "nonconverged"],
+              ([g + 1, f"{h['best'][g]:.12g}", f"{h['mean'][g]:.12g}", h["evaluations"][g], h["nonconverged"][g]]
+               for g in range(res.generations)))
     files.append(f"history{sfx}.csv")
     s = res.settings
     write_json(out / f"optimize{sfx}.json", {
@@ -156,20 +195,23 @@ def _compare_markdown(cmp: ModelComparison, robot: Robot, loads: Loads, source: 
     return "\n".join(text)
 
 
-def run_compare(robot: Robot, loads: Loads, tensions: np.ndarray, out: Path, *, source: dict[str, Any],
+def run_compare(robot: Robot, loads: Loads, tensions: np.ndarray, out: str | Path, *, source: dict[str, Any],
                 models: tuple[str | Model, ...] = ("pcc", "cosserat"), options: Mapping[str, Any] | None = None,
                 n_overlay: int = 4, progress: Callable[[], None] | None = None) -> tuple[ModelComparison, list[str]]:
-    """Every model on every case: ``compare.csv``, ``compare.md``, ``compare.json`` and the overlay figure."""
-    cmp = compare_models(robot, loads, tensions, models=models, options=options, progress=progress)
-    out.mkdir(parents=True, exist_ok=True)
+    """Every model on every case: ``compare.csv``, ``compare.md``, ``compare.json`` and the overlay figure in
+    ``out`` (the output-folder rule; an interrupted comparison saves nothing)."""
+    with output_folder(out, "compare", {"models": [getattr(m, "name", m) for m in models], **source}) as run:
+        cmp = compare_models(robot, loads, tensions, models=models, options=options, progress=progress)
+        return cmp, _write_compare(run.staging, cmp, robot, loads, tensions, source, options, n_overlay)
+
+
+def _write_compare(out: Path, cmp: ModelComparison, robot: Robot, loads: Loads, tensions: np.ndarray,
+                   source: dict[str, Any], options: Mapping[str, Any] | None, n_overlay: int) -> list[str]:
     rows = cmp.rows()
     files = ["compare.csv", "compare.md"]
-    with open(out / "compare.csv", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: (f"{v:.12g}" if isinstance(v, float) else v) for k, v in r.items()})
-    (out / "compare.md").write_text(_compare_markdown(cmp, robot, loads, source))
+    write_csv(out / "compare.csv", list(rows[0]),
+              ([(f"{v:.12g}" if isinstance(v, float) else v) for v in r.values()] for r in rows))
+    atomic_write_text(out / "compare.md", _compare_markdown(cmp, robot, loads, source))
     shown = np.flatnonzero(cmp.all_converged)[:n_overlay]
     groups = [[cmp.solutions[name][k] for name in cmp.models] for k in shown]
     ax = plot_model_overlay(groups, robot, labels=cmp.models, case_ids=[int(k) + 1 for k in shown])
@@ -182,5 +224,4 @@ def run_compare(robot: Robot, loads: Loads, tensions: np.ndarray, out: Path, *, 
         "inputs": inputs_record(robot, loads, tensions=np.asarray(tensions), **source, solvers=solvers),
         "summary": cmp.summary(), "files": files,
     })
-    files.append("compare.json")
-    return cmp, files
+    return [*files, "compare.json"]

@@ -1,0 +1,239 @@
+"""Hostile and careless input: every answer is one line naming the field, the value and what is allowed.
+
+The cases are the ones found by trying the project as a new user would (issue 14), each with what it now answers.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+
+import numpy as np
+import pytest
+import tomli_w
+
+from pytdcr import ConstantFriction, Loads, solve, solve_batch
+from pytdcr.cli import main
+from pytdcr.io import robot_to_dict
+from pytdcr.limits import MEMORY_ENV, ResourceLimitError, memory_budget
+from pytdcr.optimize import MemeticGA, ReachProblem, SearchFailed, Termination, maximize_reach
+from pytdcr.paper import paper_robot
+from pytdcr.workspace import sample_workspace
+
+ZERO8 = "0,0,0,0,0,0,0,0"
+
+
+def run(capsys, *args: str) -> tuple[int, str, str]:
+    code = main(list(args))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def one_error_line(err: str) -> str:
+    lines = [ln for ln in err.splitlines() if ln.startswith("tdcr:")]
+    assert len(lines) == 1, err
+    assert "Traceback" not in err
+    return lines[0]
+
+
+def robot_file(tmp_path, name: str, patch) -> str:
+    data = copy.deepcopy(robot_to_dict(paper_robot()))
+    patch(data)
+    path = tmp_path / name
+    path.write_text(tomli_w.dumps(data))
+    return str(path)
+
+
+ROBOT_PATCHES = {
+    "tiny_segment": (lambda d: d["segments"][0].update(length=1e-300),
+                     ["segments.0.length", "1e-300", "[0.001, 10] m"]),
+    "bool_modulus": (lambda d: d["backbone"].update(youngs_modulus=True),
+                     ["backbone.youngs_modulus", "True", "real number, not bool"]),
+    "string_modulus": (lambda d: d["backbone"].update(youngs_modulus="54e9"),
+                       ["backbone.youngs_modulus", "'54e9'", "not str"]),
+    "string_disks": (lambda d: d["segments"][0].update(n_disks="10"),
+                     ["segments.0.n_disks", "'10'", "integer, not str"]),
+    "nested_gravity": (lambda d: d.update(gravity=[[0, 0], -9.81]), ["gravity.0", "not list"]),
+    "huge_gravity": (lambda d: d.update(gravity=[0, 0, -1e300]), ["gravity", "1e+300", "[0, 100] m/s^2"]),
+    "huge_angle": (lambda d: d["tendons"][0].update(angle_deg=1e300),
+                   ["tendons.0.angle_deg", "1e+300", "[-360, 360] deg"]),
+    "tendon_outside_disk": (lambda d: d.update(disk_radius=0.005),
+                            ["tendons.0.radius", "smaller than the disk radius 0.005 m"]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(ROBOT_PATCHES))
+def test_bad_robot_files_one_line(capsys, tmp_path, case):
+    patch, words = ROBOT_PATCHES[case]
+    path = robot_file(tmp_path, f"{case}.toml", patch)
+    code, out, err = run(capsys, "solve", "--robot", path, "--tensions", ZERO8)
+    line = one_error_line(err)
+    assert code == 2 and out == ""
+    assert f"{case}.toml" in line
+    for w in words:
+        assert w in line, line
+
+
+def test_unreadable_robot_files(capsys, tmp_path):
+    binary = tmp_path / "binary.toml"
+    binary.write_bytes(b"name = \x00\xff\xfe")
+    code, _, err = run(capsys, "solve", "--robot", str(binary), "--tensions", "1")
+    assert code == 2 and "binary.toml" in one_error_line(err) and "binary" in err
+    code, _, err = run(capsys, "solve", "--robot", "/dev/zero", "--tensions", "1")
+    assert code == 2 and "/dev/zero" in one_error_line(err) and "1,000,000 bytes" in err
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["solve", "--tensions", "1,,2,0,0,0,0,0,0"], ["--tensions", "value 2 of 9 is empty"]),
+        (["solve", "--tensions", "1_0,0,0,0,0,0,0,0"], ["--tensions", "not a number", "'1_0'"]),
+        (["solve", "--tensions", "-inf,0,0,0,0,0,0,0"], ["--tensions", "'-inf'", "finite"]),
+        (["solve", "--tensions", "True,0,0,0,0,0,0,0"], ["--tensions", "not a number"]),
+        (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--atol", "1e300"], ["atol", "(0, 0.0001] N m"]),
+        (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--friction", "1e400"], ["--friction", "finite"]),
+        (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--tip-force", "0,0,1e7"], ["tip_force", "1e+06"]),
+        (["solve", "--tensions", "2e4,0,0,0,0,0,0,0"], ["tendon 1", "10000"]),
+        (["solve", "--tensions", "1,0,0,\x1b[31m,0"], ["\\x1b[31m"]),
+        (["sample", "--seed", "-1"], ["--seed", "[0, 4294967295]", "'-1'"]),
+        (["sample", "--n", "0"], ["--n", ">= 1", "'0'"]),
+        (["sample", "--n", "1e3"], ["--n", "integer"]),
+        (["optimize", "--pop", "1"], ["--pop", ">= 2"]),
+    ],
+)
+def test_bad_arguments_one_line(capsys, args, words):
+    code, out, err = run(capsys, *args)
+    line = one_error_line(err)
+    assert code == 2 and out == ""
+    assert "\x1b" not in err  # control characters are escaped, never echoed
+    for w in words:
+        assert w in line, line
+
+
+def test_long_arguments_are_shortened(capsys):
+    code, _, err = run(capsys, "solve", "--tensions", "x" * 100_000)
+    line = one_error_line(err)
+    assert code == 2 and len(line) < 700
+
+
+def test_bad_case_files(capsys, tmp_path):
+    typo = tmp_path / "typo.csv"
+    typo.write_text("1,0,0,0,0,0,0,O\n1,0,0,0,0,0,0,0\n")  # a letter O for a zero: not a header
+    code, _, err = run(capsys, "compare", "--cases", str(typo), "--out", str(tmp_path / "a"))
+    assert code == 2 and "line 1: value 8 is not a number: 'O'" in one_error_line(err)
+    semi = tmp_path / "semi.csv"
+    semi.write_text("1;0;0;0;0;0;0;0\n")
+    code, _, err = run(capsys, "compare", "--cases", str(semi), "--out", str(tmp_path / "b"))
+    assert code == 2 and "separated by commas, found ';'" in one_error_line(err)
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+
+
+def test_output_paths_refused_before_any_work(capsys, tmp_path):
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    for cmd in ("sample", "optimize", "reproduce", "compare", "accuracy"):
+        code, out, err = run(capsys, cmd, "--out", str(afile))
+        assert code == 2 and out == "" and "is a file, not a folder" in one_error_line(err)
+    (tmp_path / "notes").mkdir()
+    (tmp_path / "notes" / "thesis.tex").write_text("precious")
+    code, _, err = run(capsys, "sample", "--n", "2", "--out", str(tmp_path / "notes"))
+    assert code == 2 and "not a tdcr run" in one_error_line(err)
+    assert (tmp_path / "notes" / "thesis.tex").read_text() == "precious"
+    code, _, err = run(capsys, "solve", "--tensions", ZERO8, "--plot", str(tmp_path))
+    assert code == 2 and "is a folder" in one_error_line(err)
+
+
+def test_memory_budget_refuses_with_the_estimate(capsys, tmp_path, monkeypatch):
+    big = paper_robot().with_disks(5000)  # 10,000 disks: a dense 30,000^2 Jacobian
+    with pytest.raises(ResourceLimitError, match=r"10000 disks.*needs about 36\.\d GB.*30,000 unknowns"):
+        solve(big, Loads(np.zeros(8)))
+    path = tmp_path / "big.toml"
+    path.write_text(tomli_w.dumps(robot_to_dict(big)))
+    code, _, err = run(capsys, "solve", "--robot", str(path), "--tensions", ZERO8)
+    assert code == 2 and "memory budget" in one_error_line(err) and MEMORY_ENV in err
+    code, _, err = run(capsys, "sample", "--n", "999999999999", "--out", str(tmp_path / "s"))
+    assert code == 2 and "999,999,999,999 tension vectors" in one_error_line(err)
+    code, _, err = run(capsys, "optimize", "--pop", "999999999999")
+    assert code == 2 and "population of 999,999,999,999" in one_error_line(err)
+    # the budget is a setting
+    monkeypatch.setenv(MEMORY_ENV, "0.001")
+    assert memory_budget() == pytest.approx(1e6)
+    with pytest.raises(ResourceLimitError, match="1 MB"):
+        solve(paper_robot().with_disks(200), Loads(np.zeros(8)))
+    monkeypatch.setenv(MEMORY_ENV, "lots")
+    with pytest.raises(ValueError, match=f"{MEMORY_ENV}='lots': must be a positive number"):
+        memory_budget()
+
+
+def test_api_misuse_says_what_was_expected(paper):
+    with pytest.raises(TypeError, match=r"loads must be a pytdcr\.Loads"):
+        solve(paper, None)
+    with pytest.raises(TypeError, match=r"loads must be a pytdcr\.Loads"):
+        solve(paper, np.zeros(8))
+    with pytest.raises(TypeError, match=r"robot must be a pytdcr\.Robot"):
+        solve(None, Loads(np.zeros(8)))
+    with pytest.raises(TypeError, match=r"bounds must be a pytdcr\.TensionBounds"):
+        sample_workspace(paper, Loads(np.zeros(8)), (0, 20), 5)
+    with pytest.raises(ValueError, match=r"tensions must have shape \(B, 8\)"):
+        solve_batch(paper, np.zeros(8))
+    with pytest.raises(ValueError, match=r"q0 must have shape \(20, 3\)"):
+        solve(paper, Loads(np.zeros(8)), q0=np.zeros(7))
+    no_friction = paper.with_friction(ConstantFriction(mu0=0.0))
+    with pytest.raises(ValueError, match="q0 must be 3 finite numbers"):
+        solve(no_friction, Loads(np.zeros(8)), model="cosserat", q0=np.zeros(5))
+    with pytest.raises(TypeError, match=r"tensions must be real numbers, got \[True"):
+        Loads([True, 0, 0, 0, 0, 0, 0, 0])
+    with pytest.raises(TypeError, match="tensions must be real numbers"):
+        Loads(np.array([1 + 1j, 0, 0, 0, 0, 0, 0, 0]))
+
+
+def test_constant_friction_of_zero_is_no_friction(paper):
+    """mu = 0 is no friction: the friction-free models take it and it equals the 'none' law."""
+    mu0 = paper.with_friction(ConstantFriction(mu0=0.0))
+    loads = Loads(np.array([3.0, 0, 0, 0, 2, 0, 0, 0]))
+    sol = solve(mu0, loads, model="cosserat")
+    assert sol.converged
+    from pytdcr import NoFriction
+
+    ref = solve(paper.with_friction(NoFriction()), loads, model="cosserat")
+    assert np.array_equal(sol.tip_position, ref.tip_position)
+
+
+def test_nothing_converged_is_exit_1_with_the_count(capsys, tmp_path):
+    crush = ["--tip-force", "1000,0,-1000", "--tip-moment", "50,0,0"]
+    code, out, err = run(capsys, "sample", "--n", "3", *crush, "--out", str(tmp_path / "s"))
+    assert code == 1 and "0 converged, 3 not" in out and "none of the 3 samples converged" in err
+    code, out, err = run(capsys, "compare", "--n", "2", "--models", "pcc,pcc2", *crush, "--out", str(tmp_path / "c"))
+    assert code == 1 and "no case converged for every model" in err and "median n/a" in out
+    code, out, err = run(capsys, "optimize", "--pop", "4", "--max-gen", "2", *crush)
+    assert code == 1 and out == "" and "no tension vector within the bounds gave a converged" in one_error_line(err)
+    assert "8 tried" in err and "Warning" not in err
+
+
+def test_search_failure_is_its_own_error(paper):
+    problem = ReachProblem.create(paper, Loads(np.zeros(8), tip_force=[1000, 0, -1000], tip_moment=[50, 0, 0]),
+                                  __import__("pytdcr").TensionBounds.uniform(8, 0.0, 20.0))
+    with pytest.raises(SearchFailed, match="no tension vector"):
+        maximize_reach(problem, MemeticGA(pop_size=4), Termination(max_gen=2))
+
+
+@pytest.mark.parametrize("model", ["cosserat", "sscr"])
+def test_rod_crushed_beyond_its_axial_stiffness_does_not_converge(paper, model):
+    """With extension the rod law allows an axial strain down to -1; past it the rod would pass through itself.
+
+    The tip is pushed along the backbone with twice EA: no equilibrium, reported as such (before: "converged"
+    with the tip below the base).
+    """
+    from pytdcr import NoFriction
+    from pytdcr.statics import get_model
+
+    robot = paper.with_friction(NoFriction()).with_gravity(None)
+    bb = robot.backbone
+    ea = bb.youngs_modulus * np.pi * (bb.outer_radius**2 - bb.inner_radius**2)
+    opts = get_model(model).options_type(shear_extension=True)
+    ok = solve(robot, Loads(np.zeros(8), tip_force=[0, 0, -0.5 * ea]), model=model, options=opts)
+    if ok.converged:  # half of EA: a legal (if absurd) strain of -1/2, the rod at half its length
+        assert ok.tip_position[2] == pytest.approx(0.5 * robot.length, rel=1e-3)
+    crushed = solve(robot, Loads(np.zeros(8), tip_force=[0, 0, -2.0 * ea]), model=model, options=opts)
+    assert not crushed.converged
+    assert json.loads(json.dumps(crushed.to_dict()))["tip_position"] is None

@@ -1,0 +1,202 @@
+"""The one output-folder rule, atomic writes, and cancellation (in process; real signals: test_signals.py)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from pytdcr import Loads, TensionBounds
+from pytdcr.statics import Cancelled, cancellable, solve_batch
+from pytdcr.statics._batch import run_in_chunks, submit_in_context
+from pytdcr.study import MANIFEST, FolderError, RunInterrupted, output_folder, run_sample
+from pytdcr.workspace import SamplingInterrupted, sample_workspace
+
+
+def manifest(path) -> dict:
+    return json.loads((path / MANIFEST).read_text())
+
+
+def leftovers(parent) -> list[str]:
+    return sorted(p.name for p in parent.iterdir() if p.name.startswith("."))
+
+
+def test_new_folder_gets_a_complete_run(tmp_path):
+    out = tmp_path / "new" / "run"
+    with output_folder(out, "test", {"seed": 3}) as run:
+        (run.staging / "a.txt").write_text("a")
+        assert not out.exists()  # written aside until the end
+    assert (out / "a.txt").read_text() == "a"
+    m = manifest(out)
+    assert m["status"] == "complete" and m["command"] == "test" and m["inputs"] == {"seed": 3}
+    assert m["files"] == ["a.txt", MANIFEST] or m["files"] == ["a.txt"]
+    assert {"pytdcr", "python", "started", "finished"} <= set(m)
+    assert leftovers(out.parent) == []
+
+
+def test_previous_run_is_replaced_as_a_whole(tmp_path):
+    out = tmp_path / "run"
+    with output_folder(out, "first") as run:
+        (run.staging / "old_only.csv").write_text("1")
+        (run.staging / "both.csv").write_text("first")
+    with output_folder(out, "second") as run:
+        (run.staging / "both.csv").write_text("second")
+    assert sorted(p.name for p in out.iterdir()) == ["both.csv", MANIFEST]
+    assert (out / "both.csv").read_text() == "second" and manifest(out)["command"] == "second"
+    assert leftovers(tmp_path) == []
+
+
+def test_failed_run_leaves_the_previous_one(tmp_path):
+    out = tmp_path / "run"
+    with output_folder(out, "first") as run:
+        (run.staging / "x.csv").write_text("kept")
+    with pytest.raises(ZeroDivisionError), output_folder(out, "second") as run:
+        (run.staging / "x.csv").write_text("half")
+        _ = 1 / 0
+    assert (out / "x.csv").read_text() == "kept" and manifest(out)["command"] == "first"
+    assert leftovers(tmp_path) == []
+
+
+def test_interrupted_run_is_saved_and_marked(tmp_path):
+    out = tmp_path / "run"
+    with pytest.raises(RunInterrupted) as stop, output_folder(out, "cmd") as run:
+        (run.staging / "part.csv").write_text("1")
+        run.interrupted_note = "saved 1 of 9 rows"
+        raise KeyboardInterrupt
+    assert "saved 1 of 9 rows" in stop.value.message and str(out) in stop.value.message
+    m = manifest(out)
+    assert m["status"] == "interrupted" and m["interrupted"] == "saved 1 of 9 rows"
+    # interrupted before writing anything: nothing saved, the previous run stays
+    with pytest.raises(RunInterrupted, match=r"nothing saved; .* keeps the previous run"), output_folder(out, "c2"):
+        raise KeyboardInterrupt
+    assert manifest(out)["command"] == "cmd"
+    assert leftovers(tmp_path) == []
+
+
+def test_refuses_files_and_foreign_folders(tmp_path):
+    (tmp_path / "f").write_text("x")
+    with pytest.raises(FolderError, match="is a file, not a folder"), output_folder(tmp_path / "f", "c"):
+        pass
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "data.txt").write_text("precious")
+    with pytest.raises(FolderError, match="not a tdcr run"), output_folder(tmp_path / "mine", "c"):
+        pass
+    assert (tmp_path / "mine" / "data.txt").read_text() == "precious"
+    (tmp_path / "empty").mkdir()
+    with output_folder(tmp_path / "empty", "c") as run:
+        (run.staging / "r.txt").write_text("1")
+    assert (tmp_path / "empty" / "r.txt").exists()
+
+
+_HOLDER = """
+import sys, time
+from pytdcr.study import output_folder
+with output_folder(sys.argv[1], "holder") as run:
+    print("locked", flush=True)
+    time.sleep(float(sys.argv[2]))
+"""
+
+
+def test_live_lock_refused_and_stale_lock_taken_over(tmp_path):
+    out = tmp_path / "run"
+    holder = subprocess.Popen([sys.executable, "-c", _HOLDER, str(out), "60"], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        busy = rf"in use by process {holder.pid} \(tdcr holder"
+        with pytest.raises(FolderError, match=busy), output_folder(out, "c"):
+            pass
+    finally:
+        holder.kill()  # killed outright: no clean-up of its own
+        holder.wait()
+    assert any(n.startswith(".run.partial-") for n in leftovers(tmp_path))  # what the killed run left
+    with output_folder(out, "after") as run:  # its lock died with it: taken over, its leftovers cleaned
+        (run.staging / "ok.txt").write_text("1")
+    assert manifest(out)["command"] == "after"
+    assert leftovers(tmp_path) == []
+
+
+def _interrupt_third_block(monkeypatch) -> None:
+    """Make the third block of a sampling run raise KeyboardInterrupt (as Ctrl-C would)."""
+    import pytdcr.workspace as ws
+
+    calls = {"n": 0}
+    real = ws.solve_batch
+
+    def flaky(*args, **kw):
+        calls["n"] += 1
+        if calls["n"] == 3:
+            raise KeyboardInterrupt
+        return real(*args, **kw)
+
+    monkeypatch.setattr(ws, "solve_batch", flaky)
+
+
+def test_sampling_interrupted_returns_the_finished_blocks(paper, monkeypatch):
+    _interrupt_third_block(monkeypatch)
+    bounds = TensionBounds.uniform(8, 0.0, 5.0)
+    with pytest.raises(SamplingInterrupted) as stop:
+        sample_workspace(paper, Loads(np.zeros(8)), bounds, 50, seed=1, block=10)
+    part = stop.value.samples
+    assert part.converged.size == 20 and stop.value.total == 50
+    whole = sample_workspace(paper, Loads(np.zeros(8)), bounds, 50, seed=1, block=10)
+    assert np.array_equal(part.tensions, whole.tensions[:20])
+    assert np.array_equal(part.tip_position, whole.tip_position[:20])
+
+
+def test_sampling_run_interrupted_saves_what_it_solved(paper, tmp_path, monkeypatch):
+    import pytdcr.study._runs as runs
+
+    _interrupt_third_block(monkeypatch)
+    real = runs.sample_workspace
+    monkeypatch.setattr(runs, "sample_workspace", lambda *a, **kw: real(*a, block=10, **kw))
+    out = tmp_path / "s"
+    with pytest.raises(RunInterrupted, match="saved 20 of 50 samples"):
+        run_sample(paper, Loads(np.zeros(8)), TensionBounds.uniform(8, 0.0, 5.0), 50, 1, out, n_shapes=0)
+    assert len((out / "samples.csv").read_text().splitlines()) == 21
+    info = json.loads((out / "sample_run.json").read_text())
+    assert info["complete"] is False and info["solved"] == 20 and info["inputs"]["seed"] == 1
+    assert manifest(out)["status"] == "interrupted"
+
+
+def test_cancelled_scope_stops_work_in_worker_threads(paper):
+    """Work in a cancelled scope stops at its next chunk, in this thread and in threads started in context."""
+    T = np.random.default_rng(0).uniform(0, 5, size=(64, 8))
+    with cancellable() as scope:
+        scope.cancel()
+        with pytest.raises(Cancelled):
+            solve_batch(paper, T, threads=1)
+        with pytest.raises(Cancelled):
+            solve_batch(paper, T, threads=2)
+    assert solve_batch(paper, T[:2], threads=1).converged.all()  # outside the scope: runs
+
+    started = threading.Event()
+    done: list[int] = []
+
+    def slow_chunks(a: int, b: int) -> None:
+        started.set()
+        time.sleep(0.05)
+        done.append(a)
+
+    from concurrent.futures import ThreadPoolExecutor
+
+    with cancellable() as scope, ThreadPoolExecutor(1) as pool:
+        fut = submit_in_context(pool, run_in_chunks, slow_chunks, 1000, 1, 1)
+        started.wait(5)
+        scope.cancel()
+        with pytest.raises(Cancelled):
+            fut.result(timeout=5)
+    assert 1 <= len(done) < 1000
+
+
+def test_atomic_writes_leave_no_temporary_files(tmp_path, paper):
+    out = tmp_path / "s"
+    run_sample(paper, Loads(np.zeros(8)), TensionBounds.uniform(8, 0.0, 3.0), 4, 0, out, n_shapes=1)
+    names = sorted(os.listdir(out))
+    assert all(not n.startswith(".") for n in names)
+    assert {"samples.csv", "sample_run.json", MANIFEST, "fig3a_samples.png"} <= set(names)
