@@ -60,14 +60,14 @@ def parse_floats(text: str, name: str, count: int | None = None) -> np.ndarray:
 
 def seed_type(text: str) -> int:
     """argparse type of a random seed: an integer in [0, 2**32 - 1]."""
-    if not re.fullmatch(r"\d{1,10}", text.strip()) or int(text) >= 2**32:
+    if not re.fullmatch(r"[0-9]{1,10}", text.strip()) or int(text) >= 2**32:
         raise argparse.ArgumentTypeError(f"must be an integer in [0, 4294967295], got {show(text)}")
     return int(text)
 
 
 def count_type(text: str, lowest: int = 1) -> int:
     """argparse type of a count: a decimal integer >= ``lowest`` (no underscores, at most 12 digits)."""
-    if not re.fullmatch(r"[+-]?\d{1,12}", text.strip()) or int(text) < lowest:
+    if not re.fullmatch(r"[+-]?[0-9]{1,12}", text.strip()) or int(text) < lowest:
         raise argparse.ArgumentTypeError(f"must be an integer >= {lowest}, got {show(text)}")
     return int(text)
 
@@ -714,7 +714,7 @@ class _Interrupted(Exception):
 
 
 #: how long the main thread lets an interrupted command save what it has before it stops waiting [s]
-SAVE_GRACE_S = 0.8
+SAVE_GRACE_S = 0.6
 
 
 def _run_command(args: argparse.Namespace) -> int:

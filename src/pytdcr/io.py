@@ -41,7 +41,7 @@ from pydantic import ValidationError
 
 from .design import Robot
 from .paper import BUILTIN_ROBOTS
-from .validate import read_text_file, show, show_path
+from .validate import escape_controls, read_text_file, show, show_path
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -93,8 +93,9 @@ def format_validation_error(err: ValidationError) -> str:
     # unknown keys first (often the cause of the rest), missing keys last
     errors.sort(key=lambda e: {"extra_forbidden": 0, "missing": 2}.get(e["type"], 1))
     for e in errors[:3]:
-        loc = ".".join(str(x) for x in e["loc"] if x not in _LAW_TAGS and not str(x).startswith("function-"))
-        msg = e["msg"].removeprefix("Value error, ")
+        loc = ".".join(show(str(x), 40)[1:-1] for x in e["loc"]
+                       if x not in _LAW_TAGS and not str(x).startswith("function-"))
+        msg = escape_controls(e["msg"].removeprefix("Value error, "))
         kind = e["type"]
         value = e.get("input")
         if kind in _TYPE_WORDS:

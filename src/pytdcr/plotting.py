@@ -142,14 +142,15 @@ def plot_robots(
 
 def plot_model_overlay(
     groups: Sequence[Sequence[StaticSolution]], robot: Robot, ax: Axes3D | None = None,
-    labels: Sequence[str] = ("PCC", "Cosserat"),
+    labels: Sequence[str] | None = None,
     case_ids: Sequence[int] | None = None,
 ) -> Axes3D:
     """Overlay models' shapes case by case: the first solid, the others dashed, dotted..., one colour per case.
 
     Each entry of ``groups`` holds one solution per model (two or more, in the
-    order of ``labels``); entries where any solve did not converge are
-    skipped. ``case_ids`` name the cases in the legend (default 1, 2, ...).
+    order of ``labels``, by default each solution's model name); entries where
+    any solve did not converge are skipped. ``case_ids`` name the cases in the
+    legend (default 1, 2, ...).
     """
     if ax is None:
         ax = new_3d_axes()
@@ -161,7 +162,10 @@ def plot_model_overlay(
         if not all(s.converged for s in group):
             continue
         cid = case_ids[j] if case_ids is not None else j + 1
-        for m, (sol, name) in enumerate(zip(group, labels, strict=True)):
+        names = labels if labels is not None else [s.model for s in group]
+        if len(names) != len(group):
+            raise ValueError(f"labels: {len(names)} given for {len(group)} solutions per case")
+        for m, (sol, name) in enumerate(zip(group, names, strict=True)):
             style = styles[m % len(styles)]
             plot_robot(sol, robot, ax, color=cmap(k % 10), disks=False, tendons=False, frames=False, equal=False,
                        linestyle=style, label=f"case {cid} {name}" if k < 10 else None)

@@ -19,22 +19,26 @@ import numpy as np
 from numpy.typing import ArrayLike
 from pydantic import AfterValidator, Strict
 
-__all__ = ["MAX_TEXT_FILE_BYTES", "Count", "Real", "as_real_array", "in_range", "parse_numbers", "read_text_file",
-           "show", "show_path"]
+__all__ = ["MAX_TEXT_FILE_BYTES", "Count", "Real", "as_real_array", "escape_controls", "in_range", "parse_numbers",
+           "read_text_file", "show", "show_path"]
 
 #: the largest robot, bounds, loads or cases file read [bytes]
 MAX_TEXT_FILE_BYTES = 1_000_000
 
 _CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
-_NUMBER = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?$")
+_NUMBER = re.compile(r"^[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$")
 _NONFINITE = re.compile(r"^[+-]?(?:inf|infinity|nan)$", re.IGNORECASE)
+
+
+def escape_controls(text: str) -> str:
+    """``text`` with its control characters written as ``\\xNN`` (never sent raw to a terminal)."""
+    return _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", text)
 
 
 def show(value: Any, limit: int = 60, *, tail: bool = False) -> str:
     """``value`` for a message: its repr (strings as typed), control characters escaped, at most ``limit`` chars
     (the end kept when ``tail``, as for a path)."""
-    text = value if isinstance(value, str) else repr(value)
-    text = _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", text)
+    text = escape_controls(value if isinstance(value, str) else repr(value))
     if isinstance(value, str):
         text = f"'{text}'"
     if len(text) <= limit:
