@@ -7,12 +7,13 @@ from __future__ import annotations
 
 import copy
 import json
+import os
 
 import numpy as np
 import pytest
 import tomli_w
 
-from pytdcr import ConstantFriction, Loads, solve, solve_batch
+from pytdcr import ConstantFriction, Loads, TensionBounds, solve, solve_batch
 from pytdcr.cli import main
 from pytdcr.io import robot_to_dict
 from pytdcr.limits import MEMORY_ENV, ResourceLimitError, memory_budget
@@ -80,7 +81,15 @@ def test_unreadable_robot_files(capsys, tmp_path):
     code, _, err = run(capsys, "solve", "--robot", str(binary), "--tensions", "1")
     assert code == 2 and "binary.toml" in one_error_line(err) and "binary" in err
     code, _, err = run(capsys, "solve", "--robot", "/dev/zero", "--tensions", "1")
-    assert code == 2 and "/dev/zero" in one_error_line(err) and "1,000,000 bytes" in err
+    assert code == 2 and "/dev/zero" in one_error_line(err) and "not a regular file" in err
+    fifo = tmp_path / "fifo.toml"
+    os.mkfifo(fifo)  # reading it would block for ever
+    code, _, err = run(capsys, "solve", "--robot", str(fifo), "--tensions", "1")
+    assert code == 2 and "fifo.toml" in one_error_line(err) and "not a regular file" in err
+    huge = tmp_path / "huge.toml"
+    huge.write_text("# " + "x" * 1_100_000)
+    code, _, err = run(capsys, "solve", "--robot", str(huge), "--tensions", "1")
+    assert code == 2 and "larger than 1,000,000 bytes" in one_error_line(err)
 
 
 @pytest.mark.parametrize(
@@ -90,7 +99,11 @@ def test_unreadable_robot_files(capsys, tmp_path):
         (["solve", "--tensions", "1_0,0,0,0,0,0,0,0"], ["--tensions", "not a number", "'1_0'"]),
         (["solve", "--tensions", "-inf,0,0,0,0,0,0,0"], ["--tensions", "'-inf'", "finite"]),
         (["solve", "--tensions", "True,0,0,0,0,0,0,0"], ["--tensions", "not a number"]),
-        (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--atol", "1e300"], ["atol", "(0, 0.0001] N m"]),
+        (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--atol", "1e300"], ["atol", "[1e-14, 0.0001] N m"]),
+        (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--atol", "1e-300"], ["atol", "[1e-14, 0.0001] N m"]),
+        (["accuracy", "--disks", "5,10,20000"], ["--disks", "per_segment", "[1, 10,000]", "20000"]),
+        (["accuracy", "--disks", "5,5"], ["--disks", "two or more different"]),
+        (["accuracy", "--reference-steps", "99999999999"], ["--reference-steps", "more than 1000"]),
         (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--friction", "1e400"], ["--friction", "finite"]),
         (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--tip-force", "0,0,1e7"], ["tip_force", "1e+06"]),
         (["solve", "--tensions", "2e4,0,0,0,0,0,0,0"], ["tendon 1", "10000"]),
@@ -137,10 +150,15 @@ def test_output_paths_refused_before_any_work(capsys, tmp_path):
     (tmp_path / "notes").mkdir()
     (tmp_path / "notes" / "thesis.tex").write_text("precious")
     code, _, err = run(capsys, "sample", "--n", "2", "--out", str(tmp_path / "notes"))
-    assert code == 2 and "not a tdcr run" in one_error_line(err)
+    assert code == 2 and "not part of a tdcr run ('thesis.tex')" in one_error_line(err)
     assert (tmp_path / "notes" / "thesis.tex").read_text() == "precious"
     code, _, err = run(capsys, "solve", "--tensions", ZERO8, "--plot", str(tmp_path))
     assert code == 2 and "is a folder" in one_error_line(err)
+    code, _, err = run(capsys, "robot", "--out", str(tmp_path))
+    assert code == 2 and "is a folder" in one_error_line(err)
+    code, _, err = run(capsys, "robot", "--out", str(tmp_path / "missing" / "r.toml"))
+    assert code == 2 and "does not exist" in one_error_line(err)
+    assert not (tmp_path / "missing").exists()
 
 
 def test_memory_budget_refuses_with_the_estimate(capsys, tmp_path, monkeypatch):
@@ -174,6 +192,11 @@ def test_api_misuse_says_what_was_expected(paper):
         solve(None, Loads(np.zeros(8)))
     with pytest.raises(TypeError, match=r"bounds must be a pytdcr\.TensionBounds"):
         sample_workspace(paper, Loads(np.zeros(8)), (0, 20), 5)
+    bounds = TensionBounds.uniform(8, 0, 20)
+    with pytest.raises(ValueError, match=r"block = 0: must be an integer >= 1"):
+        sample_workspace(paper, Loads(np.zeros(8)), bounds, 5, block=0)
+    with pytest.raises(TypeError, match=r"n must be an integer, got 5\.0"):
+        sample_workspace(paper, Loads(np.zeros(8)), bounds, 5.0)
     with pytest.raises(ValueError, match=r"tensions must have shape \(B, 8\)"):
         solve_batch(paper, np.zeros(8))
     with pytest.raises(ValueError, match=r"q0 must have shape \(20, 3\)"):
@@ -212,7 +235,7 @@ def test_nothing_converged_is_exit_1_with_the_count(capsys, tmp_path):
 
 def test_search_failure_is_its_own_error(paper):
     problem = ReachProblem.create(paper, Loads(np.zeros(8), tip_force=[1000, 0, -1000], tip_moment=[50, 0, 0]),
-                                  __import__("pytdcr").TensionBounds.uniform(8, 0.0, 20.0))
+                                  TensionBounds.uniform(8, 0.0, 20.0))
     with pytest.raises(SearchFailed, match="no tension vector"):
         maximize_reach(problem, MemeticGA(pop_size=4), Termination(max_gen=2))
 

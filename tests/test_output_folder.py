@@ -85,13 +85,71 @@ def test_refuses_files_and_foreign_folders(tmp_path):
         pass
     (tmp_path / "mine").mkdir()
     (tmp_path / "mine" / "data.txt").write_text("precious")
-    with pytest.raises(FolderError, match="not a tdcr run"), output_folder(tmp_path / "mine", "c"):
+    with pytest.raises(FolderError, match=r"not part of a tdcr run \('data.txt'\)"), output_folder(
+            tmp_path / "mine", "c"):
         pass
     assert (tmp_path / "mine" / "data.txt").read_text() == "precious"
-    (tmp_path / "empty").mkdir()
+    # a manifest.json of something else does not make a folder a tdcr run
+    (tmp_path / "mine" / MANIFEST).write_text("{}")
+    with pytest.raises(FolderError, match="not part of a tdcr run"), output_folder(tmp_path / "mine", "c"):
+        pass
+    assert (tmp_path / "mine" / "data.txt").read_text() == "precious"
+    # nor does a run folder a user has added notes to
+    with output_folder(tmp_path / "run", "c") as run:
+        (run.staging / "r.txt").write_text("1")
+    (tmp_path / "run" / "notes.txt").write_text("mine")
+    with pytest.raises(FolderError, match=r"\('notes.txt'\)"), output_folder(tmp_path / "run", "c"):
+        pass
+    assert (tmp_path / "run" / "notes.txt").read_text() == "mine"
+
+
+def test_an_existing_empty_folder_keeps_its_permissions(tmp_path):
+    (tmp_path / "empty").mkdir(mode=0o750)
+    os.chmod(tmp_path / "empty", 0o750)
     with output_folder(tmp_path / "empty", "c") as run:
         (run.staging / "r.txt").write_text("1")
     assert (tmp_path / "empty" / "r.txt").exists()
+    assert (tmp_path / "empty").stat().st_mode & 0o777 == 0o750
+
+
+def test_refuses_the_current_folder_and_mount_points(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "x").write_text("mine")
+    for where in (".", "", str(tmp_path.parent)):
+        with pytest.raises(FolderError, match="is the current folder or holds it"), output_folder(where, "c"):
+            pass
+    assert (tmp_path / "x").read_text() == "mine"
+    if os.path.ismount("/proc"):
+        with pytest.raises(FolderError, match="is a mount point"), output_folder("/proc", "c"):
+            pass
+
+
+def test_a_symbolic_link_is_followed(tmp_path):
+    (tmp_path / "real").mkdir()
+    (tmp_path / "link").symlink_to(tmp_path / "real")
+    for k in range(2):
+        with output_folder(tmp_path / "link", "c") as run:
+            (run.staging / "r.txt").write_text(str(k))
+    assert (tmp_path / "link").is_symlink() and (tmp_path / "real" / "r.txt").read_text() == "1"
+    assert leftovers(tmp_path) == []
+
+
+def test_an_interrupted_run_never_replaces_a_complete_one(tmp_path):
+    out = tmp_path / "run"
+    with output_folder(out, "first") as run:
+        (run.staging / "all.csv").write_text("complete")
+    with pytest.raises(RunInterrupted, match=r"in .*run\.interrupted .*; the complete run in .*run is kept"), \
+            output_folder(out, "second") as run:
+        (run.staging / "all.csv").write_text("partial")
+        raise KeyboardInterrupt
+    assert (out / "all.csv").read_text() == "complete" and manifest(out)["status"] == "complete"
+    aside = tmp_path / "run.interrupted"
+    assert (aside / "all.csv").read_text() == "partial" and manifest(aside)["status"] == "interrupted"
+    # an interrupted run does replace an interrupted one
+    with pytest.raises(RunInterrupted), output_folder(aside, "third") as run:
+        (run.staging / "all.csv").write_text("partial again")
+        raise KeyboardInterrupt
+    assert (aside / "all.csv").read_text() == "partial again"
 
 
 _HOLDER = """

@@ -82,7 +82,7 @@ def test_model_checks_its_inputs(paper, rao):
     model = PCCEquations.build(rao, Loads(np.zeros(6)))
     with pytest.raises(ValueError, match="q must have 60 entries"):
         model.residual(np.zeros(5))
-    with pytest.raises(ValueError, match=r"atol must be in \(0, 0.0001\] N m"):
+    with pytest.raises(ValueError, match=r"atol must be in \[1e-14, 0.0001\] N m"):
         SolverOptions(atol=-1)
     with pytest.raises(ValueError, match="load_stepping"):
         SolverOptions(load_stepping="sometimes")  # type: ignore[arg-type]

@@ -41,7 +41,7 @@ from .statics import (
     resolve,
     solve,
 )
-from .validate import as_real_array, parse_numbers, read_text_file, show, show_path
+from .validate import as_real_array, escape_controls, parse_numbers, read_text_file, show, show_path
 
 __all__ = ["build_parser", "entry", "main"]
 
@@ -277,7 +277,7 @@ def _cmd_sample(args: argparse.Namespace) -> int:
     reach = (f"reach {np.nanmin(s.reach):.4f} to {np.nanmax(s.reach):.4f} m" if ok else "no reach")
     print(f"{args.n} samples of robot '{setup.robot.name}' (seed {args.seed}): {ok} converged, "
           f"{args.n - ok} not; {reach}; {s.seconds:.2f} s")
-    print(f"wrote {', '.join(run.files)} in {out}")
+    print(f"wrote {', '.join(run.files)} in {escape_controls(str(out))}")
     if ok == 0:
         print(f"tdcr: none of the {args.n} samples converged", file=sys.stderr)
         return EXIT_NOT_CONVERGED
@@ -327,7 +327,7 @@ def _cmd_optimize(args: argparse.Namespace) -> int:
     else:
         _print_reach(res, args)
         if files:
-            print(f"wrote {', '.join(files)} in {out}")
+            print(f"wrote {', '.join(files)} in {escape_controls(str(out))}")
     return EXIT_OK
 
 
@@ -440,7 +440,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     times = ", ".join(f"{n} {s[f'{n}_ms_median']:.2f} ms" for n in cmp.models)
     print(f"{s['cases']} cases on robot '{robot.name}'{note}: every model converged on {s['all_converged']}; "
           f"tip difference {diffs}; median solve {times}")
-    print(f"wrote {', '.join(files)} in {out}")
+    print(f"wrote {', '.join(files)} in {escape_controls(str(out))}")
     if s["all_converged"] == 0:
         failed = ", ".join(f"{n} {s[f'{n}_not_converged']}" for n in cmp.models)
         print(f"tdcr: no case converged for every model (not converged of {s['cases']}: {failed})", file=sys.stderr)
@@ -451,8 +451,31 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 def _int_list(text: str, name: str) -> list[int]:
     vals = parse_floats(text, name)
     if np.any(vals != np.round(vals)) or np.any(vals < 1):
-        raise CliError(f"{name}: expected comma-separated integers >= 1, got {text!r}")
+        raise CliError(f"{name}: expected comma-separated integers >= 1, got {show(text)}")
     return [int(v) for v in vals]
+
+
+def _check_accuracy_plan(robot: Robot, models: list[str], disks: list[int], steps: int, order: bool) -> None:
+    """Every robot the accuracy study will build, the reference's steps and the memory, before any work."""
+    from .accuracy import REFERENCE, reference_options
+    from .statics import check_resources
+
+    if order and (len(set(disks)) < 2 or len(set(disks)) != len(disks)):
+        raise CliError(f"--disks: the order study needs two or more different disk counts, got {disks}")
+    per = max(s.n_disks for s in robot.segments)
+    for n in [per, *(disks if order else [])]:
+        try:
+            r = robot if n == per else robot.with_disks(n)
+        except ValueError as err:
+            raise CliError(f"--disks: {err}") from None
+        try:
+            ref = reference_options(n, steps)
+        except ValueError:
+            raise CliError(f"--reference-steps {steps}: with {n} disks per segment that is "
+                           f"{-(-steps // n)} Runge-Kutta steps per subsegment, more than 1000") from None
+        for m in models:
+            check_resources(get_model(m), r, get_model(m).default_options())
+        check_resources(get_model(REFERENCE), r, ref)
 
 
 def _cmd_accuracy(args: argparse.Namespace) -> int:
@@ -475,6 +498,7 @@ def _cmd_accuracy(args: argparse.Namespace) -> int:
         if m not in MODELS:
             raise CliError(f"--models: {m!r} is not a model; choose from {', '.join(MODELS)}")
     disks = _int_list(args.disks, "--disks")
+    _check_accuracy_plan(setup.robot, models, disks, args.reference_steps, args.order_cases > 0)
     bounds = bounds_from_args(args, setup.robot)
     groups = default_groups(args.payload_g / 1e3)
     total = len(groups) * (len(models) + 1) + (len(disks) * len(groups) if args.order_cases else 0)
@@ -494,7 +518,7 @@ def _cmd_accuracy(args: argparse.Namespace) -> int:
               f"{r['median_ms']:.2f} ms")
     for st in orders:
         print(f"  order ({st.group}): " + ", ".join(f"{m} {o:.2f}" for m, o in st.order.items()))
-    print(f"wrote {', '.join(files)} in {args.out}")
+    print(f"wrote {', '.join(files)} in {escape_controls(str(out))}")
     return 0
 
 
@@ -578,14 +602,14 @@ def _plot_solution(sol: Any, robot: Robot, loads: Loads, path: Path) -> None:
 def _cmd_robot(args: argparse.Namespace) -> int:
     try:
         robot = load_robot(args.robot)
+        if args.out:
+            write_robot(robot, args.out)
+            return 0
     except RobotFileError as err:
         raise CliError(str(err)) from None
-    if args.out:
-        write_robot(robot, args.out)
-    else:
-        import tomli_w
+    import tomli_w
 
-        print(tomli_w.dumps(robot_to_dict(robot)), end="")
+    print(tomli_w.dumps(robot_to_dict(robot)), end="")
     return 0
 
 
@@ -699,8 +723,9 @@ def _glue_negative_values(argv: Sequence[str]) -> list[str]:
     return out
 
 
-#: exit statuses (README): success, a solve that did not converge, bad input, interrupted
-EXIT_OK, EXIT_NOT_CONVERGED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
+#: exit statuses (README): success, a solve that did not converge, bad input, interrupted, a bug (sysexits'
+#: EX_SOFTWARE)
+EXIT_OK, EXIT_NOT_CONVERGED, EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_INTERNAL = 0, 1, 2, 130, 70
 
 
 def _one_line(message: object, limit: int = 600) -> str:
@@ -753,6 +778,8 @@ def _run_command(args: argparse.Namespace) -> int:
             except KeyboardInterrupt:
                 raise _Interrupted("left at once; nothing more saved") from None
             err = outcome.get("error")
+            if err is None:
+                raise _Interrupted("the run had finished; everything it wrote was saved") from None
             raise _Interrupted(getattr(err, "message", None) or "nothing saved") from None
     err = outcome.get("error")
     if err is None:
@@ -784,6 +811,17 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         print(f"tdcr: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except Exception as err:  # a search with nothing converged, or a bug: one line, no traceback unless asked
+        from .optimize import SearchFailed
+
+        if isinstance(err, SearchFailed):
+            print(f"tdcr: {_one_line(err)}", file=sys.stderr)
+            return EXIT_NOT_CONVERGED
+        if os.environ.get("PYTDCR_DEBUG"):
+            raise
+        print(f"tdcr: internal error: {type(err).__name__}: {_one_line(err, 300)} (a bug in pytdcr: please report "
+              "it; PYTDCR_DEBUG=1 shows the traceback)", file=sys.stderr)
+        return EXIT_INTERNAL
 
 
 def _terminate(_signum: int, _frame: Any) -> None:

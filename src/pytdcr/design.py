@@ -19,7 +19,7 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from .validate import Count, Real, in_range, ranged
+from .validate import Count, Real, in_range, is_integer, ranged, show
 
 __all__ = [
     "Backbone",
@@ -46,7 +46,9 @@ LinearDensity = ranged(0.0, 100.0, "kg/m", "heavier than a steel bar of 12 cm di
 Length = ranged(1e-3, 10.0, "m", "from a millimetre to ten metres")
 Piece = ranged(1e-5, 10.0, "m", "a subsegment of at least 10 micrometres")
 Mass = ranged(0.0, 10.0, "kg", "a disk of at most 10 kg")
-DiskCount = Annotated[Count, Field(ge=1, le=10_000)]
+#: the most disks one segment may have
+MAX_DISKS_PER_SEGMENT = 10_000
+DiskCount = Annotated[Count, Field(ge=1, le=MAX_DISKS_PER_SEGMENT)]
 Routing = ranged(0.0, 1.0, "m", "a routing radius up to a metre", lo_open=True)
 Angle = ranged(-360.0, 360.0, "deg", "one turn either way; larger angles repeat a routing")
 DiskRadius = ranged(1e-4, 1.0, "m", "disks from 0.1 mm to 1 m across the axis")
@@ -54,6 +56,8 @@ Friction = ranged(0.0, 10.0, "", "a friction coefficient")
 Decay = ranged(0.0, 10.0, "1/deg", "the paper's law decays at 0.027 per degree")
 #: |g| at most 100 m/s^2: ten times the Earth's
 _GRAVITY = in_range(0.0, 100.0, "m/s^2", "ten times the Earth's gravity")
+#: a robot's name: printable (no control characters, line separators or bidirectional overrides)
+_NAME = r"^[^\x00-\x1f\x7f-\x9f\u200e\u200f\u2028\u2029\u202a-\u202e\u2066-\u2069]*$"
 #: a robot's disk radius when the file gives none: the largest routing radius times this
 DISK_RADIUS_FACTOR = 1.2
 
@@ -218,7 +222,7 @@ class Robot(_Frozen):
     backbone tangent.
     """
 
-    name: Annotated[str, Field(strict=True, min_length=1, max_length=200, pattern=r"^[^\x00-\x1f\x7f]*$")] = "robot"
+    name: Annotated[str, Field(strict=True, min_length=1, max_length=200, pattern=_NAME)] = "robot"
     backbone: Backbone
     segments: tuple[Segment, ...] = Field(min_length=1, max_length=100)
     tendons: tuple[Tendon, ...] = Field(min_length=0, max_length=1000)
@@ -327,8 +331,9 @@ class Robot(_Frozen):
     def with_disks(self, per_segment: int) -> Robot:
         """Copy with ``per_segment`` equally spaced disks in every segment: same lengths, routing and total disk
         mass per segment (a finer or coarser discretisation of the same robot)."""
-        if isinstance(per_segment, bool) or int(per_segment) != per_segment or per_segment < 1:
-            raise ValueError(f"per_segment must be an integer >= 1, got {per_segment!r}")
+        if not is_integer(per_segment) or not 1 <= per_segment <= MAX_DISKS_PER_SEGMENT:
+            raise ValueError(f"per_segment must be an integer in [1, {MAX_DISKS_PER_SEGMENT:,}], got "
+                             f"{show(per_segment)}")
         n = int(per_segment)
         segments = [{"length": s.length, "n_disks": n, "disk_mass": s.disk_mass * s.n_disks / n}
                     for s in self.segments]

@@ -31,6 +31,7 @@ A robot file::
 from __future__ import annotations
 
 import json
+import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -41,7 +42,7 @@ from pydantic import ValidationError
 
 from .design import Robot
 from .paper import BUILTIN_ROBOTS
-from .validate import escape_controls, read_text_file, show, show_path
+from .validate import escape_controls, is_integer, read_text_file, show, show_path
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -138,7 +139,7 @@ def robot_from_dict(data: dict[str, Any], source: str = "robot") -> Robot:
         raise RobotFileError(f"{source}: a robot must be a table of keys, got {type(data).__name__}")
     data = dict(data)
     version = data.pop("schema_version", SCHEMA_VERSION)
-    if isinstance(version, bool) or version != SCHEMA_VERSION:
+    if not is_integer(version) or version != SCHEMA_VERSION:
         raise RobotFileError(f"{source}: schema_version = {show(version)}: only {SCHEMA_VERSION} is supported")
     try:
         return Robot.model_validate(data)
@@ -166,8 +167,25 @@ def read_robot(path: str | Path) -> Robot:
 
 
 def write_robot(robot: Robot, path: str | Path) -> None:
-    """Write ``robot`` as TOML (round-trips through :func:`read_robot`)."""
-    Path(path).write_text(tomli_w.dumps(robot_to_dict(robot)), encoding="utf-8")
+    """Write ``robot`` as TOML (round-trips through :func:`read_robot`); the file is whole or absent.
+
+    Raises
+    ------
+    RobotFileError
+        If ``path`` is a folder or its folder does not exist.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise RobotFileError(f"{show_path(path)}: is a folder; give a file name for the robot")
+    if not path.parent.is_dir():
+        raise RobotFileError(f"{show_path(path)}: its folder {show_path(path.parent)} does not exist")
+    text = tomli_w.dumps(robot_to_dict(robot))
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, path)  # whole or absent
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 def load_robot(spec: str) -> Robot:

@@ -13,6 +13,8 @@ import math
 import os
 from typing import NamedTuple
 
+from .validate import parse_numbers, show
+
 __all__ = ["MEMORY_ENV", "ResourceLimitError", "Resources", "check_memory", "human_bytes", "human_seconds",
            "memory_budget"]
 
@@ -56,11 +58,11 @@ def memory_budget() -> float:
     text = os.environ.get(MEMORY_ENV)
     if text is not None:
         try:
-            gb = float(text)
+            gb = float(parse_numbers(text, MEMORY_ENV, count=1)[0])
         except ValueError:
             gb = math.nan
-        if not (math.isfinite(gb) and gb > 0):
-            raise ValueError(f"{MEMORY_ENV}={text[:40]!r}: must be a positive number of gigabytes")
+        if not gb > 0:
+            raise ValueError(f"{MEMORY_ENV}={show(text, 40)}: must be a positive number of gigabytes, e.g. 4 or 0.5")
         return gb * 1e9
     ram = _physical_memory()
     return min(DEFAULT_CAP, 0.5 * ram) if ram else DEFAULT_CAP

@@ -10,6 +10,7 @@ and bounds files (:mod:`pytdcr.io`) and the command line all use it.
 from __future__ import annotations
 
 import math
+import numbers
 import re
 from collections.abc import Callable
 from pathlib import Path
@@ -17,22 +18,25 @@ from typing import Annotated, Any
 
 import numpy as np
 from numpy.typing import ArrayLike
-from pydantic import AfterValidator, Strict
+from pydantic import AfterValidator, BeforeValidator, Strict
 
-__all__ = ["MAX_TEXT_FILE_BYTES", "Count", "Real", "as_real_array", "escape_controls", "in_range", "parse_numbers",
-           "read_text_file", "show", "show_path"]
+__all__ = ["MAX_TEXT_FILE_BYTES", "Count", "Real", "as_real_array", "check_count", "escape_controls", "in_range",
+           "is_integer", "parse_numbers", "read_text_file", "show", "show_path"]
 
 #: the largest robot, bounds, loads or cases file read [bytes]
 MAX_TEXT_FILE_BYTES = 1_000_000
 
-_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
+#: what is never sent raw to a terminal: C0 and C1 controls, line and paragraph separators, bidirectional
+#: overrides and isolates (they reorder what a message shows)
+_CONTROL = re.compile("[\x00-\x1f\x7f-\x9f\u200e\u200f\u2028\u2029\u202a-\u202e\u2066-\u2069]")
 _NUMBER = re.compile(r"^[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$")
 _NONFINITE = re.compile(r"^[+-]?(?:inf|infinity|nan)$", re.IGNORECASE)
 
 
 def escape_controls(text: str) -> str:
     """``text`` with its control characters written as ``\\xNN`` (never sent raw to a terminal)."""
-    return _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", text)
+    return _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}" if ord(m.group()) < 256 else f"\\u{ord(m.group()):04x}",
+                        text)
 
 
 def show(value: Any, limit: int = 60, *, tail: bool = False) -> str:
@@ -75,15 +79,47 @@ def in_range(lo: float | None, hi: float | None, unit: str, reason: str = "", *,
     return check
 
 
-#: a strict real number (an int is taken; a bool, a string or a complex number is refused)
-Real = Annotated[float, Strict()]
-#: a strict integer (a float, a bool or a string is refused)
-Count = Annotated[int, Strict()]
+def _real(x: Any) -> Any:
+    """Any real number as a float (NumPy's too); bools, strings, complex numbers go on to be refused."""
+    if isinstance(x, numbers.Real) and not isinstance(x, (bool, np.bool_)):
+        try:
+            return float(x)
+        except OverflowError:
+            raise ValueError(f"must be a real number of at most about 1.8e308, got {show(x)}") from None
+    return x
+
+
+def _integer(x: Any) -> Any:
+    """Any integer as an int (NumPy's too); bools, floats (even 2.0) and strings go on to be refused."""
+    if isinstance(x, numbers.Integral) and not isinstance(x, (bool, np.bool_)):
+        return int(x)
+    return x
+
+
+#: a strict real number (any int or float, NumPy's too; a bool, a string or a complex number is refused)
+Real = Annotated[float, BeforeValidator(_real), Strict()]
+#: a strict integer (any int, NumPy's too; a float, a bool or a string is refused)
+Count = Annotated[int, BeforeValidator(_integer), Strict()]
+
+
+def is_integer(x: Any) -> bool:
+    """True for an integer (Python's or NumPy's), False for a bool, a float (even 2.0) or anything else."""
+    return isinstance(x, numbers.Integral) and not isinstance(x, (bool, np.bool_))
+
+
+def check_count(value: Any, name: str, lo: int = 1, hi: int | None = None) -> int:
+    """``value`` as an int in [lo, hi]; TypeError for a non-integer (a bool, 2.0), ValueError out of range."""
+    if not is_integer(value):
+        raise TypeError(f"{name} must be an integer, got {show(value)} ({type(value).__name__})")
+    if value < lo or (hi is not None and value > hi):
+        span = f"in [{lo:,}, {hi:,}]" if hi is not None else f">= {lo:,}"
+        raise ValueError(f"{name} = {show(value)}: must be an integer {span}")
+    return int(value)
 
 
 def ranged(lo: float | None, hi: float | None, unit: str, reason: str = "", **kw: bool) -> Any:
     """A strict real field checked to lie in the interval (see :func:`in_range`)."""
-    return Annotated[float, Strict(), AfterValidator(in_range(lo, hi, unit, reason, **kw))]
+    return Annotated[float, BeforeValidator(_real), Strict(), AfterValidator(in_range(lo, hi, unit, reason, **kw))]
 
 
 def _has_non_real(items: list | tuple, depth: int = 0) -> bool:
@@ -111,7 +147,10 @@ def as_real_array(value: ArrayLike, name: str) -> np.ndarray:
         if any(isinstance(x, (bool, np.bool_, complex, str, bytes)) or not isinstance(x, (int, float, np.number))
                for x in arr.ravel()):
             raise TypeError(f"{name} must be real numbers, got {show(value)}")
-        arr = arr.astype(float)
+        try:
+            arr = arr.astype(float)
+        except OverflowError:
+            raise ValueError(f"{name}: a number too large for a float in {show(value)}") from None
     if arr.dtype.kind not in "iuf":
         kind = {"b": "booleans", "c": "complex numbers", "U": "strings", "S": "strings"}.get(arr.dtype.kind,
                                                                                             arr.dtype.name)
@@ -145,6 +184,8 @@ def read_text_file(path: str | Path, what: str, limit: int = MAX_TEXT_FILE_BYTES
     try:
         if p.is_dir():
             raise ValueError(f"{what} {show_path(p)}: is a folder, not a file")
+        if p.exists() and not p.is_file():  # a FIFO would block, a device never end
+            raise ValueError(f"{what} {show_path(p)}: not a regular file")
         with open(p, "rb") as fh:
             data = fh.read(limit + 1)
     except OSError as err:

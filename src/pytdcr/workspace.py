@@ -15,6 +15,7 @@ from .limits import check_memory
 from .loads import Loads
 from .results import BatchSolution
 from .statics import Model, check_resources, resolve, solve_batch
+from .validate import check_count
 
 __all__ = ["SamplingInterrupted", "WorkspaceSamples", "sample_workspace"]
 
@@ -105,8 +106,8 @@ def sample_workspace(
     is solved (else on first use of ``stable``). Ctrl-C raises
     :class:`SamplingInterrupted` with the blocks finished so far.
     """
-    if isinstance(n, bool) or int(n) != n or n < 1:
-        raise ValueError(f"n must be an integer >= 1, got {n!r}")
+    n = check_count(n, "n")
+    block = check_count(block, "block")
     if not isinstance(bounds, TensionBounds):
         raise TypeError(f"bounds must be a pytdcr.TensionBounds, got {type(bounds).__name__}")
     bounds.check_robot(robot)

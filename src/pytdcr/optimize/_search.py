@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -33,7 +32,7 @@ from scipy.spatial import cKDTree
 
 from ..limits import check_memory
 from ..statics import TIGHT_ATOL, check_resources
-from ..statics._batch import default_threads, submit_in_context
+from ..statics._batch import default_threads, worker_pool
 from ._problem import INFEASIBLE_COST, ReachProblem
 from ._result import Optimum, ReachResult, SearchFailed
 
@@ -356,8 +355,8 @@ def _polish_many(problem: ReachProblem, starts: list[np.ndarray], q0: np.ndarray
         except SearchFailed:
             return None
 
-    with ThreadPoolExecutor(max_workers=min(len(starts), default_threads())) as pool:
-        futures = [submit_in_context(pool, one, k) for k in range(len(starts))]
+    with worker_pool(min(len(starts), default_threads())) as submit:
+        futures = [submit(one, k) for k in range(len(starts))]
         results = [r for r in (f.result() for f in futures) if r is not None]
     if not results:
         return None

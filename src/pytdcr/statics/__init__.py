@@ -5,7 +5,7 @@ and ask the registry (:data:`MODELS`), which checks the request against what
 the model supports.
 """
 
-from ._batch import Cancelled, CancelScope, cancellable, check_cancelled, mark_saving
+from ._batch import Cancelled, CancelScope, cancellable, check_cancelled, mark_saving, saving
 from ._constants import DEFAULT_ATOL, PATH_NAMES, TIGHT_ATOL
 from .base import Capabilities, Model, UnsupportedFeatureError
 from .cosserat import CosseratModel, CosseratOptions, CosseratShooting
@@ -19,4 +19,4 @@ __all__ = ["DEFAULT_ATOL", "MODELS", "PATH_NAMES", "TIGHT_ATOL", "CancelScope", 
            "CosseratModel", "CosseratOptions", "CosseratShooting", "Model", "PCC2Model", "PCCEquations", "PCCModel",
            "SSCREquations", "SSCRModel", "SSCROptions", "SolverOptions", "UnsupportedFeatureError", "cancellable",
            "check_cancelled", "check_resources", "configure", "get_model", "mark_saving", "options_record", "resolve",
-           "solve", "solve_batch", "tip_gradient", "warmup"]
+           "saving", "solve", "solve_batch", "tip_gradient", "warmup"]

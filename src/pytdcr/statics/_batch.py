@@ -26,24 +26,38 @@ from typing import Any
 from threadpoolctl import ThreadpoolController
 
 __all__ = ["CancelScope", "Cancelled", "cancellable", "check_cancelled", "default_threads", "mark_saving",
-           "run_in_chunks", "single_threaded_blas", "submit_in_context"]
+           "run_in_chunks", "saving", "single_threaded_blas", "submit_in_context", "worker_pool"]
 
 #: the largest chunk of cases run between two checks for cancellation
 MAX_CHUNK = 16
 
 
-
 class CancelScope:
-    """Work that can be cancelled: ``cancel()`` stops it at its next chunk; ``saving`` tells that the
-    interrupted work is writing what it finished (and should be waited for)."""
+    """Work that can be cancelled: ``cancel()`` stops it at its next chunk of solves.
 
-    def __init__(self) -> None:
+    Scopes nest: work in an inner scope stops when any enclosing one is cancelled. ``saving`` says that the
+    scope's work has results and is writing them (and should be waited for, not abandoned); it is set on the
+    scope and every enclosing one.
+    """
+
+    def __init__(self, parent: CancelScope | None = None, shield: bool = False) -> None:
+        self.parent = parent
+        self.shield = shield
         self.cancelled = threading.Event()
         self.saving = threading.Event()
 
     def cancel(self) -> None:
         """Stop the scope's work at its next chunk (from any thread)."""
         self.cancelled.set()
+
+    def is_cancelled(self) -> bool:
+        """True once this scope or an enclosing one is cancelled."""
+        scope: CancelScope | None = self
+        while scope is not None:
+            if scope.cancelled.is_set():
+                return True
+            scope = None if scope.shield else scope.parent
+        return False
 
 
 _scope: contextvars.ContextVar[CancelScope | None] = contextvars.ContextVar("pytdcr_cancel", default=None)
@@ -55,8 +69,8 @@ class Cancelled(KeyboardInterrupt):
 
 @contextmanager
 def cancellable() -> Iterator[CancelScope]:
-    """A scope whose work stops, at the next chunk of solves, once the yielded scope is cancelled."""
-    scope = CancelScope()
+    """A scope whose work stops, at the next chunk of solves, once it (or an enclosing scope) is cancelled."""
+    scope = CancelScope(_scope.get())
     token = _scope.set(scope)
     try:
         yield scope
@@ -67,21 +81,64 @@ def cancellable() -> Iterator[CancelScope]:
 def check_cancelled() -> None:
     """Raise :class:`Cancelled` if the enclosing :func:`cancellable` scope has been cancelled."""
     scope = _scope.get()
-    if scope is not None and scope.cancelled.is_set():
+    if scope is not None and scope.is_cancelled():
         raise Cancelled("cancelled: the run was interrupted")
 
 
+@contextmanager
+def saving() -> Iterator[None]:
+    """Writing results: the work inside is not cancelled by the enclosing scopes (a Ctrl-C then waits for it,
+    a second one leaves at once), and they are told so (:func:`mark_saving`)."""
+    mark_saving()
+    scope = CancelScope(_scope.get(), shield=True)
+    token = _scope.set(scope)
+    try:
+        yield
+    finally:
+        _scope.reset(token)
+
+
 def mark_saving() -> None:
-    """Say that interrupted work is now writing what it finished (no-op outside a scope)."""
+    """Say that the work has results and is writing them (no-op outside a scope)."""
     scope = _scope.get()
-    if scope is not None:
+    while scope is not None:
         scope.saving.set()
+        scope = scope.parent
 
 
 def submit_in_context(pool: ThreadPoolExecutor, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Future:
     """``pool.submit(fn, *args, **kwargs)`` run in a copy of this thread's context (so it sees the cancellation
     scope)."""
     return pool.submit(contextvars.copy_context().run, fn, *args, **kwargs)
+
+
+@contextmanager
+def worker_pool(max_workers: int) -> Iterator[Callable[..., Future]]:
+    """Threads whose work stops with their caller: yields ``submit(fn, *args, **kwargs)``.
+
+    The work runs in a cancellation scope of its own (inside the caller's): if the caller's block raises
+    (Ctrl-C in a notebook, an error), the scope is cancelled and the futures not started are dropped, so the
+    pool's shutdown waits only for the chunks already running.
+    """
+    with cancellable() as scope:
+        pool = ThreadPoolExecutor(max_workers=max(1, int(max_workers)))
+        futures: list[Future] = []
+
+        def submit(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Future:
+            fut = submit_in_context(pool, fn, *args, **kwargs)
+            futures.append(fut)
+            return fut
+
+        try:
+            yield submit
+        except BaseException:
+            scope.cancel()
+            for f in futures:
+                f.cancel()
+            raise
+        finally:
+            pool.shutdown(wait=True)
+
 
 _lock = threading.Lock()
 _depth = 0
@@ -126,12 +183,12 @@ def default_threads() -> int:
 
 
 def run_in_chunks(fn: Callable[[int, int], None], n: int, threads: int | None = None,
-                  chunk: int | None = None) -> None:
+                  chunk: int | None = None, max_chunk: int = MAX_CHUNK) -> None:
     """Call ``fn(start, stop)`` over disjoint chunks covering ``range(n)``, on ``threads`` threads.
 
     ``chunk`` defaults to a size that gives each thread several chunks (solve
     times vary by two orders of magnitude across cases, so small chunks
-    balance the load), at most :data:`MAX_CHUNK`. BLAS runs single-threaded
+    balance the load), at most ``max_chunk`` (slow solves: fewer). BLAS runs single-threaded
     meanwhile (:func:`single_threaded_blas`). Exceptions propagate; a
     KeyboardInterrupt, or the cancellation of the enclosing
     :func:`cancellable` scope, stops the chunks not yet started.
@@ -141,7 +198,7 @@ def run_in_chunks(fn: Callable[[int, int], None], n: int, threads: int | None = 
     workers = min(default_threads() if threads is None else int(threads), n)
     if workers < 1:
         raise ValueError(f"threads must be >= 1, got {threads}")
-    size = int(chunk) if chunk else max(1, min(MAX_CHUNK, n // (8 * workers)))
+    size = int(chunk) if chunk else max(1, min(int(max_chunk), n // (8 * workers)))
     bounds = [(s, min(n, s + size)) for s in range(0, n, size)]
 
     def run(a: int, b: int) -> None:
@@ -153,12 +210,7 @@ def run_in_chunks(fn: Callable[[int, int], None], n: int, threads: int | None = 
             for a, b in bounds:
                 run(a, b)
         return
-    with single_threaded_blas(), ThreadPoolExecutor(max_workers=workers) as pool:
-        futures = [submit_in_context(pool, run, a, b) for a, b in bounds]
-        try:
-            for f in futures:
-                f.result()
-        except BaseException:
-            for f in futures:
-                f.cancel()
-            raise
+    with single_threaded_blas(), worker_pool(workers) as submit:
+        futures = [submit(run, a, b) for a, b in bounds]
+        for f in futures:
+            f.result()

@@ -19,7 +19,7 @@ from ..limits import Resources
 from ..loads import Loads
 from ..results import BatchSolution, StaticSolution
 from . import _solver_kernels as SV
-from ._batch import check_cancelled, run_in_chunks
+from ._batch import MAX_CHUNK, check_cancelled, run_in_chunks
 from ._constants import DEFAULT_ATOL, LOAD_STEPPING, PATH_NAMES
 from ._options import check_common_options
 from .stability import Stability, conjugate_stiffness, stability_of
@@ -173,8 +173,9 @@ class _BatchOut(NamedTuple):
 
 
 def _solve_rows(eq: Equations, Q0: np.ndarray, T: np.ndarray, settings: SV.Settings,
-                threads: int | None) -> _BatchOut:
-    """Every row of ``T`` (B, nt) from ``Q0`` (B, m), in chunks over ``threads`` threads (the GIL released)."""
+                threads: int | None, max_chunk: int = MAX_CHUNK) -> _BatchOut:
+    """Every row of ``T`` (B, nt) from ``Q0`` (B, m), in chunks of at most ``max_chunk`` rows over ``threads``
+    threads (the GIL released)."""
     nb = T.shape[0]
     out = _BatchOut(np.empty((nb, eq.n_unknowns)), np.empty(nb, dtype=np.bool_), np.empty(nb),
                     np.empty(nb, dtype=np.int64), np.empty(nb, dtype=np.int64), np.empty(nb, dtype=np.int64))
@@ -182,8 +183,12 @@ def _solve_rows(eq: Equations, Q0: np.ndarray, T: np.ndarray, settings: SV.Setti
     def chunk(start: int, stop: int) -> None:
         SV.solve_range(Q0, eq.packed, T, settings, start, stop, *out)
 
-    run_in_chunks(chunk, nb, threads)
+    run_in_chunks(chunk, nb, threads, max_chunk=max_chunk)
     return out
+
+
+#: the longest a chunk of solves should run between two checks for cancellation, by the time estimate [s]
+CHUNK_SECONDS = 0.02
 
 
 class CompiledModel:
@@ -260,7 +265,9 @@ class CompiledModel:
         nb = tensions.shape[0]
         Q0 = _start_points(eq, q0, nb)
         t0 = time.perf_counter()
-        out = _solve_rows(eq, Q0, tensions, options.settings(q0 is not None), threads)
+        per_solve = self.resources(robot, options).seconds
+        out = _solve_rows(eq, Q0, tensions, options.settings(q0 is not None), threads,
+                          max(1, min(MAX_CHUNK, int(CHUNK_SECONDS / max(per_solve, 1e-9)))))
         seconds = time.perf_counter() - t0
         tips = np.full((nb, 3), np.nan)
         ok = out.converged & np.all(np.isfinite(out.q), axis=1)

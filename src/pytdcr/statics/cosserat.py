@@ -353,6 +353,7 @@ class CosseratModel:
 
         def chunk(start: int, stop: int) -> None:
             for b in range(start, stop):
+                check_cancelled()
                 sols[b] = _solve_shooting(problem.with_tensions(tensions[b]), None if q0 is None else Q0[b], options)
 
         t0 = time.perf_counter()

@@ -124,8 +124,8 @@ def check_resources(model: Model, robot: Robot, options: Any, concurrent: int = 
     label = what or (f"a '{model.name}' solve of robot '{robot.name}' ({robot.n_disks} disks"
                      + (f", {concurrent} at once" if concurrent > 1 else "") + ")")
     check_memory(label, concurrent * res.bytes + extra_bytes,
-                 f"{res.unknowns:,} unknowns, a dense {res.unknowns:,} x {res.unknowns:,} Jacobian; one solve "
-                 f"would take about {human_seconds(res.seconds)}")
+                 f"{res.unknowns:,} unknowns, a dense {res.unknowns:,} x {res.unknowns:,} Jacobian; an unloaded "
+                 f"solve would take about {human_seconds(res.seconds)}, a loaded one several times longer")
     return res
 
 

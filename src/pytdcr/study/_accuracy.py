@@ -13,6 +13,7 @@ from ..bounds import TensionBounds
 from ..design import Robot
 from ..loads import Loads
 from ..plotting import plot_order
+from ..statics import saving
 from ._folder import atomic_write_text, output_folder
 from ._output import inputs_record, save_figure, write_csv, write_json
 
@@ -72,8 +73,9 @@ def run_accuracy(robot: Robot, out: str | Path, *, n: int = 20, bounds: TensionB
                                progress=progress)
         orders = [order_study(robot, T[:order_cases], g, disks=disks, reference_steps=reference_steps,
                               progress=progress) for g in groups] if order_cases > 0 and disks else []
-        files = _write_accuracy(run.staging, robot, study, orders, T, b, seed, groups, disks, order_cases,
-                                reference_steps)
+        with saving():
+            files = _write_accuracy(run.staging, robot, study, orders, T, b, seed, groups, disks, order_cases,
+                                    reference_steps)
     return study, orders, files
 
 

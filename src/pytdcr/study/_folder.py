@@ -1,13 +1,18 @@
 """The one output-folder rule, the same for every command, and atomic writes.
 
 - A new or empty folder is used.
-- A folder in use (a live lock) is refused with one line.
+- A folder in use (a live lock) is refused with one line. The lock and the staging folder live beside the
+  folder, so a mount point, the current folder (or one holding it) and a folder whose parent is not writable
+  are refused before any work; a symbolic link is followed to the folder it names.
 - A stale lock (its process gone) is taken over: the lock is a ``flock`` the
   kernel drops when the process ends, however it ends (POSIX systems).
 - A finished or interrupted run of any command is replaced as a whole: the new
   run writes aside, into a staging folder next to it, and the two are swapped
-  when it ends; the folder never mixes two runs.
-- A folder that holds anything but a tdcr run is refused, never replaced.
+  when it ends; the folder never mixes two runs. One exception keeps work: an
+  interrupted run never replaces a complete one; it is saved beside it, in
+  ``NAME.interrupted``.
+- A folder that holds anything but a tdcr run (a file its manifest does not
+  list, or a manifest that is not a tdcr run's) is refused, never replaced.
 
 Each run's folder holds ``manifest.json``: the command, its inputs and seed,
 the versions, the start and end, and ``status`` (``complete`` or
@@ -24,6 +29,7 @@ import os
 import platform
 import shutil
 import socket
+import stat
 import sys
 import time
 from collections.abc import Iterator
@@ -35,7 +41,7 @@ from typing import Any
 from .. import __version__
 from ..io import to_jsonable
 from ..statics import mark_saving
-from ..validate import show, show_path
+from ..validate import escape_controls, show, show_path
 
 __all__ = ["MANIFEST", "FolderError", "OutputRun", "RunInterrupted", "atomic_write_text", "check_output_folder",
            "output_folder"]
@@ -117,6 +123,18 @@ def _in_use(path: Path, rec: dict[str, Any]) -> FolderError:
                        "wait for it or choose another --out")
 
 
+def _flock_retrying(fd: int, tries: int = 10) -> bool:
+    """Take the exclusive lock, retrying briefly (another process's check holds a shared one for microseconds)."""
+    for k in range(tries):
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            return True
+        except BlockingIOError:
+            if k < tries - 1:
+                time.sleep(0.02)
+    return False
+
+
 def _take_lock(path: Path, command: str) -> _Lock:
     """Lock ``path`` for this run (an exclusive ``flock`` on ``.<name>.lock`` beside it).
 
@@ -126,9 +144,7 @@ def _take_lock(path: Path, command: str) -> _Lock:
     lock = _lock_path(path)
     for _ in range(10):
         fd = os.open(lock, os.O_CREAT | os.O_RDWR, 0o644)
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
+        if not _flock_retrying(fd):
             rec = _holder(fd)
             os.close(fd)
             raise _in_use(path, rec) from None
@@ -150,10 +166,15 @@ def _take_lock(path: Path, command: str) -> _Lock:
     raise FolderError(f"{show_path(path)}: cannot take the lock {show_path(lock)}")  # pragma: no cover
 
 
+def _target(path: str | Path) -> Path:
+    """The absolute folder a run writes: ``~`` expanded, symbolic links followed."""
+    return Path(os.path.realpath(Path(path).expanduser()))
+
+
 def check_output_folder(path: str | Path) -> None:
-    """Refuse, before any work, an output folder the rule will not use: a file, a folder of other files, or
-    one in use by a live run (raises :class:`FolderError`)."""
-    path = Path(path).absolute()
+    """Refuse, before any work, an output folder the rule will not use: a file, a folder of other files, a
+    mount point, the current folder, an unwritable parent, or one in use by a live run (:class:`FolderError`)."""
+    path = _target(path)
     _check_target(path)
     lock = _lock_path(path)
     try:
@@ -168,15 +189,51 @@ def check_output_folder(path: str | Path) -> None:
         os.close(fd)
 
 
+def _read_manifest(path: Path) -> dict[str, Any] | None:
+    """The folder's manifest if it is a tdcr run's (the keys every run writes), else None."""
+    try:
+        data = json.loads((path / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not (isinstance(data, dict) and {"command", "status", "pytdcr", "files"} <= set(data)
+            and isinstance(data["files"], list)):
+        return None
+    return data
+
+
+def _foreign(path: Path) -> list[str]:
+    """Entries of ``path`` that are not part of the tdcr run its manifest describes (all of them if none)."""
+    names = sorted(p.name for p in path.iterdir())
+    manifest = _read_manifest(path)
+    if manifest is None:
+        return names
+    listed = {MANIFEST, *map(str, manifest["files"])}
+    return [n for n in names if n not in listed]
+
+
 def _check_target(path: Path) -> None:
+    shown = show_path(path)
+    cwd = Path(os.path.realpath(Path.cwd()))
+    if path == cwd or path in cwd.parents:
+        raise FolderError(f"--out {shown}: is the current folder or holds it; a run replaces its folder as a "
+                          "whole, so give it a folder of its own")
     if path.exists() and not path.is_dir():
-        raise FolderError(f"--out {show_path(path)}: is a file, not a folder")
-    if path.is_dir() and any(path.iterdir()) and not (path / MANIFEST).is_file():
-        raise FolderError(f"--out {show_path(path)}: holds files that are not a tdcr run (no {MANIFEST}); "
-                          "choose a new or empty folder")
+        raise FolderError(f"--out {shown}: is a file, not a folder")
+    if path.is_dir():
+        if os.path.ismount(path):
+            raise FolderError(f"--out {shown}: is a mount point; a run is written beside its folder and swapped "
+                              "in, so give a folder inside it")
+        other = _foreign(path)
+        if other:
+            raise FolderError(f"--out {shown}: holds files that are not part of a tdcr run ({show(other[0])}"
+                              f"{f' and {len(other) - 1} more' if len(other) > 1 else ''}); choose a new or "
+                              "empty folder")
     parent = path.parent
     if parent.exists() and not parent.is_dir():
-        raise FolderError(f"--out {show_path(path)}: {show_path(parent)} is a file, not a folder")
+        raise FolderError(f"--out {shown}: {show_path(parent)} is a file, not a folder")
+    if parent.is_dir() and not os.access(parent, os.W_OK | os.X_OK):
+        raise FolderError(f"--out {shown}: cannot write in {show_path(parent)} (the run is written beside its "
+                          "folder and swapped in)")
 
 
 @dataclass
@@ -194,23 +251,34 @@ class OutputRun:
         return self.staging / name
 
 
-def _swap(run: OutputRun) -> None:
-    """Put the staging folder in the target's place; the previous run, if any, goes as a whole."""
-    old = _aside_path(run.path, os.getpid())
-    if run.path.exists():
-        os.replace(run.path, old)
-    os.replace(run.staging, run.path)
+def _swap(staging: Path, target: Path) -> None:
+    """Put ``staging`` in ``target``'s place; the previous run there, if any, goes as a whole."""
+    old = _aside_path(target, os.getpid())
+    if target.exists():
+        os.chmod(staging, stat.S_IMODE(target.stat().st_mode))  # the folder keeps its permissions
+        os.replace(target, old)
+    os.replace(staging, target)
     if old.exists():
         shutil.rmtree(old, ignore_errors=True)
 
 
-def _finish(run: OutputRun, status: str) -> None:
+def _finish(run: OutputRun, status: str) -> Path:
+    """Write the manifest and swap the run in; returns where it went (an interrupted run never replaces a
+    complete one: it goes to ``NAME.interrupted`` beside it)."""
+    mark_saving()
     run.manifest.update(status=status, finished=time.strftime("%Y-%m-%dT%H:%M:%S%z"),
                         files=sorted(p.name for p in run.staging.iterdir() if not p.name.startswith(".")))
     if status == "interrupted" and run.interrupted_note:
         run.manifest["interrupted"] = run.interrupted_note
     atomic_write_text(run.staging / MANIFEST, json.dumps(to_jsonable(run.manifest), indent=2, allow_nan=False))
-    _swap(run)
+    target = run.path
+    if status == "interrupted" and (_read_manifest(target) or {}).get("status") == "complete":
+        target = target.with_name(f"{target.name}.interrupted")
+        if target.exists() and (not target.is_dir() or _foreign(target)):
+            raise FolderError(f"{show_path(target)}: holds files that are not a tdcr run; the interrupted run "
+                              "was not saved")
+    _swap(run.staging, target)
+    return target
 
 
 @contextmanager
@@ -221,7 +289,7 @@ def output_folder(path: str | Path, command: str, inputs: dict[str, Any] | None 
     ``run.interrupted_note`` say what), else discarded; the interrupt is raised again. On any other exception
     the staging folder is discarded and the previous run left as it was.
     """
-    path = Path(path).absolute()
+    path = _target(path)
     _check_target(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     lock = _take_lock(path, command)
@@ -239,11 +307,13 @@ def output_folder(path: str | Path, command: str, inputs: dict[str, Any] | None 
             mark_saving()
             written = [p.name for p in staging.iterdir() if not p.name.startswith(".")]
             if written:
-                _finish(run, "interrupted")
+                where = _finish(run, "interrupted")
                 what = run.interrupted_note or f"saved {len(written)} files"
-                raise RunInterrupted(f"{what} in {path} (manifest status: interrupted)") from None
+                kept = f"; the complete run in {escape_controls(str(path))} is kept" if where != path else ""
+                raise RunInterrupted(f"{what} in {escape_controls(str(where))} (manifest status: interrupted)"
+                                     f"{kept}") from None
             where = "keeps the previous run" if path.exists() else "was not created"
-            raise RunInterrupted(f"nothing saved; {path} {where}") from None
+            raise RunInterrupted(f"nothing saved; {escape_controls(str(path))} {where}") from None
         _finish(run, "complete")
     finally:
         shutil.rmtree(staging, ignore_errors=True)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -19,7 +18,7 @@ from ..optimize import MemeticGA, ReachProblem, ReachResult, Termination, maximi
 from ..paper import DEFAULT_BOUNDS, PAYLOAD_MASS, paper_bounds, paper_loads, payload_loads
 from ..plotting import plot_robot
 from ..statics import options_record, solve
-from ..statics._batch import default_threads, submit_in_context
+from ..statics._batch import default_threads, saving, worker_pool
 from ._folder import atomic_write_text, output_folder
 from ._output import inputs_record, load_arrows, save_figure, write_json
 from ._report import reproduce_report
@@ -162,16 +161,13 @@ def _run_jobs(jobs: dict[str, _Job], s: ReproduceSettings, seed: int, note: Call
                               on_generation=note(j.label, j.max_gen))
 
     order = sorted(jobs, key=lambda k: -jobs[k].pop)  # largest populations first
-    pool = ThreadPoolExecutor(max_workers=max(1, min(2, default_threads())))
-    futures = {k: submit_in_context(pool, run, jobs[k]) for k in order}
     done: dict[str, ReachResult] = {}
-    try:
+    with worker_pool(min(2, default_threads())) as submit:  # Ctrl-C here stops the jobs too
+        futures = {k: submit(run, jobs[k]) for k in order}
         between()
         for k in order:
             done[k] = futures[k].result()
             finished(k, done[k])
-    finally:
-        pool.shutdown(cancel_futures=True)
     return done
 
 
@@ -208,25 +204,27 @@ def _reproduce(robot: Robot, out: Path, seed: int, progress: Progress | None, s:
     ga = {pop: done[f"pop{pop}"] for pop in s.pops}
     pay = done["payload"]
     best = min(ga.values(), key=lambda r: r.cost)
-    with ThreadPoolExecutor(max_workers=1) as pool:  # beside the bounds study: both mostly in compiled code
-        later = submit_in_context(pool, model_verdicts, robot, loaded.loads, bounds, best, models=s.verdict_models,
-                            ga_pop=s.verdict_ga_pop, polish_iter=s.verdict_polish_iter, seed=seed)
+    with worker_pool(1) as submit:  # beside the bounds study: both mostly in compiled code
+        later = submit(model_verdicts, robot, loaded.loads, bounds, best, models=s.verdict_models,
+                       ga_pop=s.verdict_ga_pop, polish_iter=s.verdict_polish_iter, seed=seed)
         bound_study = _bounds_study(robot, jobs, done, ga, s)
         verdicts = later.result()
-    seconds = time.perf_counter() - t_start
-    report = reproduce_report(robot, summary, ga, pay, bound_study, bounds, seconds, s, verdict_text(best, verdicts))
-    atomic_write_text(out / "report.md", report)
-    summary["files"].append("report.md")
-    write_json(out / "reproduce.json", {
-        "inputs": inputs_record(robot, loaded.loads, bounds=bounds.to_dict(), seed=seed,
-                                payload_mass_kg=PAYLOAD_MASS, **dataclasses.asdict(s),
-                                solver=options_record(loaded.model, loaded.options)),
-        "summary": summary,
-        "ga": {str(p): r.to_dict() for p, r in ga.items()},
-        "payload": pay.to_dict(),
-        "bounds_study": [{"upper": hi, **r.to_dict()} for hi, r in bound_study],
-        "better_models": [v.to_dict() for v in verdicts],
-        "seconds": seconds,
-    })
+    with saving():  # everything is computed: Ctrl-C from here waits for the report
+        seconds = time.perf_counter() - t_start
+        report = reproduce_report(robot, summary, ga, pay, bound_study, bounds, seconds, s,
+                                  verdict_text(best, verdicts))
+        atomic_write_text(out / "report.md", report)
+        summary["files"].append("report.md")
+        write_json(out / "reproduce.json", {
+            "inputs": inputs_record(robot, loaded.loads, bounds=bounds.to_dict(), seed=seed,
+                                    payload_mass_kg=PAYLOAD_MASS, **dataclasses.asdict(s),
+                                    solver=options_record(loaded.model, loaded.options)),
+            "summary": summary,
+            "ga": {str(p): r.to_dict() for p, r in ga.items()},
+            "payload": pay.to_dict(),
+            "bounds_study": [{"upper": hi, **r.to_dict()} for hi, r in bound_study],
+            "better_models": [v.to_dict() for v in verdicts],
+            "seconds": seconds,
+        })
     summary["seconds"] = seconds
     return summary

@@ -15,8 +15,7 @@ from ..design import Robot
 from ..loads import Loads
 from ..optimize import MemeticGA, ReachProblem, ReachResult, Termination, maximize_reach
 from ..plotting import plot_convergence, plot_model_overlay, plot_reach_samples, plot_robot, plot_robots
-from ..results import StaticSolution
-from ..statics import TIGHT_ATOL, Model, mark_saving, options_record, resolve, solve
+from ..statics import TIGHT_ATOL, Model, options_record, resolve, saving, solve
 from ..workspace import SamplingInterrupted, WorkspaceSamples, sample_workspace
 from ._folder import atomic_write_text, output_folder
 from ._output import inputs_record, load_arrows, markdown_table, save_figure, write_csv, write_json
@@ -43,31 +42,27 @@ def _samples_rows(samples: WorkspaceSamples) -> Iterator[list[Any]]:
                "" if not np.isfinite(stable[k]) else int(stable[k])]
 
 
-def _write_samples(out: Path, robot: Robot, loads: Loads, bounds: TensionBounds, samples: WorkspaceSamples, n: int,
-                   solver: dict[str, Any], shapes: list[StaticSolution] | None) -> list[str]:
-    """samples.csv, Fig. 3(a) and Fig. 4 (when ``shapes`` are given: not for an interrupted run, which must
-    stop within a second) and sample_run.json in ``out``."""
-    write_csv(out / "samples.csv", ["sample", *[f"T{c + 1}_N" for c in range(robot.n_tendons)], "tip_x_m",
-                                    "tip_y_m", "tip_z_m", "reach_m", "converged", "residual_Nm", "stable"],
-              _samples_rows(samples))
-    files = ["samples.csv"]
+def _samples_json(out: Path, robot: Robot, loads: Loads, bounds: TensionBounds, samples: WorkspaceSamples, n: int,
+                  solver: dict[str, Any], files: list[str]) -> None:
     done = samples.converged.size
-    if shapes is not None:
-        ax = plot_reach_samples(samples.reach, samples.converged)
-        ax.set_title(f"{robot.name}: reach of {done} random tension samples (seed {samples.seed})")
-        files += save_figure(ax.figure, out, "fig3a_samples")
-        ax = plot_robots(shapes, robot)
-        ax.set_title(f"{len(shapes)} sampled configurations")
-        files += save_figure(ax.figure, out, "fig4_configurations")
     write_json(out / "sample_run.json", {
         "inputs": inputs_record(robot, loads, bounds=bounds.to_dict(), n=n, seed=samples.seed, solver=solver),
         "solved": done, "complete": done == n,
         "converged": int(samples.converged.sum()), "not_converged": int((~samples.converged).sum()),
         "unstable": int(np.sum(samples.stable == 0.0)),
         "reach_max_m": float(np.nanmax(samples.reach)) if samples.converged.any() else None,
-        "seconds": samples.seconds, "files": files,
+        "seconds": samples.seconds, "files": [*files, "sample_run.json"],
     })
-    return [*files, "sample_run.json"]
+
+
+def _write_samples(out: Path, robot: Robot, loads: Loads, bounds: TensionBounds, samples: WorkspaceSamples, n: int,
+                   solver: dict[str, Any]) -> list[str]:
+    """samples.csv and sample_run.json in ``out`` (the data first, then the figures)."""
+    write_csv(out / "samples.csv", ["sample", *[f"T{c + 1}_N" for c in range(robot.n_tendons)], "tip_x_m",
+                                    "tip_y_m", "tip_z_m", "reach_m", "converged", "residual_Nm", "stable"],
+              _samples_rows(samples))
+    _samples_json(out, robot, loads, bounds, samples, n, solver, ["samples.csv"])
+    return ["samples.csv", "sample_run.json"]
 
 
 def sample_into(out: Path, robot: Robot, loads: Loads, bounds: TensionBounds, n: int, seed: int, *,
@@ -75,7 +70,8 @@ def sample_into(out: Path, robot: Robot, loads: Loads, bounds: TensionBounds, n:
                 progress: Callable[[int], None] | None = None) -> SampleRun:
     """Sample and write the files of :func:`run_sample` into ``out``, a folder the caller manages.
 
-    On Ctrl-C the samples solved so far are written (CSV and JSON with ``complete: false``) and
+    The data (CSV and JSON) are written as soon as the samples are solved, the figures after. On Ctrl-C during
+    the sampling the samples solved so far are written (``complete: false``) and
     :class:`~pytdcr.workspace.SamplingInterrupted` is raised again.
     """
     m, opts = resolve(model, robot, loads, options)
@@ -84,13 +80,22 @@ def sample_into(out: Path, robot: Robot, loads: Loads, bounds: TensionBounds, n:
         samples = sample_workspace(robot, loads, bounds, n, seed=seed, model=m, options=opts, progress=progress,
                                    stability=True)
     except SamplingInterrupted as stop:
-        mark_saving()
-        _write_samples(out, robot, loads, bounds, stop.samples, n, solver, None)
+        with saving():
+            _write_samples(out, robot, loads, bounds, stop.samples, n, solver)
         raise
-    ok = np.flatnonzero(samples.converged)[:n_shapes]
-    shapes = [solve(robot, loads.with_tensions(samples.tensions[k]), model=m, q0=samples.q[k], options=opts)
-              for k in ok]
-    return SampleRun(samples, _write_samples(out, robot, loads, bounds, samples, n, solver, shapes))
+    with saving():  # the samples are solved: Ctrl-C from here waits for the files
+        files = _write_samples(out, robot, loads, bounds, samples, n, solver)[:1]
+        ax = plot_reach_samples(samples.reach, samples.converged)
+        ax.set_title(f"{robot.name}: reach of {n} random tension samples (seed {samples.seed})")
+        files += save_figure(ax.figure, out, "fig3a_samples")
+        ok = np.flatnonzero(samples.converged)[:n_shapes]
+        shapes = [solve(robot, loads.with_tensions(samples.tensions[k]), model=m, q0=samples.q[k], options=opts)
+                  for k in ok]
+        ax = plot_robots(shapes, robot)
+        ax.set_title(f"{len(shapes)} sampled configurations")
+        files += save_figure(ax.figure, out, "fig4_configurations")
+        _samples_json(out, robot, loads, bounds, samples, n, solver, files)
+    return SampleRun(samples, [*files, "sample_run.json"])
 
 
 def run_sample(robot: Robot, loads: Loads, bounds: TensionBounds, n: int, seed: int, out: str | Path | None, *,
@@ -112,6 +117,10 @@ def run_sample(robot: Robot, loads: Loads, bounds: TensionBounds, n: int, seed: 
         except SamplingInterrupted as stop:
             run.interrupted_note = f"saved {stop.samples.converged.size} of {n} samples"
             raise
+        except KeyboardInterrupt:
+            if (run.staging / "samples.csv").exists():
+                run.interrupted_note = f"saved all {n} samples, not every figure"
+            raise
 
 
 def run_optimize(problem: ReachProblem, algorithm: MemeticGA, termination: Termination, *, seed: int,
@@ -126,7 +135,8 @@ def run_optimize(problem: ReachProblem, algorithm: MemeticGA, termination: Termi
     with output_folder(out, "optimize", {"seed": seed, "bounds": problem.bounds.to_dict(),
                                          "pop": algorithm.pop_size}) as run:
         res = maximize_reach(problem, algorithm, termination, seed=seed, on_generation=progress)
-        return res, write_optimize(res, problem, run.staging, stem=stem)
+        with saving():
+            return res, write_optimize(res, problem, run.staging, stem=stem)
 
 
 def write_optimize(res: ReachResult, problem: ReachProblem, out: Path, *, stem: str = "") -> list[str]:
@@ -202,7 +212,8 @@ def run_compare(robot: Robot, loads: Loads, tensions: np.ndarray, out: str | Pat
     ``out`` (the output-folder rule; an interrupted comparison saves nothing)."""
     with output_folder(out, "compare", {"models": [getattr(m, "name", m) for m in models], **source}) as run:
         cmp = compare_models(robot, loads, tensions, models=models, options=options, progress=progress)
-        return cmp, _write_compare(run.staging, cmp, robot, loads, tensions, source, options, n_overlay)
+        with saving():
+            return cmp, _write_compare(run.staging, cmp, robot, loads, tensions, source, options, n_overlay)
 
 
 def _write_compare(out: Path, cmp: ModelComparison, robot: Robot, loads: Loads, tensions: np.ndarray,
