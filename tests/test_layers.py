@@ -17,7 +17,7 @@ MODULES = sorted(p for p in SRC.rglob("*.py"))
 #: layers, lowest first: a module may import only from its own layer or lower ones
 LAYERS = [
     {"__init__", "_version"},  # the top-level package re-exports; checked apart below
-    {"validate", "design", "loads", "bounds", "paper", "kinematics", "results", "io", "limits"},
+    {"validate", "design", "loads", "bounds", "paper", "kinematics", "contact", "results", "io", "limits"},
     {"statics"},
     {"workspace", "optimize", "compare", "accuracy"},
     {"plotting"},

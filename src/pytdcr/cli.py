@@ -552,6 +552,8 @@ def _cmd_solve(args: argparse.Namespace) -> int:
         print(f"robot {robot.name}: {robot.n_disks} disks, {robot.n_tendons} tendons; {model} model; {status}")
         print(f"  max |residual| {sol.residual:.3e} N m, {sol.iterations} {get_model(model).iteration_unit}, "
               f"{sol.load_steps} load steps, {sol.seconds * 1e3:.2f} ms")
+        if sol.failure:
+            print(f"  refused: {sol.failure}")
         if sol.converged:
             p = sol.tip_position
             print(f"  tip position  [{p[0]: .6f}, {p[1]: .6f}, {p[2]: .6f}] m, |p| = {sol.reach:.6f} m")

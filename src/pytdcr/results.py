@@ -88,6 +88,9 @@ class StaticSolution:
         None when not converged or when the model has no such test.
     stable : bool or None
         ``stability.stable``.
+    failure : str
+        Why a solve whose residual is small is still not converged (empty otherwise): the rod models
+        refuse an equilibrium whose backbone passes through itself (``path = "self-contact"``).
     """
 
     converged: bool
@@ -104,8 +107,11 @@ class StaticSolution:
     model: str = "pcc"
     _curve: np.ndarray | None = None
     _stability_fn: Callable[[], Stability | None] | None = None
+    failure: str = ""
 
     def _require(self) -> None:
+        if self.failure:
+            raise NotConvergedError(f"the solve gave no valid shape: {self.failure}")
         if not self.converged:
             raise NotConvergedError(
                 f"the solve did not converge (max |residual| = {self.residual:.3e} N m > atol = "
@@ -164,6 +170,7 @@ class StaticSolution:
         ok = self.converged
         return {
             "converged": bool(ok),
+            "failure": self.failure or None,
             "stable": self.stable,
             "stability": None if self.stability is None else self.stability.to_dict(),
             "residual": float(self.residual),

@@ -14,13 +14,14 @@ from typing import Any, Literal, NamedTuple, Protocol
 
 import numpy as np
 
+from ..contact import contact_failure
 from ..design import Robot
 from ..limits import Resources
 from ..loads import Loads
 from ..results import BatchSolution, StaticSolution
 from . import _solver_kernels as SV
 from ._batch import MAX_CHUNK, check_cancelled, run_in_chunks
-from ._constants import DEFAULT_ATOL, LOAD_STEPPING, PATH_NAMES
+from ._constants import DEFAULT_ATOL, LOAD_STEPPING, PATH_NAMES, PATH_SELF_CONTACT
 from ._options import check_common_options
 from .stability import Stability, conjugate_stiffness, stability_of
 
@@ -210,6 +211,9 @@ class CompiledModel:
     peak_matrices = 5.0
     #: one solve's time per cubed unknown [s] (measured: pcc 1,000 disks 3.0 s, 2,000 disks 20 s)
     seconds_per_cubed_unknown = 1.2e-10
+    #: refuse an equilibrium whose backbone passes through itself (:mod:`pytdcr.contact`): the rod models;
+    #: the PCC models leave it to the workspace's realisability test, where disks touch long before
+    checks_self_contact = False
 
     def extra_words(self, robot: Robot, nq: int) -> float:
         """Working memory besides the dense matrices [8-byte words]."""
@@ -237,9 +241,18 @@ class CompiledModel:
         t0 = time.perf_counter()
         out = _solve_rows(eq, Q0, eq.packed.tension[None, :], options.settings(q0 is not None), 1)
         seconds = time.perf_counter() - t0
-        return self.solution(eq, out.q[0], bool(out.converged[0]), float(out.residual[0]),
-                             int(out.iterations[0]), PATH_NAMES[out.path[0]], seconds, options.atol,
-                             int(out.load_steps[0]))
+        sol = self.solution(eq, out.q[0], bool(out.converged[0]), float(out.residual[0]),
+                            int(out.iterations[0]), PATH_NAMES[out.path[0]], seconds, options.atol,
+                            int(out.load_steps[0]))
+        failure = self._contact(robot, eq, sol.q) if sol.converged else ""
+        return replace(sol, converged=False, path=PATH_SELF_CONTACT, failure=failure) if failure else sol
+
+    def _contact(self, robot: Robot, eq: Equations, q: np.ndarray) -> str:
+        """Why the equilibrium ``q`` is refused for contact (``""``: it is not)."""
+        if not self.checks_self_contact:
+            return ""
+        pos, _, curve = eq.shape(q)
+        return contact_failure(pos if curve is None else curve, robot.backbone.outer_radius)
 
     def stability_at(self, eq: Equations, q: np.ndarray) -> Stability | None:
         """The stability test at the equilibrium ``q`` of ``eq`` (None if the model has none)."""
@@ -271,8 +284,11 @@ class CompiledModel:
         seconds = time.perf_counter() - t0
         tips = np.full((nb, 3), np.nan)
         ok = out.converged & np.all(np.isfinite(out.q), axis=1)
+        paths = np.array(PATH_NAMES, dtype=object)[out.path]
         for b in np.flatnonzero(ok):
             tips[b] = eq.shape(out.q[b])[0][-1]
+            if self._contact(robot, eq, out.q[b]):
+                ok[b], tips[b], paths[b] = False, np.nan, PATH_SELF_CONTACT
         def stabilities() -> list[Stability | None]:
             found: list[Stability | None] = [None] * nb
             if not self.capabilities.stability:
@@ -288,7 +304,7 @@ class CompiledModel:
 
         return BatchSolution(tensions=tensions, converged=ok, residual=out.residual, iterations=out.iterations,
                              q=out.q.reshape(nb, eq.n_disks, -1), tip_position=tips, seconds=seconds,
-                             path=np.array(PATH_NAMES, dtype=object)[out.path], model=self.name,
+                             path=paths, model=self.name,
                              _stability_fn=stabilities)
 
     def tip_gradient(self, robot: Robot, loads: Loads, solution: StaticSolution,

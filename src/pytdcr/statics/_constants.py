@@ -6,7 +6,7 @@ The compiled kernels read the path codes as globals (frozen at compile time).
 from __future__ import annotations
 
 __all__ = ["DEFAULT_ATOL", "LOAD_STEPPING", "PATH_DIRECT", "PATH_FALLBACK", "PATH_LOADING", "PATH_NAMES",
-           "PATH_SNAP", "TIGHT_ATOL"]
+           "PATH_SELF_CONTACT", "PATH_SNAP", "TIGHT_ATOL"]
 
 #: Newton from the start point at full load
 PATH_DIRECT = 0
@@ -18,6 +18,8 @@ PATH_SNAP = 2
 PATH_FALLBACK = 3
 #: ``StaticSolution.path`` by path code
 PATH_NAMES = ("direct", "loading", "snap", "fallback")
+#: ``path`` of an equilibrium refused because the backbone passes through itself (:mod:`pytdcr.contact`)
+PATH_SELF_CONTACT = "self-contact"
 
 #: load-stepping modes by name, as the kernels take them
 LOAD_STEPPING = {"never": 0, "auto": 1, "always": 2}

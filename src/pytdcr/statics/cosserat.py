@@ -30,13 +30,14 @@ from typing import Literal, NamedTuple
 import numpy as np
 from scipy.optimize import root
 
+from ..contact import contact_failure
 from ..design import Robot
 from ..limits import Resources
 from ..loads import Loads
 from ..results import BatchSolution, StaticSolution
 from . import _cosserat_kernels as CK
 from ._batch import check_cancelled, run_in_chunks
-from ._constants import DEFAULT_ATOL, PATH_DIRECT, PATH_FALLBACK, PATH_LOADING, PATH_NAMES, PATH_SNAP
+from ._constants import DEFAULT_ATOL, PATH_DIRECT, PATH_FALLBACK, PATH_LOADING, PATH_NAMES, PATH_SELF_CONTACT, PATH_SNAP
 from ._kernels import Packed
 from ._options import check_common_options
 from .base import Capabilities
@@ -304,14 +305,19 @@ def _solve_shooting(problem: CosseratShooting, m0: np.ndarray | None, opts: Coss
             path = PATH_FALLBACK
     converged = bool(res <= opts.atol and np.all(np.isfinite(x)))
     shot = problem.shoot(x, record=True)
+    failure = ""
+    if converged and shot.curve is not None:
+        failure = contact_failure(shot.curve, problem.robot.backbone.outer_radius)
+    name = PATH_SELF_CONTACT if failure else PATH_NAMES[path]
     seconds = time.perf_counter() - t0
     p = problem.packed
     pieces = np.arange(1, p.sub.shape[0] + 1)
     tensions = np.where(pieces[None, :] <= p.anchor[:, None], p.tension[:, None], 0.0)
     return StaticSolution(
-        converged=converged, residual=float(res), iterations=int(count), load_steps=int(steps),
-        path=PATH_NAMES[path], q=np.array(x, dtype=float), tensions=tensions, seconds=seconds, atol=opts.atol,
+        converged=converged and not failure, residual=float(res), iterations=int(count), load_steps=int(steps),
+        path=name, q=np.array(x, dtype=float), tensions=tensions, seconds=seconds, atol=opts.atol,
         _positions=shot.positions, _rotations=shot.rotations, model=COSSERAT.name, _curve=shot.curve,
+        failure=failure,
     )
 
 

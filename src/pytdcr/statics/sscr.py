@@ -132,6 +132,7 @@ class SSCREquations(PackedEquations):
 class SSCRModel(CompiledModel):
     """The registry's entry for the subsegment Cosserat rod (see the module docstring)."""
 
+    checks_self_contact = True
     name = "sscr"
     description = ("subsegment Cosserat rod: a rod between each pair of disks, tendons as chords, friction "
                    "(the reference)")

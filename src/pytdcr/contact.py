@@ -1,0 +1,95 @@
+"""Contact checks on a solved shape: does the backbone pass through itself?
+
+A static model of the backbone knows nothing of contact, so an equilibrium it
+returns may have the rod pass through itself: a pose no real robot takes. The
+solvers call :func:`backbone_contact` on every converged shape and report
+such a pose as not converged (``path = "self-contact"``), never as a result.
+
+The test: two points of the backbone at least two diameters apart along it
+and less than one diameter apart in space. The centreline is resampled every
+quarter of the backbone's radius, so a contact is found to within that. A
+curve that turns by less than 120 degrees in all cannot come back that close
+(every tangent is within 60 degrees of the middle one, so points s apart along
+it are at least s/2 apart), and is passed without the search.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+__all__ = ["Contact", "backbone_contact", "contact_failure", "turning_angle"]
+
+#: a curve that turns less than this in all cannot touch itself two diameters on [rad]
+_SAFE_TURNING = 2.0 * np.pi / 3.0
+
+
+class Contact(NamedTuple):
+    """The closest approach of two parts of the backbone that touch.
+
+    Attributes
+    ----------
+    distance : float
+        Distance between their centrelines [m] (less than the backbone's diameter).
+    arc_gap : float
+        Their distance along the backbone [m].
+    """
+
+    distance: float
+    arc_gap: float
+
+    def describe(self, diameter: float) -> str:
+        """One line for a message, e.g. ``the backbone passes through itself (...)``."""
+        return (f"the backbone passes through itself: two points {self.arc_gap * 1e3:.1f} mm apart along it are "
+                f"{self.distance * 1e3:.2f} mm apart, less than its diameter {diameter * 1e3:.2f} mm")
+
+
+def turning_angle(points: np.ndarray) -> float:
+    """Total turning of the polyline ``points`` (K, 3) [rad]: the sum of the angles between its pieces."""
+    d = np.diff(points, axis=0)
+    n = np.linalg.norm(d, axis=1)
+    d = d[n > 0] / n[n > 0, None]
+    if d.shape[0] < 2:
+        return 0.0
+    c = np.clip(np.einsum("ij,ij->i", d[:-1], d[1:]), -1.0, 1.0)
+    return float(np.sum(np.arccos(c)))
+
+
+def _resample(points: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray]:
+    """Points along the polyline at most ``spacing`` apart, and their arc lengths."""
+    seg = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    grid = np.linspace(0.0, s[-1], max(2, int(np.ceil(s[-1] / spacing)) + 1))
+    pts = np.column_stack([np.interp(grid, s, points[:, k]) for k in range(3)])
+    return pts, grid
+
+
+def backbone_contact(points: np.ndarray, radius: float) -> Contact | None:
+    """The closest self-contact of a backbone of ``radius`` [m] along ``points`` (K, 3) [m], or None.
+
+    Two points touch when they are at least two diameters apart along the
+    backbone and less than one diameter apart in space (see the module).
+    """
+    points = np.asarray(points, dtype=float)
+    if points.shape[0] < 3 or not np.all(np.isfinite(points)) or turning_angle(points) < _SAFE_TURNING:
+        return None
+    diameter = 2.0 * radius
+    pts, s = _resample(points, radius / 4.0)
+    pairs = cKDTree(pts).query_pairs(diameter, output_type="ndarray")
+    if pairs.size == 0:
+        return None
+    gap = np.abs(s[pairs[:, 1]] - s[pairs[:, 0]])
+    pairs, gap = pairs[gap >= 2.0 * diameter], gap[gap >= 2.0 * diameter]
+    if pairs.size == 0:
+        return None
+    dist = np.linalg.norm(pts[pairs[:, 0]] - pts[pairs[:, 1]], axis=1)
+    k = int(np.argmin(dist))
+    return Contact(float(dist[k]), float(gap[k]))
+
+
+def contact_failure(points: np.ndarray, radius: float) -> str:
+    """The reason to refuse a shape whose backbone of ``radius`` [m] passes through itself, or ``""``."""
+    c = backbone_contact(points, radius)
+    return "" if c is None else c.describe(2.0 * radius)
