@@ -19,7 +19,7 @@ LAYERS = [
     {"__init__", "_version"},  # the top-level package re-exports; checked apart below
     {"validate", "design", "loads", "bounds", "paper", "kinematics", "contact", "results", "io", "limits"},
     {"statics"},
-    {"workspace", "optimize", "compare", "accuracy"},
+    {"workspace", "region", "optimize", "compare", "accuracy"},
     {"plotting"},
     {"study"},
     {"cli"},

@@ -1,4 +1,4 @@
-"""Contact checks on a solved shape: does the backbone pass through itself?
+"""Contact checks on a solved shape: does the backbone pass through itself, do disks touch or go below the base?
 
 A static model of the backbone knows nothing of contact, so an equilibrium it
 returns may have the rod pass through itself: a pose no real robot takes. The
@@ -20,7 +20,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-__all__ = ["Contact", "backbone_contact", "contact_failure", "turning_angle"]
+__all__ = ["Contact", "backbone_contact", "contact_failure", "disks_below_base", "disks_touch", "turning_angle"]
 
 #: a curve that turns less than this in all cannot touch itself two diameters on [rad]
 _SAFE_TURNING = 2.0 * np.pi / 3.0
@@ -93,3 +93,56 @@ def contact_failure(points: np.ndarray, radius: float) -> str:
     """The reason to refuse a shape whose backbone of ``radius`` [m] passes through itself, or ``""``."""
     c = backbone_contact(points, radius)
     return "" if c is None else c.describe(2.0 * radius)
+
+
+def disks_below_base(positions: np.ndarray, rotations: np.ndarray, radius: float) -> np.ndarray:
+    """Whether any disk reaches below the base plane z = 0, per configuration, shape (B,) of bool.
+
+    ``positions`` (B, N+1, 3) [m] and ``rotations`` (B, N+1, 3, 3) of the disks, row 0 the base (not
+    tested); a disk of ``radius`` [m] reaches its lowest at ``z - radius * sqrt(1 - n_z^2)`` with n its
+    normal (the disk frame's z axis). NaN rows (not converged) give False.
+    """
+    z = positions[:, 1:, 2]
+    nz = rotations[:, 1:, 2, 2]
+    low = z - radius * np.sqrt(np.clip(1.0 - nz * nz, 0.0, 1.0))
+    return np.any(low < 0.0, axis=1)
+
+
+def disks_touch(positions: np.ndarray, rotations: np.ndarray, radius: float, min_gap: int = 2) -> np.ndarray:
+    """Whether two disks at least ``min_gap`` apart in the stack intersect, per configuration, shape (B,).
+
+    The disks are flat circles of ``radius`` [m] (no thickness) centred at ``positions`` (B, N+1, 3) [m] with
+    normals the z axes of ``rotations`` (B, N+1, 3, 3); row 0 is the base disk. Two circles in planes that
+    cross meet when their chords on the planes' common line overlap; parallel ones meet only in one plane.
+    Neighbouring disks (``min_gap`` = 2 leaves them out) are joined by the backbone and never tested.
+    """
+    B, n1 = positions.shape[:2]
+    i, j = np.triu_indices(n1, k=min_gap)
+    if i.size == 0:
+        return np.zeros(B, dtype=bool)
+    c1, c2 = positions[:, i], positions[:, j]
+    normals = rotations[..., 2]
+    m1, m2 = normals[:, i], normals[:, j]
+    u = np.cross(m1, m2)
+    s2 = np.einsum("bpk,bpk->bp", u, u)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        d1 = np.einsum("bpk,bpk->bp", m1, c1)
+        d2 = np.einsum("bpk,bpk->bp", m2, c2)
+        k = np.einsum("bpk,bpk->bp", m1, m2)
+        p0 = ((d1 - d2 * k)[..., None] * m1 + (d2 - d1 * k)[..., None] * m2) / s2[..., None]
+        e = u / np.sqrt(s2)[..., None]
+        touch = np.ones(s2.shape, dtype=bool)
+        half, mid = [], []
+        for c in (c1, c2):
+            t = np.einsum("bpk,bpk->bp", e, c - p0)
+            off = c - p0 - t[..., None] * e
+            d = np.einsum("bpk,bpk->bp", off, off)
+            touch &= d < radius * radius
+            half.append(np.sqrt(np.clip(radius * radius - d, 0.0, None)))
+            mid.append(t)
+        crossing = touch & (np.abs(mid[0] - mid[1]) < half[0] + half[1])
+        gap = c2 - c1
+        parallel = (s2 < 1e-18) & (np.abs(np.einsum("bpk,bpk->bp", m1, gap)) < 1e-12) & (
+            np.einsum("bpk,bpk->bp", gap, gap) < 4.0 * radius * radius)
+    hit = np.where(s2 < 1e-18, parallel, crossing)
+    return np.any(hit & np.isfinite(s2), axis=1)

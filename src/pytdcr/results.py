@@ -208,6 +208,10 @@ class BatchSolution:
         How each equilibrium was reached (see :class:`StaticSolution`).
     model : str
         The registered name of the model.
+    disk_positions : ndarray, shape (B, N+1, 3), or None
+        Disk centres in the base frame [m], row 0 the base; NaN where not converged.
+    disk_rotations : ndarray, shape (B, N+1, 3, 3), or None
+        Disk orientations in the base frame; NaN where not converged.
     """
 
     tensions: np.ndarray
@@ -220,6 +224,8 @@ class BatchSolution:
     path: np.ndarray
     model: str
     _stability_fn: Callable[[], Sequence[Stability | None]] | None = None
+    disk_positions: np.ndarray | None = None
+    disk_rotations: np.ndarray | None = None
 
     @cached_property
     def stability(self) -> tuple[Stability | None, ...]:
@@ -240,12 +246,17 @@ class BatchSolution:
         """Gather single solutions, case by case."""
         ok = np.array([s.converged for s in solutions], dtype=bool)
         tips = np.full((len(solutions), 3), np.nan)
+        n1 = solutions[0]._positions.shape[0] if solutions else 1
+        pos = np.full((len(solutions), n1, 3), np.nan)
+        rot = np.full((len(solutions), n1, 3, 3), np.nan)
         for b in np.flatnonzero(ok):
             tips[b] = solutions[b].tip_position
+            pos[b], rot[b] = solutions[b].disk_positions, solutions[b].disk_rotations
         return cls(tensions=tensions, converged=ok, residual=np.array([s.residual for s in solutions]),
                    iterations=np.array([s.iterations for s in solutions], dtype=np.int64),
                    q=np.array([s.q for s in solutions]), tip_position=tips, seconds=seconds,
-                   path=np.array([s.path for s in solutions], dtype=object), model=model)
+                   path=np.array([s.path for s in solutions], dtype=object), model=model, disk_positions=pos,
+                   disk_rotations=rot)
 
     @property
     def reach(self) -> np.ndarray:

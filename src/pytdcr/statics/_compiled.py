@@ -244,14 +244,14 @@ class CompiledModel:
         sol = self.solution(eq, out.q[0], bool(out.converged[0]), float(out.residual[0]),
                             int(out.iterations[0]), PATH_NAMES[out.path[0]], seconds, options.atol,
                             int(out.load_steps[0]))
-        failure = self._contact(robot, eq, sol.q) if sol.converged else ""
+        failure = self._contact(robot, eq.shape(sol.q)) if sol.converged else ""
         return replace(sol, converged=False, path=PATH_SELF_CONTACT, failure=failure) if failure else sol
 
-    def _contact(self, robot: Robot, eq: Equations, q: np.ndarray) -> str:
-        """Why the equilibrium ``q`` is refused for contact (``""``: it is not)."""
+    def _contact(self, robot: Robot, shape: tuple[np.ndarray, np.ndarray, np.ndarray | None]) -> str:
+        """Why the equilibrium of ``shape`` (``Equations.shape``) is refused for contact (``""``: it is not)."""
         if not self.checks_self_contact:
             return ""
-        pos, _, curve = eq.shape(q)
+        pos, _, curve = shape
         return contact_failure(pos if curve is None else curve, robot.backbone.outer_radius)
 
     def stability_at(self, eq: Equations, q: np.ndarray) -> Stability | None:
@@ -282,13 +282,18 @@ class CompiledModel:
         out = _solve_rows(eq, Q0, tensions, options.settings(q0 is not None), threads,
                           max(1, min(MAX_CHUNK, int(CHUNK_SECONDS / max(per_solve, 1e-9)))))
         seconds = time.perf_counter() - t0
-        tips = np.full((nb, 3), np.nan)
         ok = out.converged & np.all(np.isfinite(out.q), axis=1)
         paths = np.array(PATH_NAMES, dtype=object)[out.path]
+        pos = np.full((nb, eq.n_disks + 1, 3), np.nan)
+        rot = np.full((nb, eq.n_disks + 1, 3, 3), np.nan)
         for b in np.flatnonzero(ok):
-            tips[b] = eq.shape(out.q[b])[0][-1]
-            if self._contact(robot, eq, out.q[b]):
-                ok[b], tips[b], paths[b] = False, np.nan, PATH_SELF_CONTACT
+            shape = eq.shape(out.q[b])
+            if self._contact(robot, shape):
+                ok[b], paths[b] = False, PATH_SELF_CONTACT
+            else:
+                pos[b], rot[b] = shape[:2]
+        tips = pos[:, -1].copy()
+
         def stabilities() -> list[Stability | None]:
             found: list[Stability | None] = [None] * nb
             if not self.capabilities.stability:
@@ -304,8 +309,8 @@ class CompiledModel:
 
         return BatchSolution(tensions=tensions, converged=ok, residual=out.residual, iterations=out.iterations,
                              q=out.q.reshape(nb, eq.n_disks, -1), tip_position=tips, seconds=seconds,
-                             path=paths, model=self.name,
-                             _stability_fn=stabilities)
+                             path=paths, model=self.name, _stability_fn=stabilities, disk_positions=pos,
+                             disk_rotations=rot)
 
     def tip_gradient(self, robot: Robot, loads: Loads, solution: StaticSolution,
                      options: Any) -> tuple[np.ndarray, np.ndarray]:

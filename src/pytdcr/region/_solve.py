@@ -1,0 +1,251 @@
+"""Solving a tension plan: in blocks on all cores, with warm starts only where they are checked to agree
+with the loading path, and the realisability of every equilibrium."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ..bounds import TensionBounds
+from ..contact import disks_below_base, disks_touch
+from ..design import Robot
+from ..limits import check_memory
+from ..loads import Loads
+from ..results import BatchSolution
+from ..statics import Model, check_resources, resolve, solve_batch
+from ..validate import check_count
+from ._plan import TensionPlan
+
+__all__ = ["AGREEMENT_REQUIRED", "RegionSamples", "WarmStartCheck", "solve_plan"]
+
+#: the share of checked warm starts that must land on the loading path's equilibrium for warm starts to be used
+AGREEMENT_REQUIRED = 0.999
+#: two equilibria are the same when their tips are this close [m]
+SAME_TIP = 1e-6
+#: rows solved per call (progress and Ctrl-C between blocks)
+BLOCK = 512
+
+
+@dataclass(frozen=True)
+class WarmStartCheck:
+    """How the samples were solved: warm starts from solved neighbours, checked on a random subset.
+
+    Attributes
+    ----------
+    mode : str
+        ``"warm"`` (the check passed), ``"loading path"`` (it failed, or warm starts were off: every sample
+        followed the loading path from the unloaded robot).
+    anchors : int
+        Samples solved along the loading path to serve as neighbours.
+    checked : int
+        Warm-started samples also solved along the loading path.
+    agreed : int
+        Of those, how many reached the same equilibrium (tips within 1e-6 m, or neither converged).
+    seconds_warm, seconds_cold : float
+        Wall time of the checked subset warm and cold [s].
+    """
+
+    mode: str
+    anchors: int = 0
+    checked: int = 0
+    agreed: int = 0
+    seconds_warm: float = 0.0
+    seconds_cold: float = 0.0
+
+    @property
+    def agreement(self) -> float | None:
+        """agreed / checked (None when nothing was checked)."""
+        return self.agreed / self.checked if self.checked else None
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form, with the required agreement."""
+        return {"mode": self.mode, "anchors": self.anchors, "checked": self.checked, "agreed": self.agreed,
+                "agreement": self.agreement, "required": AGREEMENT_REQUIRED,
+                "seconds_warm": self.seconds_warm, "seconds_cold": self.seconds_cold}
+
+
+@dataclass(frozen=True, eq=False)
+class RegionSamples:
+    """Solved tension vectors of a workspace study and what each equilibrium is.
+
+    Attributes
+    ----------
+    tensions : ndarray, shape (M, n_tendons)
+        [N].
+    source : ndarray of int8, shape (M,)
+        Where each comes from (:data:`pytdcr.region.SOURCES`).
+    tip : ndarray, shape (M, 3)
+        Tip position [m]; NaN where not converged.
+    converged : ndarray of bool, shape (M,)
+    stable : ndarray, shape (M,)
+        1.0 stable, 0.0 unstable, NaN not converged or untested (a model without the test).
+    below_base : ndarray of bool, shape (M,)
+        A disk reaches below the base plane z = 0.
+    disks_touch : ndarray of bool, shape (M,)
+        Two disks that are not neighbours intersect (:func:`pytdcr.contact.disks_touch`).
+    n_base : int
+        The first ``n_base`` rows are the Sobol points.
+    warm : WarmStartCheck
+    seconds : float
+    """
+
+    tensions: np.ndarray
+    source: np.ndarray
+    tip: np.ndarray
+    converged: np.ndarray
+    stable: np.ndarray
+    below_base: np.ndarray
+    disks_touch: np.ndarray
+    n_base: int
+    warm: WarmStartCheck = field(default_factory=lambda: WarmStartCheck("loading path"))
+    seconds: float = 0.0
+
+    @property
+    def feasible(self) -> np.ndarray:
+        """The paper's FSW: converged and not unstable (untested counts as stable), shape (M,) of bool."""
+        return self.converged & (self.stable != 0.0)
+
+    @property
+    def realisable(self) -> np.ndarray:
+        """Feasible, no disk below the base plane, no disks touching, shape (M,) of bool."""
+        return self.feasible & ~self.below_base & ~self.disks_touch
+
+    def take(self, rows: np.ndarray) -> RegionSamples:
+        """The samples at ``rows`` (indices or a mask); ``n_base`` counts the Sobol rows kept."""
+        idx = np.arange(self.source.size)[rows]
+        return RegionSamples(self.tensions[idx], self.source[idx], self.tip[idx], self.converged[idx],
+                             self.stable[idx], self.below_base[idx], self.disks_touch[idx],
+                             int(np.sum(self.source[idx] == 0)), self.warm, self.seconds)
+
+    def joined(self, other: RegionSamples) -> RegionSamples:
+        """These samples followed by ``other``'s."""
+        cat = np.concatenate
+        return RegionSamples(cat([self.tensions, other.tensions]), cat([self.source, other.source]),
+                             cat([self.tip, other.tip]), cat([self.converged, other.converged]),
+                             cat([self.stable, other.stable]), cat([self.below_base, other.below_base]),
+                             cat([self.disks_touch, other.disks_touch]), self.n_base + other.n_base, self.warm,
+                             self.seconds + other.seconds)
+
+
+@dataclass
+class _Solver:
+    """Solves blocks of tension vectors and keeps what the region needs of each (not the shapes)."""
+
+    robot: Robot
+    loads: Loads
+    model: Model
+    options: Any
+    threads: int | None
+    progress: Callable[[int], None] | None
+    stability: bool
+
+    def batch(self, tensions: np.ndarray, q0: np.ndarray | None = None, options: Any = None) -> BatchSolution:
+        """One solve_batch call on ``tensions`` (B, n_tendons)."""
+        return solve_batch(self.robot, tensions, self.loads, model=self.model, options=options or self.options,
+                           q0=q0, threads=self.threads)
+
+    def keep(self, b: BatchSolution) -> dict[str, np.ndarray]:
+        """The tips, flags and unknowns of a solved block."""
+        r = self.robot.disks_radius
+        pos, rot = b.disk_positions, b.disk_rotations
+        ok = b.converged
+        stable = b.stable if self.stability else np.full(ok.shape, np.nan)
+        return {"tip": b.tip_position, "converged": ok, "stable": stable, "q": b.q,
+                "plain": np.asarray(b.path == "loading", dtype=bool),
+                "below_base": disks_below_base(pos, rot, r) & ok, "disks_touch": disks_touch(pos, rot, r) & ok}
+
+    def solve(self, tensions: np.ndarray, q0: np.ndarray | None = None) -> dict[str, np.ndarray]:
+        """Every row in blocks, warm from ``q0`` (per row) when given."""
+        parts = []
+        for start in range(0, tensions.shape[0], BLOCK):
+            stop = min(start + BLOCK, tensions.shape[0])
+            parts.append(self.keep(self.batch(tensions[start:stop], None if q0 is None else q0[start:stop])))
+            if self.progress is not None:
+                self.progress(stop - start)
+        return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]} if parts else {}
+
+
+def _agree(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> np.ndarray:
+    """Row by row: the same equilibrium (tips within SAME_TIP) or neither converged."""
+    same_flag = a["converged"] == b["converged"]
+    close = np.linalg.norm(np.nan_to_num(a["tip"] - b["tip"], nan=np.inf), axis=1) <= SAME_TIP
+    return same_flag & (~a["converged"] | close)
+
+
+def _warm_from(anchors: dict[str, np.ndarray], t_anchor: np.ndarray, tensions: np.ndarray,
+               bounds: TensionBounds) -> np.ndarray | None:
+    """Per row of ``tensions``, the unknowns of the nearest anchor that followed the loading path without a
+    fold (in tension space scaled by the bounds' span; ties go to the lower index: deterministic)."""
+    usable = anchors["converged"] & anchors["plain"]
+    if not np.any(usable):
+        return None
+    scale = bounds.span
+    tree = cKDTree(t_anchor[usable] / scale)
+    _, idx = tree.query(tensions / scale)
+    return np.ascontiguousarray(anchors["q"][usable][idx])
+
+
+def solve_plan(robot: Robot, loads: Loads, bounds: TensionBounds, plan: TensionPlan, *, model: str | Model = "pcc",
+               options: Any = None, threads: int | None = None, warm: bool = True, check: int = 1000,
+               seed: int = 0, progress: Callable[[int], None] | None = None) -> RegionSamples:
+    """Solve every tension vector of ``plan`` under ``loads`` and test each equilibrium.
+
+    With ``warm``, an eighth of the Sobol points (at least 64) are solved along the loading path first; the
+    rest start from the nearest of them that reached its equilibrium without a fold. Before they are used, a
+    random subset of ``check`` warm-started samples (``seed``) is solved both ways: warm starts are kept only
+    if at least :data:`AGREEMENT_REQUIRED` of them agree, otherwise every sample follows the loading path.
+    Neighbours and the subset do not depend on the threads, so neither do the results.
+    """
+    check = check_count(check, "check", lo=0)
+    m, opts = resolve(model, robot, loads, options)
+    res = check_resources(m, robot, opts)
+    per_row = 8.0 * ((res.unknowns if res else 3 * robot.n_disks) + robot.n_tendons + 16)
+    check_memory(f"a workspace study of {plan.tensions.shape[0]:,} tension vectors on robot '{robot.name}'",
+                 plan.tensions.shape[0] * per_row, f"{per_row:.0f} bytes per sample kept")
+    stability = bool(getattr(m, "capabilities", None) and m.capabilities.stability)
+    solver = _Solver(robot, loads.with_tensions(np.zeros(robot.n_tendons)), m, opts, threads, progress, stability)
+    T = plan.tensions
+    t0 = time.perf_counter()
+    n_anchor = min(plan.n_base, max(64, plan.n_base // 8)) if warm else T.shape[0]
+    anchors = solver.solve(T[:n_anchor])
+    rest = T[n_anchor:]
+    report = WarmStartCheck("loading path", anchors=n_anchor if warm else 0)
+    if warm and rest.shape[0]:
+        q0 = _warm_from(anchors, T[:n_anchor], rest, bounds)
+        out, report = _checked(solver, rest, q0, check, seed, n_anchor)
+    else:
+        out = solver.solve(rest) if rest.shape[0] else {}
+    keys = ("tip", "converged", "stable", "below_base", "disks_touch")
+    got = {k: np.concatenate([anchors[k], out[k]]) if out else anchors[k] for k in keys}
+    return RegionSamples(T, plan.source, got["tip"], got["converged"], got["stable"], got["below_base"],
+                         got["disks_touch"], plan.n_base, report, time.perf_counter() - t0)
+
+
+def _checked(solver: _Solver, rest: np.ndarray, q0: np.ndarray | None, check: int, seed: int,
+             n_anchor: int) -> tuple[dict[str, np.ndarray], WarmStartCheck]:
+    """Warm-solve ``rest`` if a checked subset agrees with the loading path, else solve it along that path."""
+    if q0 is None or check == 0:
+        return solver.solve(rest), WarmStartCheck("loading path", anchors=n_anchor)
+    rng = np.random.default_rng([seed, 1])
+    sub = np.sort(rng.choice(rest.shape[0], min(check, rest.shape[0]), replace=False))
+    t0 = time.perf_counter()
+    warm_sub = solver.solve(rest[sub], q0[sub])
+    t1 = time.perf_counter()
+    cold_sub = solver.solve(rest[sub])
+    t2 = time.perf_counter()
+    agreed = int(np.sum(_agree(warm_sub, cold_sub)))
+    passed = agreed >= AGREEMENT_REQUIRED * sub.size
+    report = WarmStartCheck("warm" if passed else "loading path", n_anchor, int(sub.size), agreed, t1 - t0, t2 - t1)
+    others = np.setdiff1d(np.arange(rest.shape[0]), sub)
+    out_others = solver.solve(rest[others], q0[others] if passed else None)
+    out = {k: np.empty((rest.shape[0], *v.shape[1:]), dtype=v.dtype) for k, v in cold_sub.items()}
+    for k in out:
+        out[k][sub] = cold_sub[k]
+        if others.size:
+            out[k][others] = out_others[k]
+    return out, report

@@ -1,0 +1,105 @@
+"""The workspace as a region: the tension plan, checked warm starts, realisability, and the volume estimator on
+known shapes."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pytdcr import Loads, NoFriction, TensionBounds, solve
+from pytdcr.contact import disks_below_base, disks_touch
+from pytdcr.paper import paper_robot
+from pytdcr.region import SOURCES, estimate_volume, inside, plan_tensions, region_from_points, solve_plan
+
+
+def test_plan_holds_sobol_then_corners_then_edges():
+    b = TensionBounds(np.zeros(4), np.array([1.0, 2.0, 3.0, 0.0]))  # the last tendon fixed at 0
+    plan = plan_tensions(b, 64, seed=3, edge_points=2)
+    assert plan.count("sobol") == 64 and plan.count("corner") == 8 and plan.count("edge") == 3 * 4 * 2
+    corners = plan.tensions[plan.source == SOURCES.index("corner")]
+    assert {tuple(c) for c in corners} == {(x, y, z, 0.0) for x in (0, 1) for y in (0, 2) for z in (0, 3)}
+    edges = plan.tensions[plan.source == SOURCES.index("edge")]
+    at_bound = np.isclose(edges[:, :3], 0) | np.isclose(edges[:, :3], b.upper[:3])
+    assert np.all(at_bound.sum(axis=1) == 2)  # one tendon inside its range, the others at a bound
+    assert np.all(plan.tensions >= b.lower) and np.all(plan.tensions <= b.upper)
+    half = plan_tensions(b, 32, seed=3)
+    np.testing.assert_array_equal(half.tensions[:32], plan.tensions[:32])  # a prefix is a smaller plan
+
+
+def test_plan_caps_corners_and_edges_at_n():
+    plan = plan_tensions(TensionBounds.uniform(8, 0, 20), 100, seed=0)
+    assert plan.count("corner") == 0 and plan.count("edge") == 100 and plan.edges_total == 8 * 128 * 2
+
+
+def ball(n: int, radius: float, rng: np.random.Generator) -> np.ndarray:
+    d = rng.normal(size=(n, 3))
+    return radius * d / np.linalg.norm(d, axis=1)[:, None] * rng.random(n)[:, None] ** (1 / 3)
+
+
+@pytest.mark.parametrize("shape", ["ball", "box"])
+def test_volume_of_known_shapes_lies_within_its_error(shape):
+    rng = np.random.default_rng(0)
+    n = 40_000
+    if shape == "ball":
+        pts, exact = ball(n, 0.1, rng), 4 / 3 * np.pi * 0.1**3
+    else:
+        pts, exact = rng.random((n, 3)) * [0.2, 0.1, 0.05] + [0.0037, -0.0061, 0.0023], 0.2 * 0.1 * 0.05
+    est, region = estimate_volume(pts, np.arange(n), n, voxel=0.01)
+    assert abs(est.volume_m3 - exact) <= est.error_m3
+    assert est.error_m3 < 0.25 * exact
+    mesh = region.mesh()
+    assert mesh.is_watertight and mesh.volume > 0
+
+
+def test_the_error_band_at_n_holds_the_estimate_at_4n():
+    rng = np.random.default_rng(1)
+    pts = ball(16_000, 0.1, rng)
+    small, _ = estimate_volume(pts[:4000], np.arange(4000), 4000, voxel=0.01)
+    large, _ = estimate_volume(pts, np.arange(16_000), 16_000, voxel=0.01)
+    assert abs(large.volume_m3 - small.volume_m3) <= small.error_m3
+
+
+def test_inside_a_region_with_a_hole():
+    rng = np.random.default_rng(2)
+    shell = ball(60_000, 0.1, rng)
+    shell = shell[np.linalg.norm(shell, axis=1) > 0.06]  # a hollow ball: the hole must stay
+    region = region_from_points(shell, 0.01)
+    assert inside(region, np.array([[0.08, 0, 0], [0, -0.08, 0.0]])).all()
+    assert not inside(region, np.array([[0.0, 0, 0], [0.3, 0, 0], [np.nan, 0, 0]])).any()
+    assert region.mesh().body_count == 2  # the outer surface and the hole's
+
+
+def test_disk_realisability_on_built_shapes():
+    straight = solve(paper_robot(), Loads(np.zeros(8)))
+    pos, rot = straight.disk_positions[None], straight.disk_rotations[None]
+    assert not disks_below_base(pos, rot, 0.012)[0] and not disks_touch(pos, rot, 0.012)[0]
+    # disk 3 stands upright through disk 1 (two apart in the stack); then it lies flat 1 mm above it
+    pos = np.array([[[0, 0, 0], [0, 0, 0.02], [0, 0, 0.04], [0, 0.001, 0.021]]], dtype=float)
+    upright = np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]], dtype=float)  # the disk's normal along -y
+    rot = np.repeat(np.eye(3)[None, None], 4, axis=1)
+    rot[0, 3] = upright
+    assert disks_touch(pos, rot, 0.01)[0]
+    rot[0, 3] = np.eye(3)
+    assert not disks_touch(pos, rot, 0.01)[0]  # parallel, 1 mm apart: no thickness, no contact
+    flat = np.repeat(np.eye(3)[None, None], 4, axis=1)
+    low = pos.copy()
+    low[0, 3, 2] = 0.005
+    assert not disks_below_base(low, flat, 0.01)[0]
+    flat[0, 3] = upright  # upright, radius 10 mm, centre 5 mm up: it reaches below the base
+    assert disks_below_base(low, flat, 0.01)[0]
+
+
+def test_solved_plan_is_independent_of_threads_and_checks_its_warm_starts():
+    robot = paper_robot().with_disks(3).with_friction(NoFriction()).with_gravity(None)
+    b = TensionBounds.uniform(8, 0, 4)
+    plan = plan_tensions(b, 512, seed=1, corners=False)
+    one = solve_plan(robot, Loads(np.zeros(8)), b, plan, threads=1, check=200, seed=1)
+    two = solve_plan(robot, Loads(np.zeros(8)), b, plan, threads=2, check=200, seed=1)
+    np.testing.assert_array_equal(one.tip, two.tip)
+    w = one.warm
+    assert w.checked == 200 and w.anchors == 64 and w.to_dict()["required"] == 0.999
+    assert w.mode == ("warm" if w.agreed >= 0.999 * w.checked else "loading path")
+    cold = solve_plan(robot, Loads(np.zeros(8)), b, plan, warm=False)
+    agree = np.linalg.norm(one.tip - cold.tip, axis=1) <= 1e-6
+    assert agree.mean() >= 0.99  # the check's promise, seen on every sample
+    assert one.converged.all() and np.linalg.norm(one.tip, axis=1).max() <= robot.length
