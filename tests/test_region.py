@@ -103,3 +103,30 @@ def test_solved_plan_is_independent_of_threads_and_checks_its_warm_starts():
     agree = np.linalg.norm(one.tip - cold.tip, axis=1) <= 1e-6
     assert agree.mean() >= 0.99  # the check's promise, seen on every sample
     assert one.converged.all() and np.linalg.norm(one.tip, axis=1).max() <= robot.length
+
+
+def test_tdcr_workspace_writes_the_named_files(capsys, tmp_path):
+    import json
+
+    import trimesh
+
+    from pytdcr.cli import main
+
+    out = tmp_path / "ws"
+    code = main(["workspace", "--bounds", "0,3", "--n", "64", "--seed", "2", "--no-gravity", "--out", str(out)])
+    text, err = capsys.readouterr()
+    assert code == 0, err
+    summary = json.loads((out / "workspace.json").read_text())
+    assert summary["mesh"] == "fsw.ply" and summary["realisable"]["mesh"] == "fsw_realisable.ply"
+    assert summary["volume_m3"] > 0 and summary["volume_err_m3"] > 0
+    assert 0 < summary["largest_reach_m"] <= paper_robot().length
+    assert summary["inputs"]["seed"] == 2 and summary["counts"]["by_source"]["sobol"] == 64
+    assert summary["warm_start"]["checked"] == 64  # every edge point is checked: the plan is small
+    mesh = trimesh.load(out / "fsw.ply")
+    assert mesh.is_watertight and abs(mesh.volume) > 0
+    for name in ("fsw_realisable.ply", "samples.npz", "slices.png", "slices.pdf", "report.md"):
+        assert (out / name).is_file(), name
+    assert json.loads((out / "manifest.json").read_text())["status"] == "complete"
+    assert "FSW: volume" in text and "cm^3" in text
+    code = main(["workspace", "--voxel", "5", "--out", str(tmp_path / "bad")])
+    assert code == 2 and "--voxel = 5: must be in" in capsys.readouterr().err

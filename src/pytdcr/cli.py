@@ -284,6 +284,34 @@ def _cmd_sample(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _cmd_workspace(args: argparse.Namespace) -> int:
+    from .study import run_workspace, workspace_solves
+
+    out = _check_out(args.out)
+    setup = model_from_args(args)
+    bounds = bounds_from_args(args, setup.robot)
+    model, options = solver_from_args(args, setup.robot, setup.loads)
+    if args.voxel is not None and not (1e-4 <= args.voxel <= setup.robot.length):
+        raise CliError(f"--voxel = {args.voxel:g}: must be in [0.0001, {setup.robot.length:g}] m (the robot's length)")
+    warm = not args.no_warm
+    with _Bar("workspace", workspace_solves(bounds, args.n, args.seed, warm), "solve") as bar:
+        run = run_workspace(setup.robot, setup.loads, bounds, args.n, args.seed, out, model=model, options=options,
+                            voxel=args.voxel, warm=warm, command=" ".join(["tdcr", *sys.argv[1:]]),
+                            progress=bar.step)
+    s, c = run.summary, run.summary["counts"]
+    print(f"workspace of robot '{setup.robot.name}' (n {args.n}, seed {args.seed}): {c['converged']} of "
+          f"{c['solved']} converged, {c['unstable']} unstable; warm starts: {s['warm_start']['mode']}")
+    for name, d in (("FSW", s), ("realisable", s["realisable"])):
+        reach = f"{d['largest_reach_m']:.4f} m" if d["largest_reach_m"] is not None else "none"
+        print(f"  {name}: volume {d['volume_m3'] * 1e6:.0f} ± {d['volume_err_m3'] * 1e6:.0f} cm^3, largest reach "
+              f"{reach}")
+    print(f"wrote {', '.join(run.files)} in {escape_controls(str(out))}")
+    if c["converged"] == 0:
+        print(f"tdcr: none of the {c['solved']} samples converged", file=sys.stderr)
+        return EXIT_NOT_CONVERGED
+    return EXIT_OK
+
+
 def _print_reach(res: Any, args: argparse.Namespace) -> None:
     ga = res.ga
     print(f"GA (population {args.pop}, seed {args.seed}): {res.generations} generations"
@@ -638,6 +666,18 @@ def build_parser() -> argparse.ArgumentParser:
     sm.add_argument("--seed", type=seed_type, default=0, help="random seed [0]")
     sm.add_argument("--out", default="out/sample", help="output folder [out/sample]")
     sm.set_defaults(func=_cmd_sample)
+
+    ws = sub.add_parser("workspace", help="the feasible static workspace as a region: volume, boundary, "
+                        "realisability")
+    add_model_options(ws)
+    add_model_choice(ws)
+    add_bounds_options(ws)
+    ws.add_argument("--n", type=count_type, default=4000, help="base (Sobol) samples [4000]")
+    ws.add_argument("--seed", type=seed_type, default=0, help="random seed [0]")
+    ws.add_argument("--voxel", type=real_type, default=None, help="voxel edge [m] [robot length / 32]")
+    ws.add_argument("--no-warm", action="store_true", help="every sample along the loading path (no warm starts)")
+    ws.add_argument("--out", default="out/workspace", help="output folder [out/workspace]")
+    ws.set_defaults(func=_cmd_workspace)
 
     op = sub.add_parser("optimize", help="GA maximising the tip's distance from the base (paper Eq. 29)")
     add_model_options(op)

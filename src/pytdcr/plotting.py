@@ -20,8 +20,8 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from mpl_toolkits.mplot3d.axes3d import Axes3D
 
-__all__ = ["new_3d_axes", "plot_convergence", "plot_model_overlay", "plot_order", "plot_reach_samples", "plot_robot",
-           "plot_robots", "pyplot", "set_equal_aspect"]
+__all__ = ["new_3d_axes", "plot_convergence", "plot_model_overlay", "plot_order", "plot_reach_samples",
+           "plot_region_slices", "plot_robot", "plot_robots", "pyplot", "set_equal_aspect"]
 
 
 def pyplot() -> Any:
@@ -247,3 +247,42 @@ def plot_order(studies: Sequence[Any], ax: Axes | None = None, **kwargs: Any) ->
     ax.legend(loc="best", fontsize=7)
     ax.grid(True, which="both", alpha=0.3)
     return ax
+
+
+def plot_region_slices(regions: dict[str, Any], length: float, title: str = "") -> Any:
+    """Slices of workspace regions (:class:`pytdcr.region.Region`), overlaid (a line style each, so that equal
+    boundaries stay visible): the xz plane (y = 0), the yz plane (x = 0) and the xy plane at 1/4, 1/2 and 3/4
+    of ``length`` [m]. Returns the figure."""
+    plt = pyplot()
+    fig, axes = plt.subplots(1, 5, figsize=(20, 4.4))
+    cuts = [("xz (y = 0)", 1, 0.0), ("yz (x = 0)", 0, 0.0)] + [
+        (f"xy (z = {f * length * 1e3:.0f} mm)", 2, f * length) for f in (0.25, 0.5, 0.75)]
+    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for ax, (name, axis, at) in zip(axes, cuts, strict=True):
+        for k, (label, region) in enumerate(regions.items()):
+            _slice_contour(ax, region, axis, at, colours[k % len(colours)], label, ("-", "--", ":", "-.")[k % 4])
+        ax.set_title(name)
+        ax.set_aspect("equal")
+        ax.set_xlim(-length, length)
+        ax.set_ylim(-length if axis == 2 else -0.5 * length, length)
+        ax.set_xlabel("x [m]" if axis != 0 else "y [m]")
+        ax.set_ylabel("z [m]" if axis != 2 else "y [m]")
+    axes[0].legend(loc="lower left", fontsize=8)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def _slice_contour(ax: Axes, region: Any, axis: int, at: float, colour: str, label: str, style: str) -> None:
+    """The boundary of ``region`` in the plane ``coordinate[axis] = at``, as a contour line."""
+    i = int(np.floor((at - region.origin[axis]) / region.voxel))
+    if not (0 <= i < region.occupied.shape[axis]):
+        return
+    plane = np.take(region.occupied, i, axis=axis).astype(float)
+    keep = [a for a in range(3) if a != axis]
+    u = region.origin[keep[0]] + (np.arange(plane.shape[0]) + 0.5) * region.voxel
+    v = region.origin[keep[1]] + (np.arange(plane.shape[1]) + 0.5) * region.voxel
+    if plane.shape[0] < 2 or plane.shape[1] < 2 or not plane.any():
+        return
+    ax.contour(u, v, plane.T, levels=[0.5], colors=[colour], linewidths=1.2, linestyles=style)
+    ax.plot([], [], color=colour, linestyle=style, label=label)

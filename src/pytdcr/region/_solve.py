@@ -21,7 +21,7 @@ from ..statics import Model, check_resources, resolve, solve_batch
 from ..validate import check_count
 from ._plan import TensionPlan
 
-__all__ = ["AGREEMENT_REQUIRED", "RegionSamples", "WarmStartCheck", "solve_plan"]
+__all__ = ["AGREEMENT_REQUIRED", "RegionSamples", "WarmStartCheck", "solve_plan", "solves_needed"]
 
 #: the share of checked warm starts that must land on the loading path's equilibrium for warm starts to be used
 AGREEMENT_REQUIRED = 0.999
@@ -190,6 +190,16 @@ def _warm_from(anchors: dict[str, np.ndarray], t_anchor: np.ndarray, tensions: n
     return np.ascontiguousarray(anchors["q"][usable][idx])
 
 
+def _anchors(plan: TensionPlan, warm: bool) -> int:
+    return min(plan.n_base, max(64, plan.n_base // 8)) if warm else plan.tensions.shape[0]
+
+
+def solves_needed(plan: TensionPlan, warm: bool = True, check: int = 1000) -> int:
+    """The solves :func:`solve_plan` makes (the checked subset is solved twice), for a progress bar."""
+    rest = plan.tensions.shape[0] - _anchors(plan, warm)
+    return plan.tensions.shape[0] + (min(check, rest) if warm and rest > 0 else 0)
+
+
 def solve_plan(robot: Robot, loads: Loads, bounds: TensionBounds, plan: TensionPlan, *, model: str | Model = "pcc",
                options: Any = None, threads: int | None = None, warm: bool = True, check: int = 1000,
                seed: int = 0, progress: Callable[[int], None] | None = None) -> RegionSamples:
@@ -211,7 +221,7 @@ def solve_plan(robot: Robot, loads: Loads, bounds: TensionBounds, plan: TensionP
     solver = _Solver(robot, loads.with_tensions(np.zeros(robot.n_tendons)), m, opts, threads, progress, stability)
     T = plan.tensions
     t0 = time.perf_counter()
-    n_anchor = min(plan.n_base, max(64, plan.n_base // 8)) if warm else T.shape[0]
+    n_anchor = _anchors(plan, warm)
     anchors = solver.solve(T[:n_anchor])
     rest = T[n_anchor:]
     report = WarmStartCheck("loading path", anchors=n_anchor if warm else 0)

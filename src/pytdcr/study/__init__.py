@@ -14,7 +14,8 @@ from ._folder import MANIFEST, FolderError, RunInterrupted, check_output_folder,
 from ._output import inputs_record
 from ._reproduce import ReproduceSettings, run_reproduce
 from ._runs import SampleRun, run_compare, run_optimize, run_sample, sample_into, write_optimize
+from ._workspace import WorkspaceRun, run_workspace, workspace_solves
 
-__all__ = ["MANIFEST", "FolderError", "ReproduceSettings", "RunInterrupted", "SampleRun", "check_output_folder",
-           "inputs_record", "output_folder", "run_accuracy", "run_compare", "run_optimize", "run_reproduce",
-           "run_sample", "sample_into", "write_optimize"]
+__all__ = ["MANIFEST", "FolderError", "ReproduceSettings", "RunInterrupted", "SampleRun", "WorkspaceRun",
+           "check_output_folder", "inputs_record", "output_folder", "run_accuracy", "run_compare", "run_optimize",
+           "run_reproduce", "run_sample", "run_workspace", "sample_into", "workspace_solves", "write_optimize"]
