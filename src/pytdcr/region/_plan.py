@@ -10,6 +10,7 @@ import numpy as np
 from scipy.stats import qmc
 
 from ..bounds import TensionBounds
+from ..limits import check_memory
 from ..validate import check_count
 
 __all__ = ["SOURCES", "TensionPlan", "plan_tensions"]
@@ -79,6 +80,9 @@ def plan_tensions(bounds: TensionBounds, n: int, seed: int = 0, *, edge_points: 
     edge_points = check_count(edge_points, "edge_points", lo=0, hi=16)
     free = np.flatnonzero(bounds.free)
     dim = free.size
+    per_row = 8.0 * (2 * bounds.n + 2 * dim) + 1.0
+    check_memory(f"a tension plan of {n:,} Sobol points (and as many corners and edges)", 2 * n * per_row,
+                 f"{per_row:.0f} bytes per tension vector drawn, Sobol points drawn to the next power of 2")
     if dim == 0:
         raise ValueError("bounds: every tension is fixed (lower == upper); there is no workspace to sample")
     unit = [_sobol(n, dim, seed)]
