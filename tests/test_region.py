@@ -8,8 +8,18 @@ import pytest
 
 from pytdcr import Loads, NoFriction, TensionBounds, solve
 from pytdcr.contact import disks_below_base, disks_touch
-from pytdcr.paper import paper_robot
-from pytdcr.region import SOURCES, estimate_volume, inside, plan_tensions, region_from_points, solve_plan
+from pytdcr.paper import paper_bounds, paper_loads, paper_robot
+from pytdcr.region import (
+    SOURCES,
+    estimate_volume,
+    inside,
+    nested_stages,
+    plan_tensions,
+    region_from_points,
+    solve_plan,
+    tension_step,
+    workspace_region,
+)
 
 
 def test_plan_holds_sobol_then_corners_then_edges():
@@ -44,7 +54,7 @@ def test_volume_of_known_shapes_lies_within_its_error(shape):
         pts, exact = ball(n, 0.1, rng), 4 / 3 * np.pi * 0.1**3
     else:
         pts, exact = rng.random((n, 3)) * [0.2, 0.1, 0.05] + [0.0037, -0.0061, 0.0023], 0.2 * 0.1 * 0.05
-    est, region = estimate_volume(pts, np.arange(n), n, voxel=0.01)
+    est, region = estimate_volume(pts, nested_stages(np.arange(n), n), n, voxel=0.01)
     assert abs(est.volume_m3 - exact) <= est.error_m3
     assert est.error_m3 < 0.25 * exact
     mesh = region.mesh()
@@ -54,8 +64,8 @@ def test_volume_of_known_shapes_lies_within_its_error(shape):
 def test_the_error_band_at_n_holds_the_estimate_at_4n():
     rng = np.random.default_rng(1)
     pts = ball(16_000, 0.1, rng)
-    small, _ = estimate_volume(pts[:4000], np.arange(4000), 4000, voxel=0.01)
-    large, _ = estimate_volume(pts, np.arange(16_000), 16_000, voxel=0.01)
+    small, _ = estimate_volume(pts[:4000], nested_stages(np.arange(4000), 4000), 4000, voxel=0.01)
+    large, _ = estimate_volume(pts, nested_stages(np.arange(16_000), 16_000), 16_000, voxel=0.01)
     assert abs(large.volume_m3 - small.volume_m3) <= small.error_m3
 
 
@@ -67,6 +77,17 @@ def test_inside_a_region_with_a_hole():
     assert inside(region, np.array([[0.08, 0, 0], [0, -0.08, 0.0]])).all()
     assert not inside(region, np.array([[0.0, 0, 0], [0.3, 0, 0], [np.nan, 0, 0]])).any()
     assert region.mesh().body_count == 2  # the outer surface and the hole's
+
+
+def test_the_boundary_of_a_ragged_region_is_watertight():
+    """Voxels touching only along edges and at corners (a sparse random grid has thousands) still give a
+    closed, manifold surface."""
+    rng = np.random.default_rng(4)
+    pts = rng.random((3000, 3)) * 0.3
+    region = region_from_points(pts, 0.01, closing=0)
+    mesh = region.mesh()
+    assert mesh.is_watertight and mesh.is_winding_consistent
+    assert 0 < mesh.volume <= region.voxel_volume  # the surface runs inside the voxels' outer faces
 
 
 def test_disk_realisability_on_built_shapes():
@@ -113,20 +134,78 @@ def test_tdcr_workspace_writes_the_named_files(capsys, tmp_path):
     from pytdcr.cli import main
 
     out = tmp_path / "ws"
-    code = main(["workspace", "--bounds", "0,3", "--n", "64", "--seed", "2", "--no-gravity", "--out", str(out)])
+    code = main(["workspace", "--bounds", "0,3", "--n", "64", "--seed", "2", "--no-gravity", "--budget", "300",
+                 "--directions", "8", "--out", str(out)])
     text, err = capsys.readouterr()
     assert code == 0, err
     summary = json.loads((out / "workspace.json").read_text())
     assert summary["mesh"] == "fsw.ply" and summary["realisable"]["mesh"] == "fsw_realisable.ply"
     assert summary["volume_m3"] > 0 and summary["volume_err_m3"] > 0
-    assert 0 < summary["largest_reach_m"] <= paper_robot().length
+    assert 0 < summary["largest_reach_m"] <= paper_robot().length * (1 + 1e-12)  # rounding of a straight robot
+    search = summary["boundary_search"]
+    assert 0 < search["solves"] <= 300 and summary["counts"]["by_source"]["search"] == search["solves"]
+    support = summary["support"]
+    assert len(support["h"]) == 8 and summary["inputs"]["directions"] == 8
+    html = (out / "workspace.html").read_text()
+    assert "plotly" in html and '<script src="http' not in html  # opens with no network
     assert summary["inputs"]["seed"] == 2 and summary["counts"]["by_source"]["sobol"] == 64
     assert summary["warm_start"]["checked"] == 64  # every edge point is checked: the plan is small
     mesh = trimesh.load(out / "fsw.ply")
     assert mesh.is_watertight and abs(mesh.volume) > 0
-    for name in ("fsw_realisable.ply", "samples.npz", "slices.png", "slices.pdf", "report.md"):
+    for name in ("fsw_realisable.ply", "samples.npz", "slices.png", "slices.pdf", "report.md", "support.csv",
+                 "support_map.png", "boundary_3d.pdf"):
         assert (out / name).is_file(), name
     assert json.loads((out / "manifest.json").read_text())["status"] == "complete"
     assert "FSW: volume" in text and "cm^3" in text
     code = main(["workspace", "--voxel", "5", "--out", str(tmp_path / "bad")])
     assert code == 2 and "--voxel = 5: must be in" in capsys.readouterr().err
+
+
+def test_tension_step_stays_in_the_box_and_moves_the_tip_as_asked():
+    rng = np.random.default_rng(3)
+    J = rng.normal(size=(3, 8)) * 0.01
+    lo, hi = np.zeros(8), np.full(8, 20.0)
+    t = np.full(8, 10.0)
+    dp = np.array([0.002, -0.001, 0.0005])
+    dt = tension_step(J, t, lo, hi, dp)
+    np.testing.assert_allclose(J @ dt, dp, atol=1e-9)  # inside the box: met exactly, smallest step
+    np.testing.assert_allclose(dt, np.linalg.pinv(J) @ dp, rtol=1e-6, atol=1e-9)
+    t = np.array([0, 20, 0, 20, 0, 20, 0, 20], dtype=float)  # every tendon at a bound
+    for _ in range(20):
+        dp = rng.normal(size=3) * 0.05
+        dt = tension_step(J, t, lo, hi, dp)
+        assert np.all(t + dt >= lo - 1e-12) and np.all(t + dt <= hi + 1e-12)
+        assert np.linalg.norm(J @ dt - dp) <= np.linalg.norm(dp) + 1e-12  # never worse than no step
+
+
+def test_boundary_search_grows_the_region_with_loading_path_equilibria():
+    robot, loads, b = paper_robot(), paper_loads(), paper_bounds()
+    voxel = robot.length / 10
+    plain = workspace_region(robot, loads, b, 64, 3, voxel=voxel, search=False)
+    found = workspace_region(robot, loads, b, 64, 3, voxel=voxel, budget=600)
+    s = found.samples
+    extra = s.source == SOURCES.index("search")
+    assert found.search is not None and found.search.solves == extra.sum() <= 600
+    assert found.search.rounds and found.search.rounds[0].steps > 0
+    assert found.fsw_region.occupied.sum() > plain.fsw_region.occupied.sum()
+    assert found.fsw.volume_m3 > plain.fsw.volume_m3
+    assert np.all(s.tensions[extra] >= b.lower) and np.all(s.tensions[extra] <= b.upper)
+    # the search's points are the loading path's equilibria of their tensions, as every sample is
+    rows = np.flatnonzero(extra & s.converged)[:: max(1, int((extra & s.converged).sum()) // 8)][:8]
+    for r in rows:
+        tip = solve(robot, loads.with_tensions(s.tensions[r])).tip_position
+        np.testing.assert_allclose(tip, s.tip[r], atol=1e-6)
+    assert found.fsw.to_dict()["scales"][0]["n_base"] == 16
+
+
+def test_without_loads_the_region_has_the_robots_fourfold_symmetry():
+    """Tendons at 0/90/180/270 and 45/135/225/315 deg: with no gravity and no tip load, the four quadrants
+    about the base axis hold the same volume, within the estimate's error."""
+    robot = paper_robot().with_gravity(None)
+    found = workspace_region(robot, Loads(np.zeros(8)), paper_bounds(), 256, 1, voxel=robot.length / 12,
+                             budget=4000)
+    reg = found.fsw_region
+    centres = reg.origin + (np.argwhere(reg.occupied) + 0.5) * reg.voxel
+    quadrant = (centres[:, 0] > 0).astype(int) * 2 + (centres[:, 1] > 0).astype(int)
+    volumes = np.bincount(quadrant, minlength=4) * reg.voxel**3
+    assert np.ptp(volumes) <= found.fsw.error_m3 / 4, (volumes, found.fsw.error_m3)

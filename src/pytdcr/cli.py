@@ -284,8 +284,40 @@ def _cmd_sample(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+class _Bars:
+    """One progress bar per stage of a long run (``progress(stage, total)``), closed when the next opens."""
+
+    def __init__(self) -> None:
+        self.bar: _Bar | None = None
+
+    def __call__(self, stage: str, total: int | None) -> Any:
+        self.close()
+        self.bar = _Bar(stage, total, "solve" if "h(d)" not in stage else "dir")  # type: ignore[arg-type]
+        return self.bar.step
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.__exit__()
+            self.bar = None
+
+
+def _workspace_lines(name: str, s: dict[str, Any]) -> list[str]:
+    out = [f"  {name}:"]
+    for label, d in (("FSW", s), ("realisable", s["realisable"])):
+        reach = f"{d['largest_reach_m']:.4f} m" if d["largest_reach_m"] is not None else "none"
+        out.append(f"    {label}: volume {d['volume_m3'] * 1e6:.0f} ± {d['volume_err_m3'] * 1e6:.0f} cm^3, largest "
+                   f"reach {reach}")
+    c = s["counts"]
+    search = s.get("boundary_search") or {}
+    out.append(f"    {c['converged']} of {c['solved']} converged, {c['unstable']} unstable; warm starts: "
+               f"{s['warm_start']['mode']}; boundary search: {search.get('solves', 0)} solves, "
+               f"{search.get('stop', 'off')}")
+    return out
+
+
 def _cmd_workspace(args: argparse.Namespace) -> int:
-    from .study import run_workspace, workspace_solves
+    from .paper import workspace_load_cases
+    from .study import run_workspace, run_workspace_compare
 
     out = _check_out(args.out)
     setup = model_from_args(args)
@@ -293,21 +325,27 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     model, options = solver_from_args(args, setup.robot, setup.loads)
     if args.voxel is not None and not (1e-4 <= args.voxel <= setup.robot.length):
         raise CliError(f"--voxel = {args.voxel:g}: must be in [0.0001, {setup.robot.length:g}] m (the robot's length)")
-    warm = not args.no_warm
-    with _Bar("workspace", workspace_solves(bounds, args.n, args.seed, warm), "solve") as bar:
-        run = run_workspace(setup.robot, setup.loads, bounds, args.n, args.seed, out, model=model, options=options,
-                            voxel=args.voxel, warm=warm, command=" ".join(["tdcr", *sys.argv[1:]]),
-                            progress=bar.step)
-    s, c = run.summary, run.summary["counts"]
-    print(f"workspace of robot '{setup.robot.name}' (n {args.n}, seed {args.seed}): {c['converged']} of "
-          f"{c['solved']} converged, {c['unstable']} unstable; warm starts: {s['warm_start']['mode']}")
-    for name, d in (("FSW", s), ("realisable", s["realisable"])):
-        reach = f"{d['largest_reach_m']:.4f} m" if d["largest_reach_m"] is not None else "none"
-        print(f"  {name}: volume {d['volume_m3'] * 1e6:.0f} ± {d['volume_err_m3'] * 1e6:.0f} cm^3, largest reach "
-              f"{reach}")
+    if not 0 <= args.directions <= 100_000:
+        raise CliError(f"--directions = {args.directions}: must be in [0, 100000]")
+    kw = {"model": model, "options": options, "voxel": args.voxel, "warm": not args.no_warm,
+          "search": not args.no_search, "budget": args.budget, "directions": args.directions,
+          "command": " ".join(["tdcr", *sys.argv[1:]])}
+    bars = _Bars()
+    try:
+        if args.compare_loads:
+            cases = workspace_load_cases(setup.robot, setup.loads)
+            run = run_workspace_compare(setup.robot, cases, bounds, args.n, args.seed, out, progress=bars, **kw)
+        else:
+            run = run_workspace(setup.robot, setup.loads, bounds, args.n, args.seed, out, progress=bars, **kw)
+    finally:
+        bars.close()
+    print(f"workspace of robot '{setup.robot.name}' (n {args.n}, seed {args.seed}, bounds "
+          f"{bounds.lower.min():g} to {bounds.upper.max():g} N):")
+    for case in run.cases:
+        print("\n".join(_workspace_lines(case.name, case.summary)))
     print(f"wrote {', '.join(run.files)} in {escape_controls(str(out))}")
-    if c["converged"] == 0:
-        print(f"tdcr: none of the {c['solved']} samples converged", file=sys.stderr)
+    if any(c.summary["counts"]["converged"] == 0 for c in run.cases):
+        print("tdcr: a load case has no converged sample: its region is empty", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     return EXIT_OK
 
@@ -676,6 +714,14 @@ def build_parser() -> argparse.ArgumentParser:
     ws.add_argument("--seed", type=seed_type, default=0, help="random seed [0]")
     ws.add_argument("--voxel", type=real_type, default=None, help="voxel edge [m] [robot length / 32]")
     ws.add_argument("--no-warm", action="store_true", help="every sample along the loading path (no warm starts)")
+    ws.add_argument("--no-search", action="store_true", help="no boundary search: the region of the samples alone")
+    ws.add_argument("--budget", type=count_type, default=None,
+                    help="the boundary search's budget of solves [15 n]")
+    ws.add_argument("--directions", type=int, default=200,
+                    help="directions of the support function h(d) on a Fibonacci sphere; 0: none [200]")
+    ws.add_argument("--compare-loads", action="store_true",
+                    help="compare load cases: no load, gravity only, payloads 5/10/20 g, the paper's wrench, and "
+                    "--tip-force/--tip-moment when given; one sub-folder each")
     ws.add_argument("--out", default="out/workspace", help="output folder [out/workspace]")
     ws.set_defaults(func=_cmd_workspace)
 

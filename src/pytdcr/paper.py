@@ -110,3 +110,24 @@ def payload_loads(n_tendons: int, gravity: float = 9.81, mass: float = PAYLOAD_M
 def paper_bounds(n_tendons: int = 8) -> TensionBounds:
     """The study's tension bounds, :data:`DEFAULT_BOUNDS`, for each of ``n_tendons`` tendons [N]."""
     return TensionBounds.uniform(n_tendons, *DEFAULT_BOUNDS)
+
+
+#: tip payloads of the workspace's load comparison [kg] (0 g: gravity alone)
+COMPARE_PAYLOADS = (0.0, 0.005, 0.010, 0.020)
+
+
+def workspace_load_cases(robot: Robot, given: Loads | None = None) -> dict[str, tuple[Robot, Loads]]:
+    """The load cases ``tdcr workspace --compare-loads`` compares on ``robot``: no load (no gravity, no tip
+    wrench); gravity with tip payloads of 0, 5, 10 and 20 g (force (0, 0, -m |g|) [N], base frame); the
+    paper's tip wrench (with gravity); and ``given`` when it carries a tip wrench."""
+    n = robot.n_tendons
+    g = float(np.linalg.norm(robot.gravity)) or 9.81
+    heavy = robot if np.any(np.asarray(robot.gravity)) else robot.with_gravity((0.0, 0.0, -9.81))
+    cases = {"no load": (robot.with_gravity((0.0, 0.0, 0.0)), Loads(np.zeros(n)))}
+    for m in COMPARE_PAYLOADS:
+        name = "gravity only" if m == 0 else f"payload {m * 1e3:g} g"
+        cases[name] = (heavy, payload_loads(n, g, m) if m else Loads(np.zeros(n)))
+    cases["paper wrench"] = (heavy, Loads(np.zeros(n), tip_force=PAPER_TIP_FORCE, tip_moment=PAPER_TIP_MOMENT))
+    if given is not None and (np.any(given.tip_force) or np.any(given.tip_moment) or given.point_loads):
+        cases["given load"] = (robot, given.with_tensions(np.zeros(n)))
+    return cases

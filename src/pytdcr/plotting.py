@@ -21,7 +21,8 @@ if TYPE_CHECKING:
     from mpl_toolkits.mplot3d.axes3d import Axes3D
 
 __all__ = ["new_3d_axes", "plot_convergence", "plot_model_overlay", "plot_order", "plot_reach_samples",
-           "plot_region_slices", "plot_robot", "plot_robots", "pyplot", "set_equal_aspect"]
+           "plot_region_3d", "plot_region_slices", "plot_robot", "plot_robots", "plot_support_map", "pyplot",
+           "set_equal_aspect", "write_region_html"]
 
 
 def pyplot() -> Any:
@@ -286,3 +287,120 @@ def _slice_contour(ax: Axes, region: Any, axis: int, at: float, colour: str, lab
         return
     ax.contour(u, v, plane.T, levels=[0.5], colors=[colour], linewidths=1.2, linestyles=style)
     ax.plot([], [], color=colour, linestyle=style, label=label)
+
+
+def _colours() -> list[str]:
+    return list(pyplot().rcParams["axes.prop_cycle"].by_key()["color"])
+
+
+def _decimated(mesh: Any, faces: int) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices and at most ``faces`` faces of a trimesh mesh (every k-th face: a drawing aid, not geometry)."""
+    f = np.asarray(mesh.faces)
+    step = max(1, int(np.ceil(f.shape[0] / max(faces, 1))))
+    return np.asarray(mesh.vertices), f[::step]
+
+
+def plot_region_3d(meshes: dict[str, Any], robot_positions: np.ndarray | None = None, title: str = "",
+                   max_faces: int = 12_000) -> Any:
+    """Workspace boundaries (``trimesh.Trimesh``, base frame, metres) as translucent surfaces, one colour each,
+    overlaid; the robot's disk centres ``robot_positions`` (N+1, 3) [m] as a line with markers (its largest-reach
+    configuration, say) and the base plane's outline. Big meshes are thinned to ``max_faces`` faces for the
+    drawing. Returns the figure."""
+    from matplotlib.patches import Patch
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    ax = new_3d_axes((7.5, 7.0))
+    colours, handles, pts = _colours(), [], [np.zeros((1, 3))]
+    for k, (label, mesh) in enumerate(meshes.items()):
+        if mesh is None or len(mesh.faces) == 0:
+            continue
+        v, f = _decimated(mesh, max_faces // max(len(meshes), 1))
+        c = colours[k % len(colours)]
+        ax.add_collection3d(Poly3DCollection(v[f], facecolor=c, edgecolor="none", alpha=0.18))
+        handles.append(Patch(facecolor=c, alpha=0.5, label=label))
+        pts.append(v)
+    if robot_positions is not None:
+        p = np.asarray(robot_positions)
+        ax.plot(p[:, 0], p[:, 1], p[:, 2], "-o", color="black", markersize=3, linewidth=2)
+        handles.append(Patch(facecolor="black", label="robot at the largest reach"))
+        pts.append(p)
+    allp = np.vstack(pts)
+    r = float(np.abs(allp[:, :2]).max()) if allp.size else 0.1
+    ring = np.linspace(0, 2 * np.pi, 90)
+    ax.plot(r * np.cos(ring), r * np.sin(ring), 0 * ring, color="grey", linewidth=0.8, linestyle=":")
+    set_equal_aspect(ax, allp)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_zlabel("z [m]")
+    ax.view_init(elev=18, azim=-60)
+    if handles:
+        ax.legend(handles=handles, loc="upper left", fontsize=8)
+    if title:
+        ax.set_title(title)
+    return ax.figure
+
+
+def plot_support_map(directions: np.ndarray, h: np.ndarray, title: str = "") -> Any:
+    """The support function h(d) [m] over the sphere of directions ``directions`` (K, 3): azimuth against
+    elevation [deg], filled contours in mm (the map wraps at ±180 deg), the directions as dots. Returns the
+    figure."""
+    import matplotlib.tri as mtri
+
+    plt = pyplot()
+    d = np.asarray(directions, dtype=float)
+    az = np.degrees(np.arctan2(d[:, 1], d[:, 0]))
+    el = np.degrees(np.arcsin(np.clip(d[:, 2], -1, 1)))
+    hm = np.asarray(h, dtype=float) * 1e3
+    # copies shifted by a full turn, so that the triangulation wraps across the seam
+    az3, el3, h3 = np.concatenate([az - 360, az, az + 360]), np.tile(el, 3), np.tile(hm, 3)
+    fig, ax = plt.subplots(figsize=(9, 4.6))
+    tri = mtri.Triangulation(az3, el3)
+    cs = ax.tricontourf(tri, h3, levels=14, cmap="viridis")
+    ax.plot(az, el, ".", color="white", markersize=2.5)
+    ax.set_xlim(-180, 180)
+    ax.set_ylim(-90, 90)
+    ax.set_xticks(range(-180, 181, 45))
+    ax.set_yticks(range(-90, 91, 30))
+    ax.set_xlabel("azimuth of d [deg] (from +x towards +y)")
+    ax.set_ylabel("elevation of d [deg] (towards +z)")
+    fig.colorbar(cs, ax=ax, label="h(d) = max d · tip [mm]")
+    if title:
+        ax.set_title(title)
+    return fig
+
+
+def write_region_html(path: Any, meshes: dict[str, Any], points: dict[str, np.ndarray] | None = None,
+                      robot_positions: np.ndarray | None = None, title: str = "", max_points: int = 20_000) -> None:
+    """A self-contained interactive view (plotly, its script embedded: it opens with no network) of workspace
+    boundaries (``trimesh.Trimesh`` [m]), point clouds (K, 3) [m] (every k-th point beyond ``max_points``) and
+    the robot's disk centres (N+1, 3) [m]; written whole or not at all."""
+    import os
+    from pathlib import Path
+
+    import plotly.graph_objects as go
+
+    traces = []
+    colours = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"]
+    for k, (label, mesh) in enumerate(meshes.items()):
+        if mesh is None or len(mesh.faces) == 0:
+            continue
+        v, f = np.asarray(mesh.vertices), np.asarray(mesh.faces)
+        traces.append(go.Mesh3d(x=v[:, 0], y=v[:, 1], z=v[:, 2], i=f[:, 0], j=f[:, 1], k=f[:, 2], name=label,
+                                opacity=0.3, color=colours[k % len(colours)], showlegend=True))
+    for label, p in (points or {}).items():
+        p = np.asarray(p, dtype=float)
+        p = p[np.all(np.isfinite(p), axis=1)]
+        p = p[:: max(1, int(np.ceil(p.shape[0] / max_points)))]
+        traces.append(go.Scatter3d(x=p[:, 0], y=p[:, 1], z=p[:, 2], mode="markers", name=label,
+                                   marker={"size": 1.5, "color": "#444444"}, visible="legendonly"))
+    if robot_positions is not None:
+        r = np.asarray(robot_positions)
+        traces.append(go.Scatter3d(x=r[:, 0], y=r[:, 1], z=r[:, 2], mode="lines+markers", name="robot",
+                                   line={"color": "black", "width": 6}, marker={"size": 3, "color": "black"}))
+    fig = go.Figure(traces)
+    fig.update_layout(title=title, scene={"aspectmode": "data", "xaxis_title": "x [m]", "yaxis_title": "y [m]",
+                                          "zaxis_title": "z [m]"}, legend={"itemsizing": "constant"})
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    fig.write_html(tmp, include_plotlyjs=True, full_html=True)
+    os.replace(tmp, path)

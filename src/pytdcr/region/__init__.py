@@ -1,12 +1,17 @@
-"""The feasible static workspace as a region: sampling that covers it, its boundary surface and volume with an
-error, and what is physically realisable (issue 12, in progress: the boundary search, the support function and
-the load comparison come next)."""
+"""The feasible static workspace as a region: sampling that covers it, the boundary search that makes its volume
+converge, its boundary surface and volume with an error, the support function h(d) and the largest reach, and
+what is physically realisable. :func:`workspace_region` does it all; ``tdcr workspace`` writes it out."""
 
+from ._compute import VOXELS_PER_LENGTH, WorkspaceRegion, search_budget, workspace_region
+from ._frontier import BoundarySearch, SearchRound, grow_region, tension_step
 from ._grid import Region, inside, region_from_points
 from ._plan import SOURCES, TensionPlan, plan_tensions
 from ._solve import AGREEMENT_REQUIRED, RegionSamples, WarmStartCheck, solve_plan, solves_needed
-from ._volume import VolumeEstimate, estimate_volume
+from ._support import LargestReach, SupportFunction, fibonacci_directions, largest_reach, support_function
+from ._volume import VolumeEstimate, estimate_volume, nested_stages
 
-__all__ = ["AGREEMENT_REQUIRED", "SOURCES", "Region", "RegionSamples", "TensionPlan", "VolumeEstimate",
-           "WarmStartCheck", "estimate_volume", "inside", "plan_tensions", "region_from_points", "solve_plan",
-           "solves_needed"]
+__all__ = ["AGREEMENT_REQUIRED", "SOURCES", "VOXELS_PER_LENGTH", "BoundarySearch", "LargestReach", "Region",
+           "RegionSamples", "SearchRound", "SupportFunction", "TensionPlan", "VolumeEstimate", "WarmStartCheck",
+           "WorkspaceRegion", "estimate_volume", "fibonacci_directions", "grow_region", "inside", "largest_reach",
+           "nested_stages", "plan_tensions", "region_from_points", "search_budget", "solve_plan", "solves_needed",
+           "support_function", "tension_step", "workspace_region"]

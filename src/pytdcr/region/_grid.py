@@ -8,7 +8,10 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["Region", "inside", "region_from_points"]
+__all__ = ["MESH_LEVEL", "Region", "inside", "region_from_points"]
+
+#: the occupancy level of the boundary surface (see :meth:`Region.mesh`)
+MESH_LEVEL = 0.499
 
 
 @dataclass(frozen=True, eq=False)
@@ -41,15 +44,17 @@ class Region:
         return float(self.occupied.sum()) * self.voxel**3
 
     def mesh(self) -> Any:
-        """The closed boundary surface (``trimesh.Trimesh``, base frame, metres): marching cubes at level 1/2
-        of the occupancy, which passes halfway between occupied and empty voxel centres."""
+        """The closed boundary surface (``trimesh.Trimesh``, base frame, metres): marching cubes of the
+        occupancy, passing halfway between occupied and empty voxel centres. The level is a hair below 1/2
+        (:data:`MESH_LEVEL`): voxels that touch only along an edge or at a corner are then joined, where at
+        exactly 1/2 the ambiguous faces are undecided and the surface can pinch into non-manifold edges."""
         import trimesh
         from skimage.measure import marching_cubes
 
         padded = np.pad(self.occupied, 1).astype(np.float32)
         if not self.occupied.any():
             return trimesh.Trimesh()
-        verts, faces, _, _ = marching_cubes(padded, level=0.5, spacing=(self.voxel,) * 3,
+        verts, faces, _, _ = marching_cubes(padded, level=MESH_LEVEL, spacing=(self.voxel,) * 3,
                                             allow_degenerate=False)
         verts += self.origin - 0.5 * self.voxel  # voxel centres, less the padding
         mesh = trimesh.Trimesh(verts, faces[:, ::-1], process=True)

@@ -21,7 +21,7 @@ from ..statics import Model, check_resources, resolve, solve_batch
 from ..validate import check_count
 from ._plan import TensionPlan
 
-__all__ = ["AGREEMENT_REQUIRED", "RegionSamples", "WarmStartCheck", "solve_plan", "solves_needed"]
+__all__ = ["AGREEMENT_REQUIRED", "RegionSamples", "WarmStartCheck", "plan_stages", "solve_plan", "solves_needed"]
 
 #: the share of checked warm starts that must land on the loading path's equilibrium for warm starts to be used
 AGREEMENT_REQUIRED = 0.999
@@ -92,6 +92,11 @@ class RegionSamples:
         The first ``n_base`` rows are the Sobol points.
     warm : WarmStartCheck
     seconds : float
+    q : ndarray, shape (M, ...), or None
+        The model's unknowns at each equilibrium (NaN where not converged), for warm starts and gradients.
+    stage : ndarray of int8, shape (M,), or None
+        The nested sample size from which each row counts: 0 at n/4 base samples (the first quarter of the
+        Sobol points, the box's corners and edges, the boundary search from them), 1 at n/2, 2 at n.
     """
 
     tensions: np.ndarray
@@ -104,6 +109,8 @@ class RegionSamples:
     n_base: int
     warm: WarmStartCheck = field(default_factory=lambda: WarmStartCheck("loading path"))
     seconds: float = 0.0
+    q: np.ndarray | None = None
+    stage: np.ndarray | None = None
 
     @property
     def feasible(self) -> np.ndarray:
@@ -120,16 +127,20 @@ class RegionSamples:
         idx = np.arange(self.source.size)[rows]
         return RegionSamples(self.tensions[idx], self.source[idx], self.tip[idx], self.converged[idx],
                              self.stable[idx], self.below_base[idx], self.disks_touch[idx],
-                             int(np.sum(self.source[idx] == 0)), self.warm, self.seconds)
+                             int(np.sum(self.source[idx] == 0)), self.warm, self.seconds,
+                             None if self.q is None else self.q[idx],
+                             None if self.stage is None else self.stage[idx])
 
     def joined(self, other: RegionSamples) -> RegionSamples:
-        """These samples followed by ``other``'s."""
+        """These samples followed by ``other``'s (unknowns and stages kept when both have them)."""
         cat = np.concatenate
+        q = cat([self.q, other.q]) if self.q is not None and other.q is not None else None
+        stage = cat([self.stage, other.stage]) if self.stage is not None and other.stage is not None else None
         return RegionSamples(cat([self.tensions, other.tensions]), cat([self.source, other.source]),
                              cat([self.tip, other.tip]), cat([self.converged, other.converged]),
                              cat([self.stable, other.stable]), cat([self.below_base, other.below_base]),
                              cat([self.disks_touch, other.disks_touch]), self.n_base + other.n_base, self.warm,
-                             self.seconds + other.seconds)
+                             self.seconds + other.seconds, q, stage)
 
 
 @dataclass
@@ -155,7 +166,9 @@ class _Solver:
         pos, rot = b.disk_positions, b.disk_rotations
         ok = b.converged
         stable = b.stable if self.stability else np.full(ok.shape, np.nan)
-        return {"tip": b.tip_position, "converged": ok, "stable": stable, "q": b.q,
+        q = np.array(b.q, dtype=float)
+        q[~ok] = np.nan
+        return {"tip": b.tip_position, "converged": ok, "stable": stable, "q": q,
                 "plain": np.asarray(b.path == "loading", dtype=bool),
                 "below_base": disks_below_base(pos, rot, r) & ok, "disks_touch": disks_touch(pos, rot, r) & ok}
 
@@ -230,10 +243,21 @@ def solve_plan(robot: Robot, loads: Loads, bounds: TensionBounds, plan: TensionP
         out, report = _checked(solver, rest, q0, check, seed, n_anchor)
     else:
         out = solver.solve(rest) if rest.shape[0] else {}
-    keys = ("tip", "converged", "stable", "below_base", "disks_touch")
+    keys = ("tip", "converged", "stable", "below_base", "disks_touch", "q")
     got = {k: np.concatenate([anchors[k], out[k]]) if out else anchors[k] for k in keys}
     return RegionSamples(T, plan.source, got["tip"], got["converged"], got["stable"], got["below_base"],
-                         got["disks_touch"], plan.n_base, report, time.perf_counter() - t0)
+                         got["disks_touch"], plan.n_base, report, time.perf_counter() - t0, got["q"],
+                         plan_stages(plan))
+
+
+def plan_stages(plan: TensionPlan) -> np.ndarray:
+    """Per row of ``plan``, the nested sample size from which it counts (:attr:`RegionSamples.stage`)."""
+    k = np.arange(plan.tensions.shape[0])
+    sobol = plan.source == 0
+    stage = np.zeros(k.size, dtype=np.int8)
+    stage[sobol & (k >= max(1, plan.n_base // 4))] = 1
+    stage[sobol & (k >= max(1, plan.n_base // 2))] = 2
+    return stage
 
 
 def _checked(solver: _Solver, rest: np.ndarray, q0: np.ndarray | None, check: int, seed: int,

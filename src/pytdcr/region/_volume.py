@@ -9,7 +9,7 @@ import numpy as np
 
 from ._grid import Region, region_from_points
 
-__all__ = ["VolumeEstimate", "estimate_volume"]
+__all__ = ["VolumeEstimate", "estimate_volume", "nested_stages"]
 
 
 @dataclass(frozen=True)
@@ -34,6 +34,9 @@ class VolumeEstimate:
         Growth of the last doubling over the one before, clipped to [0.5, 1.5] (1 when undefined).
     scales : tuple of dict
         Per size: ``n_base``, ``points``, ``voxel_m3``, ``centre_m3``, ``estimate_m3``.
+    search_m3 : float
+        The growth still expected of a boundary search stopped before it converged (its budget spent), added
+        to the error [m^3]: its last round's growth continued geometrically (0 when it converged).
     """
 
     volume_m3: float
@@ -42,11 +45,18 @@ class VolumeEstimate:
     sampling_m3: float
     ratio: float
     scales: tuple[dict[str, float], ...]
+    search_m3: float = 0.0
+
+    def with_search_tail(self, tail_m3: float) -> VolumeEstimate:
+        """This estimate with ``tail_m3`` [m^3] of unfinished search growth added to its error."""
+        return VolumeEstimate(self.volume_m3, self.error_m3 + tail_m3, self.discretisation_m3, self.sampling_m3,
+                              self.ratio, self.scales, tail_m3)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form."""
         return {"volume_m3": self.volume_m3, "error_m3": self.error_m3, "discretisation_m3": self.discretisation_m3,
-                "sampling_m3": self.sampling_m3, "ratio": self.ratio, "scales": list(self.scales)}
+                "sampling_m3": self.sampling_m3, "search_m3": self.search_m3, "ratio": self.ratio,
+                "scales": list(self.scales)}
 
 
 def _both(region: Region) -> tuple[float, float]:
@@ -57,17 +67,28 @@ def _both(region: Region) -> tuple[float, float]:
     return region.voxel_volume, max(0.0, float(mesh.volume) - 0.5 * region.voxel * float(mesh.area))
 
 
-def estimate_volume(points: np.ndarray, base_index: np.ndarray, n_base: int, voxel: float,
+def nested_stages(base_index: np.ndarray, n_base: int) -> np.ndarray:
+    """Stages (K,) of int8 for points numbered ``base_index`` (K,) in a base sequence of ``n_base``: 0 for the
+    first quarter (and for -1, points outside the sequence), 1 for the second, 2 for the second half."""
+    b = np.asarray(base_index)
+    stage = np.zeros(b.shape, dtype=np.int8)
+    stage[b >= max(1, n_base // 4)] = 1
+    stage[b >= max(1, n_base // 2)] = 2
+    return stage
+
+
+def estimate_volume(points: np.ndarray, stage: np.ndarray, n_base: int, voxel: float,
                     closing: int = 1) -> tuple[VolumeEstimate, Region]:
     """The volume of the region of ``points`` (K, 3) [m] and the region at n.
 
-    ``base_index`` (K,) gives each point's place in the base (Sobol) sequence, or -1 for points from other
-    sources (corners, edges, the boundary search), which every size keeps.
+    ``stage`` (K,) says from which nested size each point counts (:func:`nested_stages`): the sizes are n/4,
+    n/2 and n base samples (``n_base``), and a point of stage s counts at size s and above.
     """
+    stage = np.asarray(stage)
     scales = []
     region = None
-    for n in (max(1, n_base // 4), max(1, n_base // 2), n_base):
-        keep = (base_index < n)
+    for k, n in enumerate((max(1, n_base // 4), max(1, n_base // 2), n_base)):
+        keep = stage <= k
         region = region_from_points(points[keep], voxel, closing)
         v, m = _both(region)
         scales.append({"n_base": int(n), "points": int(np.sum(keep & np.all(np.isfinite(points), axis=1))),

@@ -192,6 +192,20 @@ def _solve_rows(eq: Equations, Q0: np.ndarray, T: np.ndarray, settings: SV.Setti
 CHUNK_SECONDS = 0.02
 
 
+def _tip_derivative(eq: Equations, q: np.ndarray) -> np.ndarray:
+    """The tip's derivative by the tensions (3, n_tendons) [m/N] at the equilibrium ``q`` of ``eq``: implicit
+    function theorem, ``dq/dT = -J^-1 dr/dT``, where the residual is affine in the tensions at fixed q."""
+    ev = eq.evaluate(q, jacobian=True)
+    nt = eq.packed.tension.shape[0]
+    dr = np.empty((q.size, nt))
+    for c in range(nt):
+        t = eq.packed.tension.copy()
+        t[c] += 1.0
+        dr[:, c] = eq.with_tensions(t).evaluate(q).residual - ev.residual
+    dq = -np.linalg.solve(ev.jacobian, dr)
+    return eq.tip_jacobian(q) @ dq
+
+
 class CompiledModel:
     """Solving, batching and differentiating for a model whose equations the compiled solver takes.
 
@@ -321,13 +335,25 @@ class CompiledModel:
         residuals, and the tip's derivative by q is exact.
         """
         eq = self.equations(robot, loads, options)
-        q = eq.check_q(solution.q)
-        ev = eq.evaluate(q, jacobian=True)
-        nt = robot.n_tendons
-        dr = np.empty((q.size, nt))
-        for c in range(nt):
-            t = eq.packed.tension.copy()
-            t[c] += 1.0
-            dr[:, c] = eq.with_tensions(t).evaluate(q).residual - ev.residual
-        dq = -np.linalg.solve(ev.jacobian, dr)
-        return solution.tip_position, eq.tip_jacobian(q) @ dq
+        return solution.tip_position, _tip_derivative(eq, eq.check_q(solution.q))
+
+    def tip_gradients(self, robot: Robot, tensions: np.ndarray, loads: Loads, q: np.ndarray, options: Any,
+                      threads: int | None = None) -> np.ndarray:
+        """Derivatives of the tip by the tensions at many equilibria, shape (B, 3, n_tendons) [m/N].
+
+        Row b is the equilibrium ``q[b]`` at ``tensions[b]`` (B, n_tendons) [N]; NaN rows where ``q[b]``
+        is not finite. The equations are packed once; rows run on ``threads`` threads.
+        """
+        tensions = np.ascontiguousarray(tensions, dtype=float)
+        eq = self.equations(robot, loads.with_tensions(np.zeros(robot.n_tendons)), options)
+        nb = tensions.shape[0]
+        flat = np.asarray(q, dtype=float).reshape(nb, -1)
+        out = np.full((nb, 3, robot.n_tendons), np.nan)
+
+        def chunk(start: int, stop: int) -> None:
+            for b in range(start, stop):
+                if np.all(np.isfinite(flat[b])):
+                    out[b] = _tip_derivative(eq.with_tensions(tensions[b]), eq.check_q(flat[b]))
+
+        run_in_chunks(chunk, nb, threads)
+        return out

@@ -106,5 +106,10 @@ class Model(Protocol):
                      options: Any) -> tuple[np.ndarray, np.ndarray]:
         """Tip (3,) [m] of a converged equilibrium and its derivative by the tensions (3, n_tendons) [m/N]."""
 
+    def tip_gradients(self, robot: Robot, tensions: np.ndarray, loads: Loads, q: np.ndarray, options: Any,
+                      threads: int | None = None) -> np.ndarray:
+        """:meth:`tip_gradient` at many equilibria ``q`` (B, ...) at ``tensions`` (B, n_tendons) [N]: shape
+        (B, 3, n_tendons) [m/N], NaN rows where ``q[b]`` is not finite."""
+
     def resources(self, robot: Robot, options: Any) -> Resources:
         """The peak memory and rough time of one solve, for the memory budget (:mod:`pytdcr.limits`)."""

@@ -373,6 +373,23 @@ class CosseratModel:
         shooting map (implicit function theorem)."""
         return CosseratShooting.build(robot, loads, options).tip_gradient(solution.q)
 
+    def tip_gradients(self, robot: Robot, tensions: np.ndarray, loads: Loads, q: np.ndarray,
+                      options: CosseratOptions, threads: int | None = None) -> np.ndarray:
+        """Derivatives of the tip by the tensions at many equilibria ``q`` (B, 3) at ``tensions``
+        (B, n_tendons) [N], shape (B, 3, n_tendons) [m/N]; NaN rows where ``q[b]`` is not finite."""
+        tensions = np.asarray(tensions, dtype=float)
+        q = np.asarray(q, dtype=float).reshape(tensions.shape[0], -1)
+        out = np.full((tensions.shape[0], 3, robot.n_tendons), np.nan)
+
+        def chunk(start: int, stop: int) -> None:
+            for b in range(start, stop):
+                if np.all(np.isfinite(q[b])):
+                    shot = CosseratShooting.build(robot, loads.with_tensions(tensions[b]), options)
+                    out[b] = shot.tip_gradient(q[b])[1]
+
+        run_in_chunks(chunk, tensions.shape[0], threads)
+        return out
+
 
 #: the registry's instance
 COSSERAT = CosseratModel()

@@ -14,8 +14,9 @@ from ._folder import MANIFEST, FolderError, RunInterrupted, check_output_folder,
 from ._output import inputs_record
 from ._reproduce import ReproduceSettings, run_reproduce
 from ._runs import SampleRun, run_compare, run_optimize, run_sample, sample_into, write_optimize
-from ._workspace import WorkspaceRun, run_workspace, workspace_solves
+from ._workspace import WorkspaceCase, WorkspaceRun, run_workspace, run_workspace_compare
 
-__all__ = ["MANIFEST", "FolderError", "ReproduceSettings", "RunInterrupted", "SampleRun", "WorkspaceRun",
-           "check_output_folder", "inputs_record", "output_folder", "run_accuracy", "run_compare", "run_optimize",
-           "run_reproduce", "run_sample", "run_workspace", "sample_into", "workspace_solves", "write_optimize"]
+__all__ = ["MANIFEST", "FolderError", "ReproduceSettings", "RunInterrupted", "SampleRun", "WorkspaceCase",
+           "WorkspaceRun", "check_output_folder", "inputs_record", "output_folder", "run_accuracy", "run_compare",
+           "run_optimize", "run_reproduce", "run_sample", "run_workspace", "run_workspace_compare", "sample_into",
+           "write_optimize"]

@@ -24,6 +24,7 @@ from ._output import inputs_record, load_arrows, save_figure, write_json
 from ._report import reproduce_report
 from ._runs import sample_into, write_optimize
 from ._survival import model_verdicts, verdict_text
+from ._workspace import workspace_section, workspace_text
 
 __all__ = ["ReproduceSettings", "run_reproduce"]
 
@@ -50,6 +51,9 @@ class ReproduceSettings:
         Starts of each final polish.
     verdict_models : tuple of str
         Models that re-evaluate and re-optimise the paper's optimum.
+    workspace_n, workspace_budget, workspace_voxels, workspace_directions : int
+        The workspace section (the FSW under the paper's load next to no load): base samples, the boundary
+        search's budget of solves, voxels per robot length, support directions. Modest by default (the demo).
     verdict_ga_pop : int
         Their GA population; 0 (the modest default): a gradient polish from the paper's optimum only, at most
         ``verdict_polish_iter`` iterations (an ``sscr`` solve near that optimum crosses folds: about 0.4 s).
@@ -66,11 +70,18 @@ class ReproduceSettings:
     verdict_models: tuple[str, ...] = ("pcc2", "sscr")
     verdict_ga_pop: int = 0
     verdict_polish_iter: int = 8
+    workspace_n: int = 256
+    workspace_budget: int = 1200
+    workspace_voxels: int = 16
+    workspace_directions: int = 24
 
     @classmethod
     def full(cls) -> ReproduceSettings:
-        """The heavy version (``tdcr reproduce --full``): the better models re-optimise with the memetic GA too."""
-        return cls(verdict_ga_pop=50)
+        """The heavy version (``tdcr reproduce --full``): the better models re-optimise with the memetic GA too,
+        and the workspace section runs at ``tdcr workspace``'s defaults (n 4000, 11.6 mm voxels, 200
+        directions)."""
+        return cls(verdict_ga_pop=50, workspace_n=4000, workspace_budget=15 * 4000, workspace_voxels=32,
+                   workspace_directions=200)
 
 
 @dataclass(frozen=True)
@@ -199,8 +210,11 @@ def _reproduce(robot: Robot, out: Path, seed: int, progress: Progress | None, s:
         if key.startswith("pop") or key == "payload":
             summary["files"] += write_optimize(r, jobs[key].problem, out, stem=key)
 
-    done = _run_jobs(jobs, s, seed, note,
-                     lambda: _sample_and_passive(robot, loaded.loads, bounds, s, seed, out, summary, note), finished)
+    def side() -> None:
+        _sample_and_passive(robot, loaded.loads, bounds, s, seed, out, summary, note)
+        summary["workspace"] = workspace_section(robot, bounds, s, seed, out, summary["files"])
+
+    done = _run_jobs(jobs, s, seed, note, side, finished)
     ga = {pop: done[f"pop{pop}"] for pop in s.pops}
     pay = done["payload"]
     best = min(ga.values(), key=lambda r: r.cost)
@@ -212,7 +226,7 @@ def _reproduce(robot: Robot, out: Path, seed: int, progress: Progress | None, s:
     with saving():  # everything is computed: Ctrl-C from here waits for the report
         seconds = time.perf_counter() - t_start
         report = reproduce_report(robot, summary, ga, pay, bound_study, bounds, seconds, s,
-                                  verdict_text(best, verdicts))
+                                  [*verdict_text(best, verdicts), *workspace_text(summary["workspace"], s)])
         atomic_write_text(out / "report.md", report)
         summary["files"].append("report.md")
         write_json(out / "reproduce.json", {

@@ -1,4 +1,5 @@
-"""``tdcr workspace``: the feasible static workspace as a region, with its volume, boundary and realisability."""
+"""``tdcr workspace``: the feasible static workspace as a region, with its volume, boundary, support function
+and realisability, for one load or a comparison of loads."""
 
 from __future__ import annotations
 
@@ -12,46 +13,60 @@ import numpy as np
 from ..bounds import TensionBounds
 from ..design import Robot
 from ..loads import Loads
-from ..plotting import plot_region_slices
+from ..optimize import ReachProblem
+from ..plotting import plot_region_3d, plot_region_slices, plot_support_map, write_region_html
 from ..region import (
     SOURCES,
+    LargestReach,
     Region,
     RegionSamples,
-    VolumeEstimate,
-    estimate_volume,
-    plan_tensions,
-    solve_plan,
-    solves_needed,
+    SearchRound,
+    SupportFunction,
+    WorkspaceRegion,
+    fibonacci_directions,
+    largest_reach,
+    support_function,
+    workspace_region,
 )
-from ..statics import Model, options_record, resolve, saving
+from ..statics import Model, options_record, resolve, saving, solve
 from ._folder import atomic_write_text, output_folder
-from ._output import inputs_record, save_figure, write_json
+from ._output import inputs_record, save_figure, write_csv, write_json
 
-__all__ = ["WorkspaceRun", "run_workspace", "workspace_solves"]
+__all__ = ["WorkspaceCase", "WorkspaceRun", "run_workspace", "run_workspace_compare"]
 
-#: voxels per robot length by default (12 mm for the paper robot's 370 mm)
-VOXELS_PER_LENGTH = 32
+#: ``progress(stage, total)`` returns a callable advanced by the work done (total None: unknown)
+Progress = Callable[[str, "int | None"], Callable[[int], None]]
+
+
+@dataclass(frozen=True, eq=False)
+class WorkspaceCase:
+    """One load case's workspace: the regions, the support function and the largest reach."""
+
+    name: str
+    loads: Loads
+    region: WorkspaceRegion
+    support: SupportFunction | None
+    reach: LargestReach | None
+    summary: dict[str, Any]
 
 
 @dataclass(frozen=True, eq=False)
 class WorkspaceRun:
-    """What :func:`run_workspace` produced."""
+    """What :func:`run_workspace` or :func:`run_workspace_compare` produced: the cases and the files."""
 
-    samples: RegionSamples
-    fsw: VolumeEstimate
-    realisable: VolumeEstimate
+    cases: list[WorkspaceCase]
     summary: dict[str, Any]
     files: list[str]
 
-
-def workspace_solves(bounds: TensionBounds, n: int, seed: int, warm: bool = True) -> int:
-    """The solves :func:`run_workspace` makes, for a progress bar."""
-    return solves_needed(plan_tensions(bounds, n, seed), warm)
+    @property
+    def case(self) -> WorkspaceCase:
+        """The first (for :func:`run_workspace`, the only) case."""
+        return self.cases[0]
 
 
 def _boundary_sources(region: Region, samples: RegionSamples, mask: np.ndarray) -> dict[str, float]:
     """Of the region's boundary voxels (occupied, with an empty face neighbour), the share holding a sample
-    from each source."""
+    from each source (a voxel can hold several)."""
     from scipy import ndimage
 
     occ = region.occupied
@@ -68,17 +83,9 @@ def _boundary_sources(region: Region, samples: RegionSamples, mask: np.ndarray) 
     return shares
 
 
-def _region_of(samples: RegionSamples, mask: np.ndarray, voxel: float) -> tuple[VolumeEstimate, Region]:
-    pts = np.where(mask[:, None], samples.tip, np.nan)
-    base_index = np.where(samples.source == 0, np.arange(samples.source.size), -1)
-    return estimate_volume(pts, base_index, samples.n_base, voxel)
-
-
-def _numbers(est: VolumeEstimate, samples: RegionSamples, mask: np.ndarray, mesh: str) -> dict[str, Any]:
-    reach = np.linalg.norm(samples.tip[mask], axis=1)
-    return {"volume_m3": est.volume_m3, "volume_err_m3": est.error_m3,
-            "largest_reach_m": float(reach.max()) if reach.size else None, "mesh": mesh, "points": int(mask.sum()),
-            "volume": est.to_dict()}
+def _numbers(est: Any, samples: RegionSamples, mask: np.ndarray, mesh: str, reach: float | None) -> dict[str, Any]:
+    return {"volume_m3": est.volume_m3, "volume_err_m3": est.error_m3, "largest_reach_m": reach, "mesh": mesh,
+            "points": int(mask.sum()), "volume": est.to_dict()}
 
 
 def _counts(samples: RegionSamples) -> dict[str, Any]:
@@ -94,64 +101,285 @@ def _counts(samples: RegionSamples) -> dict[str, Any]:
             "by_source": {name: int(np.sum(samples.source == k)) for k, name in enumerate(SOURCES)}}
 
 
-def _report(summary: dict[str, Any], command: str) -> str:
-    f, r, c = summary, summary["realisable"], summary["counts"]
-    w = summary["warm_start"]
-    lines = [f"# Feasible static workspace of robot '{summary['inputs']['robot']['name']}'", "",
-             f"Made by `{command}`.", "",
-             "| region | volume [cm³] | error [cm³] | largest reach [m] | points |", "|---|---|---|---|---|",
-             f"| FSW (converged, stable) | {f['volume_m3'] * 1e6:.0f} | {f['volume_err_m3'] * 1e6:.0f} | "
-             f"{f['largest_reach_m']:.4f} | {f['points']} |",
-             f"| realisable (no disk below the base, no disks touching) | {r['volume_m3'] * 1e6:.0f} | "
-             f"{r['volume_err_m3'] * 1e6:.0f} | {r['largest_reach_m'] or 0:.4f} | {r['points']} |", "",
-             "Volume at n/4, n/2 and n base samples (FSW): "
-             + ", ".join(f"{s['n_base']}: {s['estimate_m3'] * 1e6:.0f} cm³" for s in f["volume"]["scales"]) + ".", "",
-             f"Samples: {c['solved']} solved ({c['by_source']}), {c['converged']} converged, {c['unstable']} unstable; "
-             f"of the converged, {c['fraction_below_base']:.1%} have a disk below the base plane, "
-             f"{c['fraction_disks_touch']:.1%} two disks touching; {c['fraction_realisable']:.1%} are realisable.", "",
-             f"Warm starts: {w['mode']} ({w['agreed']} of {w['checked']} checked warm starts agreed with the loading "
-             f"path; {w['required']:.1%} required).", "",
-             "Boundary voxels holding a sample, by source: "
-             + ", ".join(f"{k} {v:.0%}" for k, v in summary["boundary_sources"].items()) + ".", ""]
-    return "\n".join(lines)
+def _case(name: str, robot: Robot, loads: Loads, bounds: TensionBounds, n: int, seed: int, settings: dict[str, Any],
+          progress: Progress | None) -> WorkspaceCase:
+    """Compute one load case: the regions, then h(d) and the largest reach from the feasible samples."""
+    m, opts = resolve(settings["model"], robot, loads, settings["options"])
+    wr = workspace_region(robot, loads, bounds, n, seed, model=m, options=opts, voxel=settings["voxel"],
+                          warm=settings["warm"], search=settings["search"], budget=settings["budget"],
+                          progress=progress, on_round=settings.get("on_round"))
+    s = wr.samples
+    support, reach = None, None
+    if np.any(s.feasible) and m.capabilities.gradient is not None:
+        problem = ReachProblem.create(robot, loads, bounds, model=m, options=opts)
+        T, tips = s.tensions[s.feasible], s.tip[s.feasible]
+        if settings["directions"]:
+            step = progress("support function h(d)", settings["directions"]) if progress else None
+            support = support_function(problem, T, tips, fibonacci_directions(settings["directions"]),
+                                       progress=step)
+        reach = largest_reach(problem, T, tips, support=support)
+    far = float(reach.reach) if reach is not None else (
+        float(np.linalg.norm(s.tip[s.feasible], axis=1).max()) if np.any(s.feasible) else None)
+    real_reach = float(np.linalg.norm(s.tip[s.realisable], axis=1).max()) if np.any(s.realisable) else None
+    summary = {**_numbers(wr.fsw, s, s.feasible, "fsw.ply", far),
+               "realisable": _numbers(wr.realisable, s, s.realisable, "fsw_realisable.ply", real_reach),
+               "voxel_m": wr.voxel, "counts": _counts(s), "warm_start": s.warm.to_dict(),
+               "boundary_sources": _boundary_sources(wr.fsw_region, s, s.feasible) if np.any(s.feasible) else {},
+               "boundary_search": wr.search.to_dict() if wr.search is not None else None,
+               "support": support.to_dict() if support is not None else None,
+               "largest_reach": _reach_record(reach), "seconds_sampling": s.seconds,
+               "inputs": inputs_record(robot, loads, bounds=bounds.to_dict(), n=n, seed=seed,
+                                       solver=options_record(m, opts), warm_starts=settings["warm"],
+                                       boundary_search=settings["search"], search_budget=settings["budget"],
+                                       directions=settings["directions"])}
+    return WorkspaceCase(name, loads, wr, support, reach, summary)
+
+
+def _reach_record(reach: LargestReach | None) -> dict[str, Any] | None:
+    return None if reach is None else reach.to_dict()
+
+
+def _robot_at(case: WorkspaceCase, robot: Robot, settings: dict[str, Any]) -> np.ndarray | None:
+    """Disk centres (N+1, 3) [m] at the largest-reach tensions, or None."""
+    if case.reach is None:
+        return None
+    sol = solve(robot, case.loads.with_tensions(np.asarray(case.reach.tensions)), model=settings["model"],
+                options=settings["options"])
+    return sol.disk_positions if sol.converged else None
+
+
+def _write_case(out: Path, case: WorkspaceCase, robot: Robot, settings: dict[str, Any], command: str) -> list[str]:
+    """Every file of one case in ``out``: meshes, samples, h(d), figures, HTML, report, JSON."""
+    wr, s = case.region, case.region.samples
+    files = []
+    for name, reg in (("fsw.ply", wr.fsw_region), ("fsw_realisable.ply", wr.realisable_region)):
+        tmp = out / f".{name}.tmp"
+        reg.mesh().export(tmp, file_type="ply")
+        tmp.replace(out / name)
+        files.append(name)
+    np.savez_compressed(out / "samples.npz", tensions=s.tensions, source=s.source, tip=s.tip, stage=s.stage,
+                        converged=s.converged, stable=s.stable, below_base=s.below_base,
+                        disks_touch=s.disks_touch, sources=np.array(SOURCES))
+    files.append("samples.npz")
+    if case.support is not None:
+        sf = case.support
+        write_csv(out / "support.csv", ["dx", "dy", "dz", "h_m", "tip_x_m", "tip_y_m", "tip_z_m",
+                                        *[f"T{k + 1}_N" for k in range(robot.n_tendons)]],
+                  ([*d, h, *tip, *t] for d, h, tip, t in zip(sf.directions, sf.h, sf.tips, sf.tensions,
+                                                               strict=True)))
+        files.append("support.csv")
+        files += save_figure(plot_support_map(sf.directions, sf.h, f"robot '{robot.name}': h(d), {case.name}"),
+                             out, "support_map")
+    meshes = {"FSW": wr.fsw_region.mesh(), "realisable": wr.realisable_region.mesh()}
+    pose = _robot_at(case, robot, settings)
+    files += save_figure(plot_region_slices({"FSW": wr.fsw_region, "realisable": wr.realisable_region},
+                                            robot.length, f"robot '{robot.name}': workspace slices, {case.name}"),
+                         out, "slices")
+    files += save_figure(plot_region_3d(meshes, pose, f"robot '{robot.name}': FSW boundary, {case.name}"),
+                         out, "boundary_3d")
+    write_region_html(out / "workspace.html", meshes, {"feasible tips": s.tip[s.feasible]}, pose,
+                      f"robot '{robot.name}': feasible static workspace, {case.name}")
+    files.append("workspace.html")
+    atomic_write_text(out / "report.md", _report(case.summary, command))
+    write_json(out / "workspace.json", {**case.summary, "files": [*files, "report.md", "workspace.json"]})
+    return [*files, "report.md", "workspace.json"]
+
+
+def _settings(model: str | Model, options: Any, voxel: float | None, warm: bool, search: bool, budget: int | None,
+              directions: int, on_round: Callable[[SearchRound], None] | None) -> dict[str, Any]:
+    return {"model": model, "options": options, "voxel": voxel, "warm": warm, "search": search, "budget": budget,
+            "directions": int(directions), "on_round": on_round}
 
 
 def run_workspace(robot: Robot, loads: Loads, bounds: TensionBounds, n: int, seed: int, out: str | Path, *,
                   model: str | Model = "pcc", options: Any = None, voxel: float | None = None, warm: bool = True,
-                  command: str = "tdcr workspace", progress: Callable[[int], None] | None = None) -> WorkspaceRun:
-    """Sample the workspace (Sobol points, the tension box's corners and edges), build the FSW and the
-    realisable region, and write ``workspace.json``, ``fsw.ply``, ``fsw_realisable.ply``, ``samples.npz``,
-    ``report.md`` and the slice figure in ``out`` (the output-folder rule)."""
-    m, opts = resolve(model, robot, loads, options)
-    voxel = float(voxel) if voxel is not None else robot.length / VOXELS_PER_LENGTH
+                  search: bool = True, budget: int | None = None, directions: int = 200,
+                  command: str = "tdcr workspace", progress: Progress | None = None,
+                  on_round: Callable[[SearchRound], None] | None = None) -> WorkspaceRun:
+    """The workspace under ``loads``, written to ``out`` (the output-folder rule): ``workspace.json``,
+    ``fsw.ply``, ``fsw_realisable.ply``, ``samples.npz``, ``support.csv``, figures (slices, 3D boundary with
+    the robot at its largest reach, h(d) map; PNG and PDF), ``workspace.html`` and ``report.md``.
+
+    See :func:`pytdcr.region.workspace_region` for ``n``, ``seed``, ``voxel``, ``warm``, ``search`` and
+    ``budget``; ``directions`` is the number of support-function directions (0: none).
+    """
+    settings = _settings(model, options, voxel, warm, search, budget, directions, on_round)
     with output_folder(out, "workspace", {"n": n, "seed": seed, "bounds": bounds.to_dict()}) as run:
-        samples = solve_plan(robot, loads, bounds, plan_tensions(bounds, n, seed), model=m, options=opts,
-                             warm=warm, seed=seed, progress=progress)
+        case = _case("as given", robot, loads, bounds, n, seed, settings, progress)
         with saving():
-            fsw, region = _region_of(samples, samples.feasible, voxel)
-            real, region_r = _region_of(samples, samples.realisable, voxel)
-            files = _write(run.staging, samples, region, region_r, robot)
-            summary = {**_numbers(fsw, samples, samples.feasible, "fsw.ply"),
-                       "realisable": _numbers(real, samples, samples.realisable, "fsw_realisable.ply"),
-                       "voxel_m": voxel, "counts": _counts(samples), "warm_start": samples.warm.to_dict(),
-                       "boundary_sources": _boundary_sources(region, samples, samples.feasible),
-                       "seconds_solving": samples.seconds, "not_yet": "the boundary search and the support "
-                       "function h(d) (issue 12, in progress): the volume does not converge by sampling alone",
-                       "inputs": inputs_record(robot, loads, bounds=bounds.to_dict(), n=n, seed=seed,
-                                               solver=options_record(m, opts), warm_starts=warm)}
-            atomic_write_text(run.staging / "report.md", _report(summary, command))
-            write_json(run.staging / "workspace.json", {**summary, "files": [*files, "report.md", "workspace.json"]})
-    return WorkspaceRun(samples, fsw, real, summary, [*files, "report.md", "workspace.json"])
+            files = _write_case(run.staging, case, robot, settings, command)
+    return WorkspaceRun([case], case.summary, files)
 
 
-def _write(out: Path, samples: RegionSamples, region: Region, region_r: Region, robot: Robot) -> list[str]:
-    for name, reg in (("fsw.ply", region), ("fsw_realisable.ply", region_r)):
-        tmp = out / f".{name}.tmp"
-        reg.mesh().export(tmp, file_type="ply")
-        tmp.replace(out / name)
-    np.savez_compressed(out / "samples.npz", tensions=samples.tensions, source=samples.source, tip=samples.tip,
-                        converged=samples.converged, stable=samples.stable, below_base=samples.below_base,
-                        disks_touch=samples.disks_touch, sources=np.array(SOURCES))
-    fig = plot_region_slices({"FSW": region, "realisable": region_r}, robot.length,
-                             f"robot '{robot.name}': workspace slices")
-    return ["fsw.ply", "fsw_realisable.ply", "samples.npz", *save_figure(fig, out, "slices")]
+def _report(summary: dict[str, Any], command: str) -> str:
+    f, r, c = summary, summary["realisable"], summary["counts"]
+    w = summary["warm_start"]
+
+    def pct(d: dict[str, Any]) -> str:
+        return f" ({d['volume_err_m3'] / d['volume_m3']:.0%})" if d["volume_m3"] else ""
+
+    lines = [f"# Feasible static workspace of robot '{summary['inputs']['robot']['name']}'", "",
+             f"Made by `{command}`.", "",
+             "| region | volume [cm³] | error [cm³] | largest reach [m] | points |", "|---|---|---|---|---|",
+             f"| FSW (converged, stable) | {f['volume_m3'] * 1e6:.0f} | {f['volume_err_m3'] * 1e6:.0f}{pct(f)} | "
+             f"{f['largest_reach_m'] or 0:.4f} | {f['points']} |",
+             f"| realisable (no disk below the base, no disks touching) | {r['volume_m3'] * 1e6:.0f} | "
+             f"{r['volume_err_m3'] * 1e6:.0f}{pct(r)} | {r['largest_reach_m'] or 0:.4f} | {r['points']} |", "",
+             "Convergence with the base samples (FSW; each size with its own boundary search): "
+             + ", ".join(f"n = {s['n_base']}: {s['estimate_m3'] * 1e6:.0f} cm³" for s in f["volume"]["scales"])
+             + ".", ""]
+    search = summary.get("boundary_search")
+    if search:
+        lines += [f"Boundary search: {search['solves']} extra solves in {len(search['rounds'])} rounds, stopped: "
+                  f"{search['stop']} (a round adding less than {search['tol']:.1%} of the voxels).", "",
+                  "| stage | round | faces tried | solves | FSW voxels | realisable voxels |",
+                  "|---|---|---|---|---|---|"]
+        lines += [f"| {x['stage']} | {x['round']} | {x['faces']} | {x['steps']} | {x['voxels']} | "
+                  f"{x['voxels_realisable']} |" for x in search["rounds"]]
+        lines.append("")
+    lines += [f"Samples: {c['solved']} solved ({c['by_source']}), {c['converged']} converged, {c['unstable']} "
+              f"unstable; of the converged, {c['fraction_below_base']:.1%} have a disk below the base plane, "
+              f"{c['fraction_disks_touch']:.1%} two disks touching; {c['fraction_realisable']:.1%} are realisable.",
+              "", f"Warm starts: {w['mode']} ({w['agreed']} of {w['checked']} checked warm starts agreed with the "
+              f"loading path; {w['required']:.1%} required).", "",
+              "Boundary voxels holding a sample, by source: "
+              + ", ".join(f"{k} {v:.0%}" for k, v in summary["boundary_sources"].items()) + ".", ""]
+    sup = summary.get("support")
+    if sup:
+        h = np.asarray(sup["h"])
+        lines += [f"Support function over {h.size} directions: h(d) from {h.min() * 1e3:.1f} to {h.max() * 1e3:.1f} mm "
+                  "(support.csv, support_map.png).", ""]
+    return "\n".join(lines)
+
+
+def _slug(name: str) -> str:
+    return "".join(c if c.isalnum() else "_" for c in name.lower()).strip("_")
+
+
+def _centroid(region: Region) -> np.ndarray:
+    """The centre of the occupied voxels [m] (NaN when empty)."""
+    idx = np.argwhere(region.occupied)
+    if idx.size == 0:
+        return np.full(3, np.nan)
+    return region.origin + (idx.mean(axis=0) + 0.5) * region.voxel
+
+
+def _comparison(cases: list[WorkspaceCase]) -> list[dict[str, Any]]:
+    """Per case: volumes, largest reach, and how far the region shrank and shifted from the first case."""
+    ref = cases[0]
+    v0, c0 = ref.summary["volume_m3"], _centroid(ref.region.fsw_region)
+    rows = []
+    for c in cases:
+        s = c.summary
+        shift = _centroid(c.region.fsw_region) - c0
+        rows.append({"case": c.name, "volume_m3": s["volume_m3"], "volume_err_m3": s["volume_err_m3"],
+                     "realisable_m3": s["realisable"]["volume_m3"],
+                     "realisable_err_m3": s["realisable"]["volume_err_m3"],
+                     "largest_reach_m": s["largest_reach_m"], "volume_ratio": s["volume_m3"] / v0 if v0 else None,
+                     "centroid_m": _centroid(c.region.fsw_region).tolist(), "centroid_shift_m": shift.tolist(),
+                     "folder": _slug(c.name)})
+    return rows
+
+
+def _compare_report(rows: list[dict[str, Any]], cases: list[WorkspaceCase], command: str) -> str:
+    lines = ["# Feasible static workspace under several loads", "", f"Made by `{command}`. Each case's folder "
+             "holds its own workspace.json, meshes, figures and report.", "",
+             "| case | FSW [cm³] | ± | realisable [cm³] | ± | largest reach [m] | FSW / first | centroid shift "
+             "[mm] |", "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        sh = np.asarray(r["centroid_shift_m"]) * 1e3
+        lines.append(f"| {r['case']} | {r['volume_m3'] * 1e6:.0f} | {r['volume_err_m3'] * 1e6:.0f} | "
+                     f"{r['realisable_m3'] * 1e6:.0f} | {r['realisable_err_m3'] * 1e6:.0f} | "
+                     f"{r['largest_reach_m'] or 0:.4f} | {r['volume_ratio'] or 0:.2f} | "
+                     f"({sh[0]:.0f}, {sh[1]:.0f}, {sh[2]:.0f}) |")
+    if all(c.support is not None for c in cases):
+        d = cases[0].support.directions
+        pick = [int(np.argmax(d @ e)) for e in np.vstack([np.eye(3), -np.eye(3)])]
+        lines += ["", "h(d) [mm] along the base axes (the nearest of the support directions):", "",
+                  "| case | " + " | ".join(("+x", "+y", "+z", "-x", "-y", "-z")) + " |", "|---" * 7 + "|"]
+        lines += [f"| {c.name} | " + " | ".join(f"{c.support.h[k] * 1e3:.0f}" for k in pick) + " |" for c in cases]
+    return "\n".join([*lines, ""])
+
+
+def run_workspace_compare(robot: Robot, cases: dict[str, tuple[Robot, Loads]], bounds: TensionBounds, n: int,
+                          seed: int, out: str | Path, *, model: str | Model = "pcc", options: Any = None,
+                          voxel: float | None = None, warm: bool = True, search: bool = True,
+                          budget: int | None = None, directions: int = 200, command: str = "tdcr workspace",
+                          progress: Progress | None = None,
+                          on_round: Callable[[SearchRound], None] | None = None) -> WorkspaceRun:
+    """The workspace of each load case (name → (robot, loads): :func:`pytdcr.paper.workspace_load_cases`), one
+    sub-folder each with :func:`run_workspace`'s files, and their comparison in ``out``: ``comparison.json``,
+    ``comparison.md``, ``support_compare.csv``, overlaid slices and 3D boundaries (PNG, PDF) and
+    ``comparison.html``. ``voxel`` defaults to ``robot.length / 32`` for every case (one grid)."""
+    voxel = voxel if voxel is not None else robot.length / 32
+    settings = _settings(model, options, voxel, warm, search, budget, directions, on_round)
+    done: list[WorkspaceCase] = []
+    with output_folder(out, "workspace --compare-loads", {"n": n, "seed": seed, "bounds": bounds.to_dict(),
+                                                          "cases": list(cases)}) as run:
+        files = []
+        for name, (case_robot, loads) in cases.items():
+            case = _case(name, case_robot, loads, bounds, n, seed, settings, progress)
+            sub = run.staging / _slug(name)
+            sub.mkdir()
+            with saving():
+                _write_case(sub, case, case_robot, settings, command)
+            done.append(case)
+            files.append(sub.name)
+        with saving():
+            files += _write_comparison(run.staging, done, robot, command)
+    return WorkspaceRun(done, {"cases": _comparison(done)}, files)
+
+
+def _write_comparison(out: Path, cases: list[WorkspaceCase], robot: Robot, command: str) -> list[str]:
+    rows = _comparison(cases)
+    files = save_figure(plot_region_slices({c.name: c.region.fsw_region for c in cases}, robot.length,
+                                           f"robot '{robot.name}': FSW under each load"), out, "slices_compare")
+    meshes = {c.name: c.region.fsw_region.mesh() for c in cases}
+    files += save_figure(plot_region_3d(meshes, None, f"robot '{robot.name}': FSW boundaries"), out,
+                         "boundaries_compare")
+    write_region_html(out / "comparison.html", meshes, None, None, f"robot '{robot.name}': FSW under each load")
+    files.append("comparison.html")
+    if all(c.support is not None for c in cases):
+        d = cases[0].support.directions
+        write_csv(out / "support_compare.csv", ["dx", "dy", "dz", *[f"h_{_slug(c.name)}_m" for c in cases]],
+                  ([*d[k], *[c.support.h[k] for c in cases]] for k in range(d.shape[0])))
+        files.append("support_compare.csv")
+    atomic_write_text(out / "comparison.md", _compare_report(rows, cases, command))
+    write_json(out / "comparison.json", {"cases": rows, "files": [*files, "comparison.md", "comparison.json"]})
+    return [*files, "comparison.md", "comparison.json"]
+
+
+def workspace_section(robot: Robot, bounds: TensionBounds, s: Any, seed: int, out: Path,
+                      files: list[str]) -> dict[str, Any]:
+    """``tdcr reproduce``'s workspace section: the FSW under the paper's tip wrench next to no load, at the
+    budget of ``s`` (:class:`~pytdcr.study.ReproduceSettings`); writes ``workspace_slices`` (PNG, PDF) and the
+    two boundaries (``workspace_fsw_paper.ply``, ``workspace_fsw_no_load.ply``), appends them to ``files``."""
+    from ..paper import workspace_load_cases
+
+    cases = {k: v for k, v in workspace_load_cases(robot).items() if k in ("no load", "paper wrench")}
+    voxel = robot.length / s.workspace_voxels
+    settings = _settings("pcc", None, voxel, True, True, s.workspace_budget, s.workspace_directions, None)
+    done = [_case(name, r, loads, bounds, s.workspace_n, seed, settings, None) for name, (r, loads) in cases.items()]
+    for case in done:
+        name = f"workspace_fsw_{_slug(case.name)}.ply"
+        case.region.fsw_region.mesh().export(out / name, file_type="ply")
+        files.append(name)
+    files += save_figure(plot_region_slices({c.name: c.region.fsw_region for c in done}, robot.length,
+                                            f"robot '{robot.name}': FSW, no load and the paper's wrench"),
+                         out, "workspace_slices")
+    return {"n": s.workspace_n, "voxel_m": voxel, "budget": s.workspace_budget, "cases": _comparison(done)}
+
+
+def workspace_text(ws: dict[str, Any], s: Any) -> list[str]:
+    """The report's workspace section."""
+    lines = ["## The feasible static workspace as a region", "",
+             f"Base samples n = {ws['n']} (scrambled Sobol, with the tension box's corners and edges), voxels of "
+             f"{ws['voxel_m'] * 1e3:.1f} mm, boundary search within {ws['budget']} solves, "
+             f"{s.workspace_directions} support directions: a modest budget for the demo (`tdcr reproduce --full` "
+             "or `tdcr workspace --compare-loads` for the full one). Slices: workspace_slices.png.", "",
+             "| load | FSW volume [cm³] | ± | realisable [cm³] | ± | largest reach [m] |", "|---|---|---|---|---|---|"]
+    for r in ws["cases"]:
+        lines.append(f"| {r['case']} | {r['volume_m3'] * 1e6:.0f} | {r['volume_err_m3'] * 1e6:.0f} | "
+                     f"{r['realisable_m3'] * 1e6:.0f} | {r['realisable_err_m3'] * 1e6:.0f} | "
+                     f"{r['largest_reach_m'] or 0:.4f} |")
+    return [*lines, ""]

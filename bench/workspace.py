@@ -1,0 +1,95 @@
+"""The workspace study's speed on the paper robot under the paper's load, tensions in [0, 20] N.
+
+Three measurements (2-core figures are in the README):
+- sampling: ``solve_plan`` on ``--samples`` Sobol points (with the box's corners and edges, and the checked
+  warm starts), solves per second; the issue's target is 20,000 samples in 10 s (2,000 solves/s);
+- support: h(d) on ``--directions`` Fibonacci directions from ``--n`` samples (target 200 in 60 s);
+- region: ``workspace_region`` at ``--n`` base samples with the boundary search (its default budget): the
+  seconds, the solves, the FSW's volume and error.
+Each is repeated ``--repeat`` times; medians are printed and written to ``bench/results/workspace.json``.
+
+Usage: python bench/workspace.py [--samples 20000] [--n 4000] [--directions 200] [--repeat 1] [--skip region]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+from _common import write_result
+
+from pytdcr.optimize import ReachProblem
+from pytdcr.paper import paper_bounds, paper_loads, paper_robot
+from pytdcr.region import fibonacci_directions, plan_tensions, solve_plan, support_function, workspace_region
+from pytdcr.statics import warmup
+
+
+def sampling(n: int, seed: int) -> dict[str, float]:
+    robot, loads, b = paper_robot(), paper_loads(), paper_bounds()
+    t0 = time.perf_counter()
+    s = solve_plan(robot, loads, b, plan_tensions(b, n, seed), seed=seed)
+    sec = time.perf_counter() - t0
+    solves = s.source.size + s.warm.checked
+    return {"samples": int(s.source.size), "solves": int(solves), "seconds": sec, "solves_per_s": solves / sec,
+            "warm_mode": s.warm.mode, "agreement": s.warm.agreement or 0.0}
+
+
+def support(n: int, k: int, seed: int) -> dict[str, float]:
+    robot, loads, b = paper_robot(), paper_loads(), paper_bounds()
+    s = solve_plan(robot, loads, b, plan_tensions(b, n, seed), seed=seed)
+    problem = ReachProblem.create(robot, loads, b)
+    t0 = time.perf_counter()
+    sf = support_function(problem, s.tensions[s.feasible], s.tip[s.feasible], fibonacci_directions(k))
+    sec = time.perf_counter() - t0
+    return {"directions": k, "seconds": sec, "evaluations_median": float(np.median(sf.evaluations)),
+            "improved": int(np.sum(sf.gain > 0)), "gain_median_m": float(np.median(sf.gain))}
+
+
+def region(n: int, seed: int) -> dict[str, float]:
+    robot, loads, b = paper_robot(), paper_loads(), paper_bounds()
+    t0 = time.perf_counter()
+    wr = workspace_region(robot, loads, b, n, seed)
+    sec = time.perf_counter() - t0
+    assert wr.search is not None
+    return {"n": n, "seconds": sec, "solves": int(wr.samples.source.size + wr.samples.warm.checked),
+            "search_solves": wr.search.solves, "search_stop": wr.search.stop,
+            "volume_cm3": wr.fsw.volume_m3 * 1e6, "error_cm3": wr.fsw.error_m3 * 1e6,
+            "realisable_cm3": wr.realisable.volume_m3 * 1e6, "realisable_error_cm3": wr.realisable.error_m3 * 1e6}
+
+
+def _median(rows: list[dict[str, float]]) -> dict[str, float]:
+    return {k: (statistics.median(r[k] for r in rows) if isinstance(rows[0][k], float) else rows[0][k])
+            for k in rows[0]}
+
+
+def main() -> None:
+    """Run the measurements and print their medians."""
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--samples", type=int, default=20_000)
+    ap.add_argument("--n", type=int, default=4000)
+    ap.add_argument("--directions", type=int, default=200)
+    ap.add_argument("--repeat", type=int, default=1)
+    ap.add_argument("--seed", type=int, default=5)
+    ap.add_argument("--skip", default="", help="comma-separated: sampling, support, region")
+    ap.add_argument("--json", action="store_true", help="also print the result as one JSON line")
+    args = ap.parse_args()
+    warmup()
+    skip = set(filter(None, args.skip.split(",")))
+    out = {}
+    jobs = {"sampling": lambda: sampling(args.samples, args.seed),
+            "support": lambda: support(args.n, args.directions, args.seed),
+            "region": lambda: region(args.n, args.seed)}
+    for name, job in jobs.items():
+        if name in skip:
+            continue
+        out[name] = _median([job() for _ in range(args.repeat)])
+        print(f"{name}: " + ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
+                                      for k, v in out[name].items()), flush=True)
+    write_result("workspace", {"robot": "paper", "load": "paper wrench", "bounds_N": [0, 20],
+                               "repeat": args.repeat, **out}, args.json)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,223 @@
+"""Seeking the boundary: grow the sampled region voxel by voxel until it stops growing.
+
+Sampling alone leaves the outer parts of the workspace empty: the tension-to-tip map is far from uniform, and
+the tips of random tension vectors crowd its middle. The search takes every occupied voxel with an empty face
+neighbour, one sample in it, and the tip's exact derivative by the tensions (implicit function theorem), and
+asks for the tension step, inside the bounds, that moves the tip 1.5 voxels across that face (least squares,
+smallest step, tendons at a bound held there). The step is solved along the loading path like every sample.
+Where it lands in an empty voxel the region grows; where the bounds forbid the move (to first order) it is
+not tried. Each sample tries each face once. Rounds repeat until a round adds less than ``tol`` of the
+region's voxels, or the budget of solves is spent.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from ..bounds import TensionBounds
+from ._grid import region_from_points
+from ._plan import SOURCES
+from ._solve import RegionSamples, _Solver
+
+__all__ = ["BoundarySearch", "SearchRound", "grow_region"]
+
+#: the six face directions of a voxel
+FACES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]])
+#: source code of the search's rows
+SEARCH = SOURCES.index("search")
+
+
+@dataclass(frozen=True)
+class SearchRound:
+    """One round of the boundary search.
+
+    Attributes
+    ----------
+    stage : int
+        The nested sample size it grew (0: n/4, 1: n/2, 2: n).
+    round : int
+    faces : int
+        Boundary faces tried (a sample and the empty neighbour across one of its voxel's faces).
+    steps : int
+        Tension steps solved (faces whose step the bounds allow).
+    voxels : int
+        The FSW's occupied voxels after the round.
+    voxels_realisable : int
+        The realisable region's, likewise.
+    seconds : float
+    """
+
+    stage: int
+    round: int
+    faces: int
+    steps: int
+    voxels: int
+    voxels_realisable: int
+    seconds: float
+
+
+@dataclass(frozen=True)
+class BoundarySearch:
+    """What the boundary search did: its rounds, its solves, why it stopped."""
+
+    rounds: tuple[SearchRound, ...]
+    solves: int
+    stop: str
+    tol: float
+    budget: int
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form."""
+        return {"solves": self.solves, "stop": self.stop, "tol": self.tol, "budget": self.budget,
+                "rounds": [asdict(r) for r in self.rounds]}
+
+
+def _voxel_keys(tip: np.ndarray, voxel: float) -> np.ndarray:
+    return np.floor(tip / voxel).astype(np.int64)
+
+
+def _faces(tip: np.ndarray, rows: np.ndarray, tried: np.ndarray, voxel: float, counts: dict[tuple[int, ...], int],
+           tries: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per boundary face of the region of ``tip[rows]`` (closed as the final region is) tried fewer than
+    ``tries`` times (``counts``, updated), one sample in the voxel that has not tried this face: its row and
+    the face's index into :data:`FACES` (deterministic: the lowest row wins)."""
+    region = region_from_points(tip[rows], voxel)
+    occ = np.pad(region.occupied, 1)
+    idx = np.floor((tip[rows] - region.origin) / voxel).astype(np.int64) + 1
+    lin = np.ravel_multi_index(idx.T, occ.shape)
+    key0 = np.round(region.origin / voxel).astype(np.int64) - 1
+    pick_rows, pick_faces = [], []
+    for f, e in enumerate(FACES):
+        n = idx + e
+        empty = ~occ[n[:, 0], n[:, 1], n[:, 2]] & ~tried[rows, f]
+        if not np.any(empty):
+            continue
+        _, first = np.unique(lin[empty], return_index=True)
+        cand = rows[empty][first]
+        keep = np.zeros(cand.size, dtype=bool)
+        for j, v in enumerate(map(tuple, idx[empty][first] + key0)):
+            k = (*v, f)
+            c = counts.get(k, 0)
+            if c < tries:
+                counts[k] = c + 1
+                keep[j] = True
+        pick_rows.append(cand[keep])
+        pick_faces.append(np.full(int(keep.sum()), f))
+    if not pick_rows:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    return np.concatenate(pick_rows), np.concatenate(pick_faces)
+
+
+def tension_step(J: np.ndarray, t: np.ndarray, lower: np.ndarray, upper: np.ndarray, dp: np.ndarray) -> np.ndarray:
+    """The tension step ``dt`` (n,) [N] with ``J dt`` closest to ``dp`` (3,) [m] and ``t + dt`` in the bounds,
+    the smallest such: the least-norm solution when it stays inside, else bounded least squares (BVLS) with a
+    small damping of the step (``J`` (3, n) [m/N] scaled by its largest entry times 1e-3)."""
+    free = upper > lower
+    dt = np.zeros(t.size)
+    A = J[:, free]
+    if A.shape[1] == 0:
+        return dt
+    G = A @ A.T
+    G[np.diag_indices(3)] += 1e-12 * max(np.trace(G), 1e-300)
+    dt[free] = A.T @ np.linalg.solve(G, dp)
+    if np.all(t + dt >= lower) and np.all(t + dt <= upper):
+        return dt
+    from scipy.optimize import lsq_linear
+
+    damp = 1e-3 * float(np.abs(A).max())
+    M = np.vstack([A, damp * np.eye(A.shape[1])])
+    y = np.concatenate([dp, np.zeros(A.shape[1])])
+    res = lsq_linear(M, y, bounds=((lower - t)[free], (upper - t)[free]), method="bvls")
+    dt[free] = np.clip(res.x, (lower - t)[free], (upper - t)[free])
+    return dt
+
+
+def _steps(solver: _Solver, samples: RegionSamples, rows: np.ndarray, faces: np.ndarray, bounds: TensionBounds,
+           length: float) -> np.ndarray:
+    """The tension vectors the faces ask for; rows whose step the bounds forbid (the tip moves less than a
+    third of the asked length across the face, to first order) are NaN."""
+    T = samples.tensions[rows]
+    assert samples.q is not None
+    J = solver.model.tip_gradients(solver.robot, T, solver.loads, samples.q[rows], solver.options, solver.threads)
+    out = np.full(T.shape, np.nan)
+    for k in range(rows.size):
+        if not np.all(np.isfinite(J[k])):
+            continue
+        e = FACES[faces[k]].astype(float)
+        dt = tension_step(J[k], T[k], bounds.lower, bounds.upper, length * e)
+        if (J[k] @ dt) @ e >= length / 3.0:
+            out[k] = np.clip(T[k] + dt, bounds.lower, bounds.upper)
+    return out
+
+
+def _solved(solver: _Solver, T: np.ndarray, stage: int) -> RegionSamples:
+    """Solve the search's tension vectors along the loading path."""
+    t0 = time.perf_counter()
+    got = solver.solve(T)
+    return RegionSamples(T, np.full(T.shape[0], SEARCH, dtype=np.int8), got["tip"], got["converged"],
+                         got["stable"], got["below_base"], got["disks_touch"], 0, seconds=time.perf_counter() - t0,
+                         q=got["q"], stage=np.full(T.shape[0], stage, dtype=np.int8))
+
+
+def _voxels(samples: RegionSamples, mask: np.ndarray, voxel: float) -> int:
+    return int(region_from_points(samples.tip[mask], voxel).occupied.sum()) if np.any(mask) else 0
+
+
+def grow_region(solver: _Solver, samples: RegionSamples, bounds: TensionBounds, voxel: float, stage: int, *,
+                tol: float = 0.002, max_rounds: int = 40, budget: int = 100_000, step: float = 1.5,
+                tries: int = 2, tried: np.ndarray | None = None, counts: tuple[dict, dict] | None = None,
+                on_round: Callable[[SearchRound], None] | None = None) -> tuple[RegionSamples, list[SearchRound],
+                                                                             np.ndarray, str]:
+    """Grow the FSW and the realisable region of ``samples`` rows with ``stage <= stage`` (see the module).
+
+    Returns the samples with the search's rows appended (source ``"search"``, this ``stage``), the rounds,
+    the (M, 6, 2) record of faces tried (pass it to the next stage) and why the search stopped:
+    ``"converged"`` (a round added less than ``tol`` of the voxels), ``"no boundary left"``, ``"budget"``
+    (``budget`` solves spent) or ``"rounds"`` (``max_rounds``).
+    """
+    assert samples.stage is not None
+    if tried is None:
+        tried = np.zeros((samples.source.size, FACES.shape[0], 2), dtype=bool)
+    counts = counts if counts is not None else ({}, {})
+    rounds: list[SearchRound] = []
+    spent, stop = 0, "rounds"
+    active = samples.stage <= stage
+    before = (_voxels(samples, samples.feasible & active, voxel), _voxels(samples, samples.realisable & active, voxel))
+    for k in range(max_rounds):
+        t0 = time.perf_counter()
+        picks = [_faces(samples.tip, np.flatnonzero(m & active), tried[:, :, j], voxel, counts[j], tries)
+                 for j, m in enumerate((samples.feasible, samples.realisable))]
+        for j, (rows, faces) in enumerate(picks):
+            tried[rows, faces, j] = True
+        rows = np.concatenate([p[0] for p in picks])
+        faces = np.concatenate([p[1] for p in picks])
+        if rows.size == 0:
+            stop = "no boundary left"
+            break
+        T = _steps(solver, samples, rows, faces, bounds, step * voxel)
+        T = T[np.all(np.isfinite(T), axis=1)][: max(0, budget - spent)]
+        new = _solved(solver, T, stage)
+        spent += T.shape[0]
+        samples = samples.joined(new)
+        tried = np.concatenate([tried, np.zeros((T.shape[0], *tried.shape[1:]), dtype=bool)])
+        active = samples.stage <= stage
+        now = (_voxels(samples, samples.feasible & active, voxel),
+               _voxels(samples, samples.realisable & active, voxel))
+        rounds.append(SearchRound(stage, k, int(rows.size), int(T.shape[0]), now[0], now[1],
+                                  time.perf_counter() - t0))
+        if on_round is not None:
+            on_round(rounds[-1])
+        grown = max((a - b) / max(b, 1) for a, b in zip(now, before, strict=True))
+        before = now
+        if spent >= budget:
+            stop = "budget"
+            break
+        if grown < tol:
+            stop = "converged"
+            break
+    return samples, rounds, tried, stop

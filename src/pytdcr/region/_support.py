@@ -1,0 +1,412 @@
+"""The workspace's support function h(d) and its largest reach, by gradient search from the best samples.
+
+For a unit direction d, ``h(d) = max d . tip`` over the feasible tension vectors: how far the workspace
+reaches along d. The samples give a lower bound (the best sample's ``d . tip``); the reach search's local
+optimiser (:func:`pytdcr.optimize.polish_reach`: L-BFGS-B with the exact gradient of the tip through the
+implicit function theorem, every cost a cold solve along the loading path at a tight tolerance) climbs from
+the samples with the largest ``d . tip``. The largest reach ``max ||tip||`` (the paper's Eq. 29) is found by
+the same optimiser, from the samples farthest from the base and from the tensions that attain h(d).
+
+Every reported tip is the cold solve of the reported tensions (or, where no search beat it, the sample's own),
+so re-solving the tensions reproduces it; h(d) is never below the best sample's ``d . tip``. Directions are
+searched in parallel threads (the compiled solvers release the GIL); each direction's result depends only on
+its inputs, not on the number of threads.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from concurrent.futures import as_completed
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from ..optimize import ReachProblem, SearchFailed, polish_reach
+from ..statics._batch import default_threads, worker_pool
+from ..validate import check_count
+
+__all__ = ["DEFAULT_DIRECTIONS", "LargestReach", "SupportFunction", "fibonacci_directions", "largest_reach",
+           "support_function"]
+
+#: directions of the support function by default (a Fibonacci sphere)
+DEFAULT_DIRECTIONS = 200
+#: a direction is searched again from another direction's tip when that tip beats its h by more than this [m]
+EXCHANGE_TOL = 1e-7
+#: two starts are distinct when they differ by more than this fraction of the bounds' span in some tension
+_DISTINCT = 0.05
+
+
+def fibonacci_directions(n: int) -> np.ndarray:
+    """``n`` unit vectors spread near-uniformly over the sphere (the golden-angle spiral), deterministic.
+
+    Row ``i`` has ``z = 1 - (2 i + 1) / n`` and azimuth ``i`` times the golden angle ``pi (3 - sqrt 5)``: each
+    covers an equal area ``4 pi / n`` of the sphere, and none lies at a pole.
+
+    Parameters
+    ----------
+    n : int
+        Number of directions, >= 1.
+
+    Returns
+    -------
+    ndarray, shape (n, 3)
+        Unit vectors in the base frame.
+    """
+    n = check_count(n, "n", lo=1)
+    i = np.arange(n, dtype=float)
+    z = 1.0 - (2.0 * i + 1.0) / n
+    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+    phi = np.pi * (3.0 - np.sqrt(5.0)) * i
+    d = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+    return d / np.linalg.norm(d, axis=1)[:, None]
+
+
+@dataclass(frozen=True, eq=False)
+class SupportFunction:
+    """The support function of a workspace on a set of directions, and the tensions that attain it.
+
+    Attributes
+    ----------
+    directions : ndarray, shape (K, 3)
+        Unit vectors in the base frame.
+    h : ndarray, shape (K,)
+        ``max d . tip`` found along each direction [m]; never below ``sample_h``.
+    tensions : ndarray, shape (K, n_tendons)
+        Tensions that attain it [N].
+    tips : ndarray, shape (K, 3)
+        Their tips [m] (``h = tips . directions`` row by row).
+    sample_h : ndarray, shape (K,)
+        The best sample's ``d . tip`` [m]: the lower bound the search started from.
+    from_sample : ndarray of bool, shape (K,)
+        No search beat the best sample (it failed, or ended lower): tensions and tip are the sample's.
+    exchanged : ndarray of bool, shape (K,)
+        Searched again from another direction's tip, which beat the first search.
+    evaluations : ndarray of int, shape (K,)
+        Model solves (with the tip's gradient) spent on each direction.
+    starts : ndarray of int, shape (K,)
+        Searches run on each direction (distinct starting samples).
+    seconds : float
+        Wall time [s].
+    settings : dict
+        The problem's and the search's settings.
+    """
+
+    directions: np.ndarray
+    h: np.ndarray
+    tensions: np.ndarray
+    tips: np.ndarray
+    sample_h: np.ndarray
+    from_sample: np.ndarray
+    exchanged: np.ndarray
+    evaluations: np.ndarray
+    starts: np.ndarray
+    seconds: float
+    settings: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def gain(self) -> np.ndarray:
+        """What the search added to the best sample, ``h - sample_h`` [m], shape (K,)."""
+        return self.h - self.sample_h
+
+    def table(self) -> list[dict[str, Any]]:
+        """One row per direction: direction, h and the best sample's [m], the search's gain, tensions, tip."""
+        return [{"direction": self.directions[k].tolist(), "h_m": float(self.h[k]),
+                 "sample_h_m": float(self.sample_h[k]), "gain_m": float(self.gain[k]),
+                 "from_sample": bool(self.from_sample[k]), "evaluations": int(self.evaluations[k]),
+                 "tensions": self.tensions[k].tolist(), "tip": self.tips[k].tolist()}
+                for k in range(self.h.size)]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form: the arrays as lists, and a summary."""
+        gain = self.gain
+        return {"directions": self.directions.tolist(), "h": self.h.tolist(), "tensions": self.tensions.tolist(),
+                "tips": self.tips.tolist(), "sample_h": self.sample_h.tolist(),
+                "from_sample": self.from_sample.tolist(), "evaluations": self.evaluations.tolist(),
+                "starts": self.starts.tolist(), "seconds": self.seconds, "settings": self.settings,
+                "summary": {"directions": int(self.h.size), "improved": int(np.sum(gain > 0)),
+                            "gain_median_m": float(np.median(gain)) if gain.size else 0.0,
+                            "gain_max_m": float(np.max(gain)) if gain.size else 0.0,
+                            "evaluations_median": float(np.median(self.evaluations)) if gain.size else 0.0,
+                            "evaluations_total": int(np.sum(self.evaluations))}}
+
+
+@dataclass(frozen=True, eq=False)
+class LargestReach:
+    """The largest reach ``max ||tip||`` found, and the tensions that attain it.
+
+    Attributes
+    ----------
+    tensions : ndarray, shape (n_tendons,)
+        [N].
+    tip : ndarray, shape (3,)
+        [m].
+    reach : float
+        ``||tip||`` [m]; never below ``sample_reach``.
+    sample_reach : float
+        The farthest sample's reach [m].
+    from_sample : bool
+        No search beat the farthest sample: tensions and tip are that sample's.
+    evaluations : int
+        Model solves (with the tip's gradient) of all searches.
+    starts : int
+        Searches run (distinct starts: samples, and tensions of the support function).
+    seconds : float
+        Wall time [s].
+    """
+
+    tensions: np.ndarray
+    tip: np.ndarray
+    reach: float
+    sample_reach: float
+    from_sample: bool
+    evaluations: int
+    starts: int
+    seconds: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form."""
+        return {"tensions": self.tensions.tolist(), "tip": self.tip.tolist(), "reach": self.reach,
+                "sample_reach": self.sample_reach, "from_sample": self.from_sample,
+                "evaluations": self.evaluations, "starts": self.starts, "seconds": self.seconds}
+
+
+class _Best(NamedTuple):
+    """The outcome on one objective: tensions, tip, value, whether the sample was kept, solves, searches."""
+
+    tensions: np.ndarray
+    tip: np.ndarray
+    value: float
+    from_sample: bool
+    evaluations: int
+    starts: int
+
+
+def _check_samples(problem: ReachProblem, tensions: np.ndarray, tips: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The samples as float arrays (M, n_tendons) [N] and (M, 3) [m]: finite, at least one (ValueError)."""
+    t = np.asarray(tensions, dtype=float)
+    p = np.asarray(tips, dtype=float)
+    nt = problem.robot.n_tendons
+    if t.ndim != 2 or t.shape[1] != nt or p.shape != (t.shape[0], 3):
+        raise ValueError(f"samples: tensions must have shape (M, {nt}) and tips (M, 3), got {t.shape} and {p.shape}")
+    if t.shape[0] == 0:
+        raise ValueError("samples: at least one feasible sample is needed")
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(p))):
+        raise ValueError("samples must be finite: pass the feasible ones (samples.tensions[samples.feasible], "
+                         "samples.tip[samples.feasible])")
+    return t, p
+
+
+def _check_directions(directions: np.ndarray | None) -> np.ndarray:
+    """Unit directions (K, 3), K >= 1: the default Fibonacci sphere, or the rows given, normalised."""
+    if directions is None:
+        return fibonacci_directions(DEFAULT_DIRECTIONS)
+    d = np.asarray(directions, dtype=float)
+    d = d.reshape(1, 3) if d.shape == (3,) else d
+    if d.ndim != 2 or d.shape[1] != 3 or d.shape[0] == 0:
+        raise ValueError(f"directions must have shape (K, 3), K >= 1, got {np.shape(directions)}")
+    norm = np.linalg.norm(d, axis=1)
+    if not (np.all(np.isfinite(d)) and np.all(norm > 0)):
+        raise ValueError("directions must be finite and nonzero")
+    return d / norm[:, None]
+
+
+def _top_distinct(values: np.ndarray, tensions: np.ndarray, count: int, scale: np.ndarray) -> list[int]:
+    """Indices of the ``count`` largest ``values`` whose tensions are pairwise distinct (they differ by more
+    than 5 % of the bounds' span in some tension), largest first; ties go to the lower index."""
+    picked: list[int] = []
+    for k in np.argsort(-values, kind="stable"):
+        if len(picked) >= count:
+            break
+        if all(np.max(np.abs(tensions[k] - tensions[j]) / scale) > _DISTINCT for j in picked):
+            picked.append(int(k))
+    return picked
+
+
+def _climb(problem: ReachProblem, starts: list[np.ndarray], best_start: tuple[np.ndarray, np.ndarray],
+           max_iter: int, restarts: int = 3) -> _Best:
+    """Polish every start on ``problem``'s objective and keep the best; the sample ``best_start`` (tensions,
+    tip) is kept when no search ends above it."""
+    t_best, tip_best = best_start
+    sample_value = float(problem.value(tip_best))
+    best = _Best(t_best, tip_best, sample_value, True, 0, len(starts))
+    evaluations = 0
+    for t in starts:
+        try:
+            r = polish_reach(problem, t, max_iter=max_iter, restarts=restarts)
+        except SearchFailed:
+            continue
+        evaluations += r.evaluations
+        if r.value > best.value:
+            best = _Best(r.tensions, r.tip_position, float(r.value), False, 0, len(starts))
+    return best._replace(evaluations=evaluations)
+
+
+def _run(jobs: list[Callable[[], _Best]], threads: int | None,
+         progress: Callable[[int], None] | None) -> list[_Best]:
+    """Run the jobs in parallel threads, in any order; the results in the jobs' order."""
+    workers = min(len(jobs), default_threads() if threads is None else check_count(threads, "threads", lo=1))
+    out: list[_Best | None] = [None] * len(jobs)
+    with worker_pool(workers) as submit:
+        futures = {submit(job): k for k, job in enumerate(jobs)}
+        for fut in as_completed(futures):
+            out[futures[fut]] = fut.result()
+            if progress is not None:
+                progress(1)
+    return [r for r in out if r is not None]
+
+
+def _exchange(problem: ReachProblem, D: np.ndarray, found: list[_Best], max_iter: int, restarts: int,
+              threads: int | None) -> list[int]:
+    """One exchange round, in place on ``found``: each direction whose h another direction's tip beats (by more
+    than :data:`EXCHANGE_TOL`) is searched again from that tip's tensions; the directions searched again."""
+    tips = np.array([b.tip for b in found])
+    h = np.array([b.value for b in found])
+    values = tips @ D.T  # values[j, k] = d_k . tip_j
+    donor = np.argmax(values, axis=0)
+    todo = [k for k in range(D.shape[0]) if values[donor[k], k] > h[k] + EXCHANGE_TOL]
+
+    def job(k: int) -> Callable[[], _Best]:
+        j = int(donor[k])
+        return lambda: _climb(problem.with_direction(D[k]), [found[j].tensions], (found[j].tensions, found[j].tip),
+                              max_iter, restarts)
+
+    again = _run([job(k) for k in todo], threads, None)
+    for k, b in zip(todo, again, strict=True):
+        # the donor's tip beats h: the new row is at least the donor's (a solved, feasible equilibrium)
+        found[k] = b._replace(from_sample=False, evaluations=found[k].evaluations + b.evaluations,
+                              starts=found[k].starts + b.starts)
+    return todo
+
+
+def support_function(problem: ReachProblem, samples_tensions: np.ndarray, samples_tips: np.ndarray,
+                     directions: np.ndarray | None = None, *, starts: int = 1, max_iter: int = 30,
+                     restarts: int = 1, exchange_rounds: int = 2, threads: int | None = None,
+                     progress: Callable[[int], None] | None = None) -> SupportFunction:
+    """The support function ``h(d) = max d . tip`` over the feasible tensions, along each direction.
+
+    For each direction d, the ``starts`` samples with the largest ``d . tip`` (with distinct tensions) are
+    polished by :func:`pytdcr.optimize.polish_reach` on ``problem.with_direction(d)``; h(d) is the best
+    result, or the best sample's ``d . tip`` when no search ends above it (``from_sample``). The landscape
+    has many local optima: then, in up to ``exchange_rounds`` rounds, every direction whose h another
+    direction's tip beats is searched again from that tip's tensions (``exchanged``), so that no reported
+    tip beats another direction's h. With ``problem.stable_only`` the search refuses unstable equilibria
+    (pass stable samples).
+
+    Parameters
+    ----------
+    problem : ReachProblem
+        Robot, loads, bounds, model (its own direction is ignored).
+    samples_tensions : ndarray, shape (M, n_tendons)
+        Feasible samples' tensions [N] (e.g. ``samples.tensions[samples.feasible]``).
+    samples_tips : ndarray, shape (M, 3)
+        Their tips [m] (``samples.tip[samples.feasible]``).
+    directions : ndarray, shape (K, 3), optional
+        Directions (normalised here); default :func:`fibonacci_directions` (200).
+    starts : int
+        Searches per direction from the samples, >= 1.
+    max_iter, restarts : int
+        L-BFGS-B iterations per search and per restart, and restarts after a failed line search
+        (:func:`pytdcr.optimize.polish_reach`).
+    exchange_rounds : int
+        Rounds of searches from other directions' tips, >= 0 (a round without any ends them).
+    threads : int, optional
+        Searches run at once (default: the cores this process may use); the results do not depend on it.
+    progress : callable, optional
+        Called as ``progress(1)`` after each direction's first search (an increment, as for a tqdm bar).
+
+    Returns
+    -------
+    SupportFunction
+    """
+    t0 = time.perf_counter()
+    T, P = _check_samples(problem, samples_tensions, samples_tips)
+    D = _check_directions(directions)
+    starts = check_count(starts, "starts", lo=1)
+    max_iter = check_count(max_iter, "max_iter", lo=1)
+    restarts = check_count(restarts, "restarts", lo=0)
+    exchange_rounds = check_count(exchange_rounds, "exchange_rounds", lo=0)
+    scale = problem.bounds.span
+
+    def job(d: np.ndarray) -> Callable[[], _Best]:
+        def run() -> _Best:
+            picked = _top_distinct(P @ d, T, starts, scale)
+            return _climb(problem.with_direction(d), [T[k] for k in picked], (T[picked[0]], P[picked[0]]),
+                          max_iter, restarts)
+        return run
+
+    found = _run([job(d) for d in D], threads, progress)
+    exchanged = np.zeros(D.shape[0], dtype=bool)
+    log = [{"searches": D.shape[0], "evaluations": sum(b.evaluations for b in found),
+            "seconds": time.perf_counter() - t0}]
+    while len(log) <= exchange_rounds:
+        t1, before = time.perf_counter(), sum(b.evaluations for b in found)
+        todo = _exchange(problem, D, found, max_iter, restarts, threads)
+        if not todo:
+            break
+        exchanged[todo] = True
+        log.append({"searches": len(todo), "evaluations": sum(b.evaluations for b in found) - before,
+                    "seconds": time.perf_counter() - t1})
+    settings = {**problem.describe(), "objective": "support", "direction": None, "starts": starts,
+                "max_iter": max_iter, "restarts": restarts, "exchange_rounds": exchange_rounds,
+                "rounds": log, "samples": int(T.shape[0])}
+    return SupportFunction(
+        directions=D, h=np.array([b.value for b in found]), tensions=np.array([b.tensions for b in found]),
+        tips=np.array([b.tip for b in found]), sample_h=np.max(P @ D.T, axis=0),
+        from_sample=np.array([b.from_sample for b in found], dtype=bool), exchanged=exchanged,
+        evaluations=np.array([b.evaluations for b in found], dtype=int),
+        starts=np.array([b.starts for b in found], dtype=int), seconds=time.perf_counter() - t0, settings=settings)
+
+
+def largest_reach(problem: ReachProblem, samples_tensions: np.ndarray, samples_tips: np.ndarray,
+                  support: SupportFunction | None = None, *, starts: int = 4, max_iter: int = 200,
+                  threads: int | None = None) -> LargestReach:
+    """The largest reach ``max ||tip||`` over the feasible tensions (the paper's Eq. 29), by the same search.
+
+    Polished by :func:`pytdcr.optimize.polish_reach` on ``problem.with_direction(None)`` from the ``starts``
+    samples farthest from the base (distinct tensions) and, given ``support``, from the ``starts`` tensions of
+    the support function whose tips are farthest from the base (its far tips lie on the workspace's boundary).
+    The searches run in parallel threads; the farthest sample is kept when none ends beyond it.
+
+    Parameters
+    ----------
+    problem : ReachProblem
+    samples_tensions : ndarray, shape (M, n_tendons)
+        Feasible samples' tensions [N].
+    samples_tips : ndarray, shape (M, 3)
+        Their tips [m].
+    support : SupportFunction, optional
+        Of the same problem: more starts.
+    starts : int
+        Starts taken from the samples, and as many from ``support``, >= 1.
+    max_iter : int
+        L-BFGS-B iterations per search (and per restart).
+    threads : int, optional
+        Searches run at once (default: the cores); the result does not depend on it.
+
+    Returns
+    -------
+    LargestReach
+    """
+    t0 = time.perf_counter()
+    T, P = _check_samples(problem, samples_tensions, samples_tips)
+    starts = check_count(starts, "starts", lo=1)
+    max_iter = check_count(max_iter, "max_iter", lo=1)
+    reach_problem = problem.with_direction(None)
+    scale = problem.bounds.span
+    reach = np.linalg.norm(P, axis=1)
+    first = _top_distinct(reach, T, starts, scale)
+    begin = [T[k] for k in first]
+    if support is not None:
+        far = np.linalg.norm(support.tips, axis=1)
+        cand = [support.tensions[k] for k in _top_distinct(far, support.tensions, starts, scale)]
+        begin += [t for t in cand if all(np.max(np.abs(t - s) / scale) > _DISTINCT for s in begin)]
+    sample = (T[first[0]], P[first[0]])
+    jobs = [lambda t=t: _climb(reach_problem, [t], sample, max_iter) for t in begin]
+    found = _run(jobs, threads, None)
+    best = max(found, key=lambda b: (b.value, not b.from_sample))
+    return LargestReach(tensions=np.array(best.tensions), tip=np.array(best.tip), reach=float(best.value),
+                        sample_reach=float(reach[first[0]]), from_sample=best.from_sample,
+                        evaluations=int(sum(b.evaluations for b in found)), starts=len(begin),
+                        seconds=time.perf_counter() - t0)
