@@ -22,7 +22,7 @@ import numpy as np
 from ..bounds import TensionBounds
 from ._grid import region_from_points
 from ._plan import SOURCES
-from ._solve import RegionSamples, _Solver
+from ._solve import RegionSamples, WarmStartCheck, _checked, _Solver
 
 __all__ = ["BoundarySearch", "SearchRound", "grow_region"]
 
@@ -50,6 +50,11 @@ class SearchRound:
     voxels_realisable : int
         The realisable region's, likewise.
     seconds : float
+    warm : str
+        How the steps were solved: ``"warm"`` (from the sample they step from, kept because a checked subset
+        agreed with the loading path) or ``"loading path"``.
+    checked, agreed : int
+        The round's checked subset (solved both ways) and how many reached the same equilibrium.
     """
 
     stage: int
@@ -59,6 +64,9 @@ class SearchRound:
     voxels: int
     voxels_realisable: int
     seconds: float
+    warm: str = "loading path"
+    checked: int = 0
+    agreed: int = 0
 
 
 @dataclass(frozen=True)
@@ -71,9 +79,17 @@ class BoundarySearch:
     tol: float
     budget: int
 
+    @property
+    def warm_agreement(self) -> float | None:
+        """Agreed over checked warm starts, all rounds (None when none were checked)."""
+        checked = sum(r.checked for r in self.rounds)
+        return sum(r.agreed for r in self.rounds) / checked if checked else None
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form."""
         return {"solves": self.solves, "stop": self.stop, "tol": self.tol, "budget": self.budget,
+                "warm_rounds": sum(r.warm == "warm" for r in self.rounds),
+                "warm_checked": sum(r.checked for r in self.rounds), "warm_agreement": self.warm_agreement,
                 "rounds": [asdict(r) for r in self.rounds]}
 
 
@@ -155,13 +171,19 @@ def _steps(solver: _Solver, samples: RegionSamples, rows: np.ndarray, faces: np.
     return out
 
 
-def _solved(solver: _Solver, T: np.ndarray, stage: int) -> RegionSamples:
-    """Solve the search's tension vectors along the loading path."""
+def _solved(solver: _Solver, T: np.ndarray, q0: np.ndarray | None, stage: int, check: int,
+            seed: int) -> tuple[RegionSamples, WarmStartCheck]:
+    """Solve the search's tension vectors: warm from the samples they step from (``q0``) when a random subset
+    of ``check`` of them, solved both ways, agrees with the loading path (:func:`solve_plan`'s rule), else
+    along the loading path."""
     t0 = time.perf_counter()
-    got = solver.solve(T)
+    if q0 is None or check == 0:
+        got, report = solver.solve(T), WarmStartCheck("loading path")
+    else:
+        got, report = _checked(solver, T, q0, check, seed, 0)
     return RegionSamples(T, np.full(T.shape[0], SEARCH, dtype=np.int8), got["tip"], got["converged"],
                          got["stable"], got["below_base"], got["disks_touch"], 0, seconds=time.perf_counter() - t0,
-                         q=got["q"], stage=np.full(T.shape[0], stage, dtype=np.int8))
+                         q=got["q"], stage=np.full(T.shape[0], stage, dtype=np.int8)), report
 
 
 def _voxels(samples: RegionSamples, mask: np.ndarray, voxel: float) -> int:
@@ -170,10 +192,15 @@ def _voxels(samples: RegionSamples, mask: np.ndarray, voxel: float) -> int:
 
 def grow_region(solver: _Solver, samples: RegionSamples, bounds: TensionBounds, voxel: float, stage: int, *,
                 tol: float = 0.002, max_rounds: int = 40, budget: int = 100_000, step: float = 1.5,
-                tries: int = 2, tried: np.ndarray | None = None, counts: tuple[dict, dict] | None = None,
-                on_round: Callable[[SearchRound], None] | None = None) -> tuple[RegionSamples, list[SearchRound],
-                                                                             np.ndarray, str]:
+                tries: int = 2, warm: bool = True, check: int = 200, seed: int = 0,
+                tried: np.ndarray | None = None, counts: tuple[dict, dict] | None = None,
+                on_round: Callable[[SearchRound], None] | None = None
+                ) -> tuple[RegionSamples, list[SearchRound], np.ndarray, str]:
     """Grow the FSW and the realisable region of ``samples`` rows with ``stage <= stage`` (see the module).
+
+    With ``warm``, each round's steps start from the equilibria they step from, if a random subset of
+    ``check`` (``seed``, the stage and the round) solved both ways agrees with the loading path as
+    :func:`solve_plan` requires; otherwise, and without ``warm``, they follow the loading path.
 
     Returns the samples with the search's rows appended (source ``"search"``, this ``stage``), the rounds,
     the (M, 6, 2) record of faces tried (pass it to the next stage) and why the search stopped:
@@ -200,8 +227,11 @@ def grow_region(solver: _Solver, samples: RegionSamples, bounds: TensionBounds, 
             stop = "no boundary left"
             break
         T = _steps(solver, samples, rows, faces, bounds, step * voxel)
-        T = T[np.all(np.isfinite(T), axis=1)][: max(0, budget - spent)]
-        new = _solved(solver, T, stage)
+        ok = np.all(np.isfinite(T), axis=1)
+        parents, T = rows[ok][: max(0, budget - spent)], T[ok][: max(0, budget - spent)]
+        assert samples.q is not None
+        new, report = _solved(solver, T, samples.q[parents] if warm else None, stage, check,
+                              int(np.random.SeedSequence([seed, stage, k]).generate_state(1)[0]))
         spent += T.shape[0]
         samples = samples.joined(new)
         tried = np.concatenate([tried, np.zeros((T.shape[0], *tried.shape[1:]), dtype=bool)])
@@ -209,7 +239,7 @@ def grow_region(solver: _Solver, samples: RegionSamples, bounds: TensionBounds, 
         now = (_voxels(samples, samples.feasible & active, voxel),
                _voxels(samples, samples.realisable & active, voxel))
         rounds.append(SearchRound(stage, k, int(rows.size), int(T.shape[0]), now[0], now[1],
-                                  time.perf_counter() - t0))
+                                  time.perf_counter() - t0, report.mode, report.checked, report.agreed))
         if on_round is not None:
             on_round(rounds[-1])
         grown = max((a - b) / max(b, 1) for a, b in zip(now, before, strict=True))

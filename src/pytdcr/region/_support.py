@@ -34,6 +34,8 @@ __all__ = ["DEFAULT_DIRECTIONS", "LargestReach", "SupportFunction", "fibonacci_d
 DEFAULT_DIRECTIONS = 200
 #: a direction is searched again from another direction's tip when that tip beats its h by more than this [m]
 EXCHANGE_TOL = 1e-7
+#: rounding allowed in ``h[k] = max_j d_k . tip_j`` [m]
+TAKE_TOL = 1e-12
 #: two starts are distinct when they differ by more than this fraction of the bounds' span in some tension
 _DISTINCT = 0.05
 
@@ -258,23 +260,27 @@ def _run(jobs: list[Callable[[], _Best]], threads: int | None,
 
 
 def _exchange(problem: ReachProblem, D: np.ndarray, found: list[_Best], max_iter: int, restarts: int,
-              threads: int | None) -> list[int]:
+              threads: int | None, search: bool = True) -> list[int]:
     """One exchange round, in place on ``found``: each direction whose h another direction's tip beats (by more
-    than :data:`EXCHANGE_TOL`) is searched again from that tip's tensions; the directions searched again."""
+    than :data:`EXCHANGE_TOL`) is searched again from that tip's tensions, keeping at least that tip; without
+    ``search``, each that a tip beats by more than :data:`TAKE_TOL` takes it as it is (no solve). Returns the
+    directions changed."""
     tips = np.array([b.tip for b in found])
     h = np.array([b.value for b in found])
     values = tips @ D.T  # values[j, k] = d_k . tip_j
     donor = np.argmax(values, axis=0)
-    todo = [k for k in range(D.shape[0]) if values[donor[k], k] > h[k] + EXCHANGE_TOL]
+    tol = EXCHANGE_TOL if search else TAKE_TOL
+    todo = [k for k in range(D.shape[0]) if values[donor[k], k] > h[k] + tol]
 
     def job(k: int) -> Callable[[], _Best]:
         j = int(donor[k])
-        return lambda: _climb(problem.with_direction(D[k]), [found[j].tensions], (found[j].tensions, found[j].tip),
-                              max_iter, restarts)
+        start = (found[j].tensions, found[j].tip)
+        if not search:
+            return lambda: _Best(*start, float(values[j, k]), False, 0, 0)
+        return lambda: _climb(problem.with_direction(D[k]), [start[0]], start, max_iter, restarts)
 
-    again = _run([job(k) for k in todo], threads, None)
+    again = _run([job(k) for k in todo], threads if search else 1, None)
     for k, b in zip(todo, again, strict=True):
-        # the donor's tip beats h: the new row is at least the donor's (a solved, feasible equilibrium)
         found[k] = b._replace(from_sample=False, evaluations=found[k].evaluations + b.evaluations,
                               starts=found[k].starts + b.starts)
     return todo
@@ -282,17 +288,20 @@ def _exchange(problem: ReachProblem, D: np.ndarray, found: list[_Best], max_iter
 
 def support_function(problem: ReachProblem, samples_tensions: np.ndarray, samples_tips: np.ndarray,
                      directions: np.ndarray | None = None, *, starts: int = 1, max_iter: int = 30,
-                     restarts: int = 1, exchange_rounds: int = 2, threads: int | None = None,
+                     restarts: int = 1, exchange_rounds: int = 4, threads: int | None = None,
                      progress: Callable[[int], None] | None = None) -> SupportFunction:
     """The support function ``h(d) = max d . tip`` over the feasible tensions, along each direction.
 
-    For each direction d, the ``starts`` samples with the largest ``d . tip`` (with distinct tensions) are
-    polished by :func:`pytdcr.optimize.polish_reach` on ``problem.with_direction(d)``; h(d) is the best
-    result, or the best sample's ``d . tip`` when no search ends above it (``from_sample``). The landscape
-    has many local optima: then, in up to ``exchange_rounds`` rounds, every direction whose h another
-    direction's tip beats is searched again from that tip's tensions (``exchanged``), so that no reported
-    tip beats another direction's h. With ``problem.stable_only`` the search refuses unstable equilibria
-    (pass stable samples).
+    First, for each direction d, the ``starts`` samples with the largest ``d . tip`` (with distinct tensions)
+    are polished by :func:`pytdcr.optimize.polish_reach` on ``problem.with_direction(d)``; the best result is
+    kept, or the best sample itself when no search ends above it (``from_sample``). The objective has many
+    local optima, and another direction's optimum is often a better start than any sample: in up to
+    ``exchange_rounds`` rounds, every direction whose h another direction's tip beats is searched again from
+    that tip's tensions (``exchanged``). A last pass takes, without a solve, any tip that still beats a
+    direction's h, so that h is the support function of the reported tips themselves:
+    ``h[k] = max_j directions[k] . tips[j]`` (to 1e-12 m). Every reported tip is the cold solve of its tensions (or a
+    sample's, as given). With ``problem.stable_only`` the search refuses unstable equilibria (pass stable
+    samples).
 
     Parameters
     ----------
@@ -305,16 +314,17 @@ def support_function(problem: ReachProblem, samples_tensions: np.ndarray, sample
     directions : ndarray, shape (K, 3), optional
         Directions (normalised here); default :func:`fibonacci_directions` (200).
     starts : int
-        Searches per direction from the samples, >= 1.
+        First searches per direction, from the samples, >= 1.
     max_iter, restarts : int
         L-BFGS-B iterations per search and per restart, and restarts after a failed line search
         (:func:`pytdcr.optimize.polish_reach`).
     exchange_rounds : int
-        Rounds of searches from other directions' tips, >= 0 (a round without any ends them).
+        Rounds of searches from other directions' tips, >= 0 (they end at the first round with nothing to do).
     threads : int, optional
         Searches run at once (default: the cores this process may use); the results do not depend on it.
     progress : callable, optional
-        Called as ``progress(1)`` after each direction's first search (an increment, as for a tqdm bar).
+        Called as ``progress(1)`` after each direction's first search (an increment, as for a tqdm bar); the
+        exchange rounds that follow are not counted.
 
     Returns
     -------
@@ -348,9 +358,11 @@ def support_function(problem: ReachProblem, samples_tensions: np.ndarray, sample
         exchanged[todo] = True
         log.append({"searches": len(todo), "evaluations": sum(b.evaluations for b in found) - before,
                     "seconds": time.perf_counter() - t1})
+    taken = _exchange(problem, D, found, max_iter, restarts, threads, search=False)
+    exchanged[taken] = True
     settings = {**problem.describe(), "objective": "support", "direction": None, "starts": starts,
-                "max_iter": max_iter, "restarts": restarts, "exchange_rounds": exchange_rounds,
-                "rounds": log, "samples": int(T.shape[0])}
+                "max_iter": max_iter, "restarts": restarts, "exchange_rounds": exchange_rounds, "rounds": log,
+                "taken_without_search": len(taken), "samples": int(T.shape[0])}
     return SupportFunction(
         directions=D, h=np.array([b.value for b in found]), tensions=np.array([b.tensions for b in found]),
         tips=np.array([b.tip for b in found]), sample_h=np.max(P @ D.T, axis=0),
