@@ -716,7 +716,7 @@ def build_parser() -> argparse.ArgumentParser:
     ws.add_argument("--no-warm", action="store_true", help="every sample along the loading path (no warm starts)")
     ws.add_argument("--no-search", action="store_true", help="no boundary search: the region of the samples alone")
     ws.add_argument("--budget", type=count_type, default=None,
-                    help="the boundary search's budget of solves [15 n]")
+                    help="the boundary search's budget of solves [25 n]")
     ws.add_argument("--directions", type=int, default=200,
                     help="directions of the support function h(d) on a Fibonacci sphere; 0: none [200]")
     ws.add_argument("--compare-loads", action="store_true",

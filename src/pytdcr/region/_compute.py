@@ -24,7 +24,7 @@ __all__ = ["VOXELS_PER_LENGTH", "WorkspaceRegion", "search_budget", "workspace_r
 #: voxels per robot length by default (11.6 mm for the paper robot's 370 mm)
 VOXELS_PER_LENGTH = 32
 #: the boundary search's default budget of solves, per base sample
-SEARCH_SOLVES_PER_SAMPLE = 15
+SEARCH_SOLVES_PER_SAMPLE = 25
 
 #: ``progress(stage, total)`` returns a callable advanced by the solves done (total None: unknown)
 Progress = Callable[[str, "int | None"], Callable[[int], None]]
@@ -101,7 +101,7 @@ def workspace_region(robot: Robot, loads: Loads, bounds: TensionBounds, n: int, 
 
     ``n`` scrambled Sobol tension vectors (``seed``) and the box's corners and edges are solved
     (:func:`solve_plan`); with ``search``, the boundary search (:func:`grow_region`) then grows the region at
-    n/4, n/2 and n base samples in turn, within ``budget`` solves (default 15 n), until a round adds less
+    n/4, n/2 and n base samples in turn, within ``budget`` solves (default 25 n), until a round adds less
     than ``tol`` of the voxels. The search's steps follow the loading path: warm starts from the equilibria
     they step from agree with it on only about 91 % of a checked subset on the paper's case (the boundary
     lies near folds), so checking them costs more than it saves (``grow_region(warm=True)`` to try). The

@@ -99,34 +99,37 @@ def _voxel_keys(tip: np.ndarray, voxel: float) -> np.ndarray:
 
 def _faces(tip: np.ndarray, rows: np.ndarray, tried: np.ndarray, voxel: float, counts: dict[tuple[int, ...], int],
            tries: int) -> tuple[np.ndarray, np.ndarray]:
-    """Per boundary face of the region of ``tip[rows]`` (closed as the final region is) tried fewer than
-    ``tries`` times (``counts``, updated), one sample in the voxel that has not tried this face: its row and
-    the face's index into :data:`FACES` (deterministic: the lowest row wins)."""
+    """The round's steps for the region of ``tip[rows]`` (closed as the final region is): per empty voxel next
+    to it, one boundary face leading there that has been tried fewer than ``tries`` times (``counts``,
+    updated), with a sample in the occupied voxel that has not tried this face. Returns the samples' rows and
+    the faces' indices into :data:`FACES` (deterministic: the lowest face, then the lowest row, wins)."""
     region = region_from_points(tip[rows], voxel)
     occ = np.pad(region.occupied, 1)
     idx = np.floor((tip[rows] - region.origin) / voxel).astype(np.int64) + 1
     lin = np.ravel_multi_index(idx.T, occ.shape)
     key0 = np.round(region.origin / voxel).astype(np.int64) - 1
-    pick_rows, pick_faces = [], []
+    cand_rows, cand_faces, cand_target = [], [], []
     for f, e in enumerate(FACES):
         n = idx + e
         empty = ~occ[n[:, 0], n[:, 1], n[:, 2]] & ~tried[rows, f]
         if not np.any(empty):
             continue
         _, first = np.unique(lin[empty], return_index=True)
-        cand = rows[empty][first]
-        keep = np.zeros(cand.size, dtype=bool)
-        for j, v in enumerate(map(tuple, idx[empty][first] + key0)):
-            k = (*v, f)
-            c = counts.get(k, 0)
-            if c < tries:
-                counts[k] = c + 1
-                keep[j] = True
-        pick_rows.append(cand[keep])
-        pick_faces.append(np.full(int(keep.sum()), f))
-    if not pick_rows:
+        vox = idx[empty][first]
+        keep = np.array([counts.get((*v, f), 0) < tries for v in map(tuple, vox + key0)], dtype=bool)
+        cand_rows.append(rows[empty][first][keep])
+        cand_faces.append(np.full(int(keep.sum()), f))
+        target = vox[keep] + e
+        cand_target.append(np.ravel_multi_index(target.T, occ.shape) if target.size else np.zeros(0, np.int64))
+    if not cand_rows:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-    return np.concatenate(pick_rows), np.concatenate(pick_faces)
+    r, f, t = np.concatenate(cand_rows), np.concatenate(cand_faces), np.concatenate(cand_target)
+    _, first = np.unique(t, return_index=True)  # one step per empty voxel and round
+    first = np.sort(first)
+    r, f = r[first], f[first]
+    for v, face in zip(map(tuple, idx[np.searchsorted(rows, r)] + key0), f, strict=True):
+        counts[(*v, int(face))] = counts.get((*v, int(face)), 0) + 1
+    return r, f
 
 
 def tension_step(J: np.ndarray, t: np.ndarray, lower: np.ndarray, upper: np.ndarray, dp: np.ndarray) -> np.ndarray:

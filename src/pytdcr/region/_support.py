@@ -4,13 +4,16 @@ For a unit direction d, ``h(d) = max d . tip`` over the feasible tension vectors
 reaches along d. The samples give a lower bound (the best sample's ``d . tip``); the reach search's local
 optimiser (:func:`pytdcr.optimize.polish_reach`: L-BFGS-B with the exact gradient of the tip through the
 implicit function theorem, every cost a cold solve along the loading path at a tight tolerance) climbs from
-the samples with the largest ``d . tip``. The largest reach ``max ||tip||`` (the paper's Eq. 29) is found by
-the same optimiser, from the samples farthest from the base and from the tensions that attain h(d).
+the samples with the largest ``d . tip``. The objective has many local optima (folds of the loading path,
+friction regimes, the edge of convergence), and another direction's optimum is often a better start than any
+sample: rounds of searches from the other directions' tips follow, until none beats a direction's h. The
+largest reach ``max ||tip||`` (the paper's Eq. 29) is found by the same optimiser, from the samples farthest
+from the base and from the tensions that attain h(d).
 
 Every reported tip is the cold solve of the reported tensions (or, where no search beat it, the sample's own),
-so re-solving the tensions reproduces it; h(d) is never below the best sample's ``d . tip``. Directions are
-searched in parallel threads (the compiled solvers release the GIL); each direction's result depends only on
-its inputs, not on the number of threads.
+so re-solving the tensions reproduces it; h(d) is never below the best sample's ``d . tip``. Searches run in
+parallel threads (the compiled solvers release the GIL); which searches run, and from where, does not depend
+on the number of threads, and neither do the results.
 """
 
 from __future__ import annotations
@@ -82,13 +85,14 @@ class SupportFunction:
     sample_h : ndarray, shape (K,)
         The best sample's ``d . tip`` [m]: the lower bound the search started from.
     from_sample : ndarray of bool, shape (K,)
-        No search beat the best sample (it failed, or ended lower): tensions and tip are the sample's.
+        No search beat the best sample (they failed, or ended lower): tensions and tip are the sample's, as
+        given (the cold solve of its tensions when the samples followed the loading path).
     exchanged : ndarray of bool, shape (K,)
-        Searched again from another direction's tip, which beat the first search.
+        Another direction's tip beat the first search: the row is the search from it, or that tip itself.
     evaluations : ndarray of int, shape (K,)
-        Model solves (with the tip's gradient) spent on each direction.
+        Model solves (most with the tip's gradient) of the searches on each direction that ended.
     starts : ndarray of int, shape (K,)
-        Searches run on each direction (distinct starting samples).
+        Searches run on each direction (from samples, then from other directions' tips).
     seconds : float
         Wall time [s].
     settings : dict
@@ -116,7 +120,8 @@ class SupportFunction:
         """One row per direction: direction, h and the best sample's [m], the search's gain, tensions, tip."""
         return [{"direction": self.directions[k].tolist(), "h_m": float(self.h[k]),
                  "sample_h_m": float(self.sample_h[k]), "gain_m": float(self.gain[k]),
-                 "from_sample": bool(self.from_sample[k]), "evaluations": int(self.evaluations[k]),
+                 "from_sample": bool(self.from_sample[k]), "exchanged": bool(self.exchanged[k]),
+                 "evaluations": int(self.evaluations[k]),
                  "tensions": self.tensions[k].tolist(), "tip": self.tips[k].tolist()}
                 for k in range(self.h.size)]
 
@@ -125,9 +130,11 @@ class SupportFunction:
         gain = self.gain
         return {"directions": self.directions.tolist(), "h": self.h.tolist(), "tensions": self.tensions.tolist(),
                 "tips": self.tips.tolist(), "sample_h": self.sample_h.tolist(),
-                "from_sample": self.from_sample.tolist(), "evaluations": self.evaluations.tolist(),
+                "from_sample": self.from_sample.tolist(), "exchanged": self.exchanged.tolist(),
+                "evaluations": self.evaluations.tolist(),
                 "starts": self.starts.tolist(), "seconds": self.seconds, "settings": self.settings,
                 "summary": {"directions": int(self.h.size), "improved": int(np.sum(gain > 0)),
+                            "exchanged": int(np.sum(self.exchanged)),
                             "gain_median_m": float(np.median(gain)) if gain.size else 0.0,
                             "gain_max_m": float(np.max(gain)) if gain.size else 0.0,
                             "evaluations_median": float(np.median(self.evaluations)) if gain.size else 0.0,
@@ -151,7 +158,7 @@ class LargestReach:
     from_sample : bool
         No search beat the farthest sample: tensions and tip are that sample's.
     evaluations : int
-        Model solves (with the tip's gradient) of all searches.
+        Model solves (most with the tip's gradient) of the searches that ended.
     starts : int
         Searches run (distinct starts: samples, and tensions of the support function).
     seconds : float
@@ -212,6 +219,11 @@ def _check_directions(directions: np.ndarray | None) -> np.ndarray:
     if not (np.all(np.isfinite(d)) and np.all(norm > 0)):
         raise ValueError("directions must be finite and nonzero")
     return d / norm[:, None]
+
+
+def _dots(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise dot products of (K, 3) arrays, in one fixed order (equal rows give equal values)."""
+    return a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
 
 
 def _top_distinct(values: np.ndarray, tensions: np.ndarray, count: int, scale: np.ndarray) -> list[int]:
@@ -363,9 +375,11 @@ def support_function(problem: ReachProblem, samples_tensions: np.ndarray, sample
     settings = {**problem.describe(), "objective": "support", "direction": None, "starts": starts,
                 "max_iter": max_iter, "restarts": restarts, "exchange_rounds": exchange_rounds, "rounds": log,
                 "taken_without_search": len(taken), "samples": int(T.shape[0])}
+    tips = np.array([b.tip for b in found])
+    best = np.argmax(P @ D.T, axis=0)
     return SupportFunction(
-        directions=D, h=np.array([b.value for b in found]), tensions=np.array([b.tensions for b in found]),
-        tips=np.array([b.tip for b in found]), sample_h=np.max(P @ D.T, axis=0),
+        directions=D, h=_dots(tips, D), tensions=np.array([b.tensions for b in found]), tips=tips,
+        sample_h=_dots(P[best], D),
         from_sample=np.array([b.from_sample for b in found], dtype=bool), exchanged=exchanged,
         evaluations=np.array([b.evaluations for b in found], dtype=int),
         starts=np.array([b.starts for b in found], dtype=int), seconds=time.perf_counter() - t0, settings=settings)

@@ -70,17 +70,17 @@ class ReproduceSettings:
     verdict_models: tuple[str, ...] = ("pcc2", "sscr")
     verdict_ga_pop: int = 0
     verdict_polish_iter: int = 8
-    workspace_n: int = 256
-    workspace_budget: int = 1200
-    workspace_voxels: int = 16
-    workspace_directions: int = 24
+    workspace_n: int = 128
+    workspace_budget: int = 600
+    workspace_voxels: int = 12
+    workspace_directions: int = 12
 
     @classmethod
     def full(cls) -> ReproduceSettings:
         """The heavy version (``tdcr reproduce --full``): the better models re-optimise with the memetic GA too,
         and the workspace section runs at ``tdcr workspace``'s defaults (n 4000, 11.6 mm voxels, 200
         directions)."""
-        return cls(verdict_ga_pop=50, workspace_n=4000, workspace_budget=15 * 4000, workspace_voxels=32,
+        return cls(verdict_ga_pop=50, workspace_n=4000, workspace_budget=25 * 4000, workspace_voxels=32,
                    workspace_directions=200)
 
 

@@ -225,10 +225,19 @@ def _report(summary: dict[str, Any], command: str) -> str:
              f"{f['largest_reach_m'] or 0:.4f} | {f['points']} |",
              f"| realisable (no disk below the base, no disks touching) | {r['volume_m3'] * 1e6:.0f} | "
              f"{r['volume_err_m3'] * 1e6:.0f}{pct(r)} | {r['largest_reach_m'] or 0:.4f} | {r['points']} |", "",
-             "Convergence with the base samples (FSW; each size with its own boundary search): "
+             "Convergence with the base samples (FSW): "
              + ", ".join(f"n = {s['n_base']}: {s['estimate_m3'] * 1e6:.0f} cm³" for s in f["volume"]["scales"])
              + ".", ""]
     search = summary.get("boundary_search")
+    if search:
+        sizes = ("n/4", "n/2", "n")
+        ran = sorted({x["stage"] for x in search["rounds"]})
+        tail = f["volume"]["search_m3"]
+        lines[-1:-1] = [f"The boundary search ran at {', '.join(sizes[k] for k in ran) or 'no size'}"
+                        + ("" if len(ran) == 3 else " only (its budget ran out): a larger size adds its base "
+                           "samples to the smaller sizes' search points, unsearched")
+                        + (f". The error includes {tail * 1e6:.0f} cm³ of growth the last rounds point to (the "
+                           "budget stopped the search)." if tail else ".")]
     if search:
         lines += [f"Boundary search: {search['solves']} extra solves in {len(search['rounds'])} rounds, stopped: "
                   f"{search['stop']} (a round adding less than {search['tol']:.1%} of the voxels).", "",
