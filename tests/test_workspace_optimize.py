@@ -170,8 +170,11 @@ def test_reproduce_writes_a_report(tmp_path, small):
                                                                            bound_uppers=(5.0,), side_max_gen=2))
     report = (out / "report.md").read_text()
     for text in ("## Fig. 5", "| population 8 |", "| population 10 |", "fourth generation", "## Fig. 6",
-                 "| 5 |", "backbone length", "## The paper's optimum under better models", "| sscr |"):
+                 "| 5 |", "backbone length", "## The paper's optimum under better models", "| sscr |",
+                 "## The feasible static workspace as a region", "| no load |", "| paper wrench |"):
         assert text in report
+    assert {"workspace_slices.png", "workspace_fsw_no_load.ply", "workspace_fsw_paper_wrench.ply"} <= set(
+        summary["files"])
     for f in summary["files"]:
         assert (out / f).stat().st_size > 0
     data = json.loads((out / "reproduce.json").read_text())

@@ -53,7 +53,8 @@ class ReproduceSettings:
         Models that re-evaluate and re-optimise the paper's optimum.
     workspace_n, workspace_budget, workspace_voxels, workspace_directions : int
         The workspace section (the FSW under the paper's load next to no load): base samples, the boundary
-        search's budget of solves, voxels per robot length, support directions. Modest by default (the demo).
+        search's budget of solves, voxels per robot length, support directions (0: no h(d) and no reach search,
+        the largest reach is the farthest sample's). Modest by default (the demo: about 11 s, a wide error).
     verdict_ga_pop : int
         Their GA population; 0 (the modest default): a gradient polish from the paper's optimum only, at most
         ``verdict_polish_iter`` iterations (an ``sscr`` solve near that optimum crosses folds: about 0.4 s).
@@ -72,8 +73,8 @@ class ReproduceSettings:
     verdict_polish_iter: int = 8
     workspace_n: int = 128
     workspace_budget: int = 600
-    workspace_voxels: int = 12
-    workspace_directions: int = 12
+    workspace_voxels: int = 10
+    workspace_directions: int = 0
 
     @classmethod
     def full(cls) -> ReproduceSettings:
