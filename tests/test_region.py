@@ -209,3 +209,17 @@ def test_without_loads_the_region_has_the_robots_fourfold_symmetry():
     quadrant = (centres[:, 0] > 0).astype(int) * 2 + (centres[:, 1] > 0).astype(int)
     volumes = np.bincount(quadrant, minlength=4) * reg.voxel**3
     assert np.ptp(volumes) <= found.fsw.error_m3 / 4, (volumes, found.fsw.error_m3)
+
+
+def test_a_search_cut_short_by_its_budget_widens_the_error_by_its_whole_last_round():
+    from pytdcr.region import SearchRound
+    from pytdcr.region._compute import _tail
+
+    def rounds(steps: int) -> list[SearchRound]:
+        return [SearchRound(0, k, 1000, s, 1000, v, v, 1.0) for k, (s, v) in
+                enumerate([(1000, 1000), (1000, 2000), (1000, 2500), (steps, 2500 + 250 * steps // 1000)])]
+
+    whole = _tail(rounds(1000), "voxels", 1.0)  # growth 500 then 250: 250 more to come
+    assert whole == pytest.approx(250.0)
+    cut = _tail(rounds(100), "voxels", 1.0)  # a tenth of the last round ran: it stands for the whole
+    assert cut == pytest.approx(whole)

@@ -63,12 +63,16 @@ def search_budget(n: int) -> int:
 
 
 def _tail(rounds: list[SearchRound], key: str, voxel: float) -> float:
-    """The growth [m^3] a search stopped early would still add: its last round's, continued geometrically at
-    the ratio of its last two (at least the last round's again when the ratio is 1 or more: 10 rounds)."""
-    g = np.diff([getattr(r, key) for r in rounds])
+    """The growth [m^3] a search stopped by its budget would still add: its last round's growth (scaled up to
+    the whole round when the budget cut it short), continued geometrically at the ratio to the round before
+    (ten more rounds of it when the ratio is 1 or more)."""
+    v = [getattr(r, key) for r in rounds]
+    g = np.diff(v).astype(float)
     if g.size == 0:
         return 0.0
-    last, prev = float(g[-1]), float(g[-2] if g.size > 1 else g[-1])
+    last_round = rounds[-1]
+    last = g[-1] * (last_round.planned / max(last_round.steps, 1))
+    prev = float(g[-2]) if g.size > 1 else last
     ratio = last / prev if prev > 0 else 1.0
     tail = last * ratio / (1.0 - ratio) if ratio < 1.0 else 10.0 * last
     return max(tail, 0.0) * voxel**3

@@ -44,7 +44,9 @@ class SearchRound:
     faces : int
         Boundary faces tried (a sample and the empty neighbour across one of its voxel's faces).
     steps : int
-        Tension steps solved (faces whose step the bounds allow).
+        Tension steps solved (faces whose step the bounds allow, up to the budget).
+    planned : int
+        Steps the bounds allowed; more than ``steps`` when the budget cut the round short.
     voxels : int
         The FSW's occupied voxels after the round.
     voxels_realisable : int
@@ -61,6 +63,7 @@ class SearchRound:
     round: int
     faces: int
     steps: int
+    planned: int
     voxels: int
     voxels_realisable: int
     seconds: float
@@ -241,7 +244,7 @@ def grow_region(solver: _Solver, samples: RegionSamples, bounds: TensionBounds, 
         active = samples.stage <= stage
         now = (_voxels(samples, samples.feasible & active, voxel),
                _voxels(samples, samples.realisable & active, voxel))
-        rounds.append(SearchRound(stage, k, int(rows.size), int(T.shape[0]), now[0], now[1],
+        rounds.append(SearchRound(stage, k, int(rows.size), int(T.shape[0]), int(ok.sum()), now[0], now[1],
                                   time.perf_counter() - t0, report.mode, report.checked, report.agreed))
         if on_round is not None:
             on_round(rounds[-1])
