@@ -21,7 +21,7 @@ from ._volume import VolumeEstimate, estimate_volume
 
 __all__ = ["VOXELS_PER_LENGTH", "WorkspaceRegion", "search_budget", "workspace_region"]
 
-#: voxels per robot length by default (11.6 mm for the paper robot's 370 mm)
+#: voxels per robot length by default (12.5 mm for the paper robot's 0.4 m)
 VOXELS_PER_LENGTH = 32
 #: the boundary search's default budget of solves, per base sample
 SEARCH_SOLVES_PER_SAMPLE = 25

@@ -79,7 +79,7 @@ class ReproduceSettings:
     @classmethod
     def full(cls) -> ReproduceSettings:
         """The heavy version (``tdcr reproduce --full``): the better models re-optimise with the memetic GA too,
-        and the workspace section runs at ``tdcr workspace``'s defaults (n 4000, 11.6 mm voxels, 200
+        and the workspace section runs at ``tdcr workspace``'s defaults (n 4000, 12.5 mm voxels, 200
         directions)."""
         return cls(verdict_ga_pop=50, workspace_n=4000, workspace_budget=25 * 4000, workspace_voxels=32,
                    workspace_directions=200)
