@@ -223,3 +223,24 @@ def test_a_search_cut_short_by_its_budget_widens_the_error_by_its_whole_last_rou
     assert whole == pytest.approx(250.0)
     cut = _tail(rounds(100), "voxels", 1.0)  # a tenth of the last round ran: it stands for the whole
     assert cut == pytest.approx(whole)
+
+
+def test_a_region_with_too_few_converged_samples_is_reported_and_not_meshed(tmp_path):
+    import json
+
+    from pytdcr.statics import SolverOptions
+    from pytdcr.study import run_workspace
+
+    # one Newton iteration per load step: no solve converges, so neither region has a point
+    run = run_workspace(paper_robot(), paper_loads(), paper_bounds(), 32, 1, tmp_path / "ws",
+                        options=SolverOptions(max_iter=1), budget=50, directions=4)
+    summary = json.loads((tmp_path / "ws" / "workspace.json").read_text())
+    assert summary["counts"]["converged"] == 0 and summary["mesh"] is None
+    assert summary["realisable"]["mesh"] is None and summary["volume_m3"] == 0.0
+    assert len(summary["warnings"]) == 2 and "fsw.ply is not written" in summary["warnings"][0]
+    assert not (tmp_path / "ws" / "fsw.ply").exists() and not (tmp_path / "ws" / "fsw_realisable.ply").exists()
+    for name in ("samples.npz", "report.md", "slices.png", "workspace.html"):
+        assert (tmp_path / "ws" / name).is_file(), name
+    assert "**Warning:**" in (tmp_path / "ws" / "report.md").read_text()
+    assert "fsw.ply" not in run.files
+    assert json.loads((tmp_path / "ws" / "manifest.json").read_text())["status"] == "complete"

@@ -130,6 +130,23 @@ def test_sigint_reproduce_keeps_finished_figures(tmp_path):
     assert [p.name for p in tmp_path.iterdir()] in ([], ["out"])
 
 
+def test_sigint_workspace_keeps_the_samples_solved(tmp_path):
+    out = tmp_path / "out"
+    p = Proc("workspace", "--n", "256", "--budget", "1000000", "--directions", "0", "--out", str(out))
+    p.wait_for(r"boundary search 1/3: (\d+)", at_least=512)
+    code, line = p.interrupt()
+    assert code == 130
+    m = re.fullmatch(r"tdcr: interrupted; saved (\d+) solved samples \((\d+) converged\) in samples.npz, no "
+                     rf"region in {re.escape(str(out))} \(manifest status: interrupted\)", line)
+    assert m, line
+    with np.load(out / "samples.npz") as z:
+        assert z["tensions"].shape[0] == int(m.group(1)) and int(z["converged"].sum()) == int(m.group(2))
+        assert np.sum(z["source"] == 0) == 256  # the Sobol points, then corners, edges (and any search rounds)
+    man = json.loads((out / "manifest.json").read_text())
+    assert man["status"] == "interrupted" and "no region" in man["interrupted"]
+    assert not (out / "fsw.ply").exists() and sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
 def test_sigint_inside_one_long_solve(tmp_path):
     """A single solve of 1,000 disks (seconds in one compiled call): the command still leaves at once."""
     robot = tmp_path / "long.toml"

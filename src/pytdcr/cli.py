@@ -344,8 +344,10 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     for case in run.cases:
         print("\n".join(_workspace_lines(case.name, case.summary)))
     print(f"wrote {', '.join(run.files)} in {escape_controls(str(out))}")
-    if any(c.summary["counts"]["converged"] == 0 for c in run.cases):
-        print("tdcr: a load case has no converged sample: its region is empty", file=sys.stderr)
+    for case in run.cases:
+        for w in case.summary["warnings"]:
+            print(f"tdcr: {case.name}: {w}", file=sys.stderr)
+    if any(c.summary["mesh"] is None for c in run.cases):
         return EXIT_NOT_CONVERGED
     return EXIT_OK
 

@@ -260,21 +260,25 @@ def plot_region_slices(regions: dict[str, Any], length: float, title: str = "") 
         (f"xy (z = {f * length * 1e3:.0f} mm)", 2, f * length) for f in (0.25, 0.5, 0.75)]
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for ax, (name, axis, at) in zip(axes, cuts, strict=True):
-        for k, (label, region) in enumerate(regions.items()):
-            _slice_contour(ax, region, axis, at, colours[k % len(colours)], label, ("-", "--", ":", "-.")[k % 4])
+        for k, region in enumerate(regions.values()):
+            _slice_contour(ax, region, axis, at, colours[k % len(colours)], ("-", "--", ":", "-.")[k % 4])
         ax.set_title(name)
         ax.set_aspect("equal")
         ax.set_xlim(-length, length)
         ax.set_ylim(-length if axis == 2 else -0.5 * length, length)
         ax.set_xlabel("x [m]" if axis != 0 else "y [m]")
         ax.set_ylabel("z [m]" if axis != 2 else "y [m]")
+    for k, (label, region) in enumerate(regions.items()):  # one legend entry per region, drawn or empty
+        empty = "" if region.occupied.any() else " (empty)"
+        axes[0].plot([], [], color=colours[k % len(colours)], linestyle=("-", "--", ":", "-.")[k % 4],
+                     label=label + empty)
     axes[0].legend(loc="lower left", fontsize=8)
     if title:
         fig.suptitle(title)
     return fig
 
 
-def _slice_contour(ax: Axes, region: Any, axis: int, at: float, colour: str, label: str, style: str) -> None:
+def _slice_contour(ax: Axes, region: Any, axis: int, at: float, colour: str, style: str) -> None:
     """The boundary of ``region`` in the plane ``coordinate[axis] = at``, as a contour line."""
     i = int(np.floor((at - region.origin[axis]) / region.voxel))
     if not (0 <= i < region.occupied.shape[axis]):
@@ -286,7 +290,6 @@ def _slice_contour(ax: Axes, region: Any, axis: int, at: float, colour: str, lab
     if plane.shape[0] < 2 or plane.shape[1] < 2 or not plane.any():
         return
     ax.contour(u, v, plane.T, levels=[0.5], colors=[colour], linewidths=1.2, linestyles=style)
-    ax.plot([], [], color=colour, linestyle=style, label=label)
 
 
 def _colours() -> list[str]:

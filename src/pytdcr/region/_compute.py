@@ -79,8 +79,8 @@ def _tail(rounds: list[SearchRound], key: str, voxel: float) -> float:
 
 
 def _search(solver: _Solver, samples: RegionSamples, bounds: TensionBounds, voxel: float, budget: int, tol: float,
-            seed: int, progress: Progress | None, on_round: Callable[[SearchRound], None] | None
-            ) -> tuple[RegionSamples, BoundarySearch]:
+            seed: int, progress: Progress | None, on_round: Callable[[SearchRound], None] | None,
+            checkpoint: Callable[[RegionSamples], None] | None = None) -> tuple[RegionSamples, BoundarySearch]:
     """The boundary search at each nested size in turn (n/4, n/2, n), sharing the budget."""
     rounds: list[SearchRound] = []
     tried, counts, spent, stop = None, ({}, {}), 0, "converged"
@@ -91,6 +91,8 @@ def _search(solver: _Solver, samples: RegionSamples, bounds: TensionBounds, voxe
                                                 counts=counts, on_round=on_round)
         rounds += got
         spent += sum(r.steps for r in got)
+        if checkpoint is not None:
+            checkpoint(samples)
         if stop == "budget":
             break
     return samples, BoundarySearch(tuple(rounds), spent, stop, tol, budget)
@@ -99,8 +101,8 @@ def _search(solver: _Solver, samples: RegionSamples, bounds: TensionBounds, voxe
 def workspace_region(robot: Robot, loads: Loads, bounds: TensionBounds, n: int, seed: int, *,
                      model: str | Model = "pcc", options: Any = None, voxel: float | None = None, warm: bool = True,
                      search: bool = True, budget: int | None = None, tol: float = 0.002, threads: int | None = None,
-                     progress: Progress | None = None,
-                     on_round: Callable[[SearchRound], None] | None = None) -> WorkspaceRegion:
+                     progress: Progress | None = None, on_round: Callable[[SearchRound], None] | None = None,
+                     checkpoint: Callable[[RegionSamples], None] | None = None) -> WorkspaceRegion:
     """The feasible static workspace of ``robot`` under ``loads`` with tensions in ``bounds``.
 
     ``n`` scrambled Sobol tension vectors (``seed``) and the box's corners and edges are solved
@@ -113,7 +115,8 @@ def workspace_region(robot: Robot, loads: Loads, bounds: TensionBounds, n: int, 
     (:func:`estimate_volume`), widened by the growth still expected when the budget stopped the search.
 
     ``voxel`` [m] defaults to the robot's length / 32. ``progress(stage, total)`` returns a callable that is
-    advanced by the solves done; ``on_round`` sees each search round.
+    advanced by the solves done; ``on_round`` sees each search round; ``checkpoint`` sees the samples solved
+    so far after the sampling and after each stage of the search (to save them: an interrupted study keeps them).
     """
     n = check_count(n, "n", lo=1)
     m, opts = resolve(model, robot, loads, options)
@@ -124,13 +127,15 @@ def workspace_region(robot: Robot, loads: Loads, bounds: TensionBounds, n: int, 
     step = progress("sampling", solves_needed(plan, warm)) if progress else None
     samples = solve_plan(robot, loads, bounds, plan, model=m, options=opts, threads=threads, warm=warm, seed=seed,
                          progress=step)
+    if checkpoint is not None:
+        checkpoint(samples)
     record = None
     if search:
         check_resources(m, robot, opts)
         budget = search_budget(n) if budget is None else check_count(budget, "budget", lo=0)
         stability = bool(m.capabilities.stability)
         solver = _Solver(robot, loads.with_tensions(np.zeros(robot.n_tendons)), m, opts, threads, None, stability)
-        samples, record = _search(solver, samples, bounds, voxel, budget, tol, seed, progress, on_round)
+        samples, record = _search(solver, samples, bounds, voxel, budget, tol, seed, progress, on_round, checkpoint)
     estimates = []
     for mask, key in ((samples.feasible, "voxels"), (samples.realisable, "voxels_realisable")):
         est, region = estimate_volume(np.where(mask[:, None], samples.tip, np.nan), samples.stage, n, voxel)

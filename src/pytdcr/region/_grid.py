@@ -8,10 +8,12 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
-__all__ = ["MESH_LEVEL", "Region", "inside", "region_from_points"]
+__all__ = ["MESH_LEVEL", "MIN_MESH_POINTS", "Region", "inside", "region_from_points"]
 
 #: the occupancy level of the boundary surface (see :meth:`Region.mesh`)
 MESH_LEVEL = 0.499
+#: fewer tip positions than this make no boundary worth writing: a few voxels' cubes, not a region's surface
+MIN_MESH_POINTS = 10
 
 
 @dataclass(frozen=True, eq=False)

@@ -16,6 +16,7 @@ from ..loads import Loads
 from ..optimize import ReachProblem
 from ..plotting import plot_region_3d, plot_region_slices, plot_support_map, write_region_html
 from ..region import (
+    MIN_MESH_POINTS,
     SOURCES,
     LargestReach,
     Region,
@@ -84,8 +85,22 @@ def _boundary_sources(region: Region, samples: RegionSamples, mask: np.ndarray) 
 
 
 def _numbers(est: Any, samples: RegionSamples, mask: np.ndarray, mesh: str, reach: float | None) -> dict[str, Any]:
-    return {"volume_m3": est.volume_m3, "volume_err_m3": est.error_m3, "largest_reach_m": reach, "mesh": mesh,
-            "points": int(mask.sum()), "volume": est.to_dict()}
+    """A region's numbers; ``mesh`` is None when it has too few points to mesh (:data:`MIN_MESH_POINTS`)."""
+    points = int(mask.sum())
+    return {"volume_m3": est.volume_m3, "volume_err_m3": est.error_m3, "largest_reach_m": reach,
+            "mesh": mesh if points >= MIN_MESH_POINTS else None, "points": points, "volume": est.to_dict()}
+
+
+def _warnings(summary: dict[str, Any]) -> list[str]:
+    """One line per region with too few points to mesh: what was not written, and why."""
+    out = []
+    for label, d, name in (("FSW", summary, "fsw.ply"), ("realisable region", summary["realisable"],
+                                                         "fsw_realisable.ply")):
+        if d["mesh"] is None:
+            out.append(f"the {label} holds {d['points']} converged sample{'s' * (d['points'] != 1)}, fewer than "
+                       f"the {MIN_MESH_POINTS} a boundary needs: {name} is not written and its volume is that of "
+                       f"the occupied voxels alone")
+    return out
 
 
 def _counts(samples: RegionSamples) -> dict[str, Any]:
@@ -102,12 +117,12 @@ def _counts(samples: RegionSamples) -> dict[str, Any]:
 
 
 def _case(name: str, robot: Robot, loads: Loads, bounds: TensionBounds, n: int, seed: int, settings: dict[str, Any],
-          progress: Progress | None) -> WorkspaceCase:
+          progress: Progress | None, checkpoint: Callable[[RegionSamples], None] | None = None) -> WorkspaceCase:
     """Compute one load case: the regions, then h(d) and the largest reach from the feasible samples."""
     m, opts = resolve(settings["model"], robot, loads, settings["options"])
     wr = workspace_region(robot, loads, bounds, n, seed, model=m, options=opts, voxel=settings["voxel"],
                           warm=settings["warm"], search=settings["search"], budget=settings["budget"],
-                          progress=progress, on_round=settings.get("on_round"))
+                          progress=progress, on_round=settings.get("on_round"), checkpoint=checkpoint)
     s = wr.samples
     support, reach = None, None
     if np.any(s.feasible) and m.capabilities.gradient is not None:
@@ -133,7 +148,29 @@ def _case(name: str, robot: Robot, loads: Loads, bounds: TensionBounds, n: int, 
                                        solver=options_record(m, opts), warm_starts=settings["warm"],
                                        boundary_search=settings["search"], search_budget=settings["budget"],
                                        directions=settings["directions"])}
+    summary["warnings"] = _warnings(summary)
     return WorkspaceCase(name, loads, wr, support, reach, summary)
+
+
+def _save_samples(out: Path, s: RegionSamples) -> None:
+    """``samples.npz`` in ``out``, written aside and renamed (a reader never sees half of it)."""
+    tmp = out / ".samples.npz.tmp"
+    with open(tmp, "wb") as f:
+        np.savez_compressed(f, tensions=s.tensions, source=s.source, tip=s.tip, stage=s.stage,
+                            converged=s.converged, stable=s.stable, below_base=s.below_base,
+                            disks_touch=s.disks_touch, sources=np.array(SOURCES))
+    tmp.replace(out / "samples.npz")
+
+
+def _checkpoint(out: Path, run: Any, before: str = "", where: str = "") -> Callable[[RegionSamples], None]:
+    """Save the samples solved so far in ``out``: a study interrupted later keeps them (``run``'s note says so,
+    after ``before``; ``where`` is ``out``'s place in the run's folder, with a trailing slash)."""
+    def save(s: RegionSamples) -> None:
+        with saving():
+            _save_samples(out, s)
+        run.interrupted_note = (f"{before}saved {s.source.size} solved samples ({int(s.converged.sum())} converged) in "
+                                f"{where}samples.npz, no region")
+    return save
 
 
 def _reach_record(reach: LargestReach | None) -> dict[str, Any] | None:
@@ -153,14 +190,16 @@ def _write_case(out: Path, case: WorkspaceCase, robot: Robot, settings: dict[str
     """Every file of one case in ``out``: meshes, samples, h(d), figures, HTML, report, JSON."""
     wr, s = case.region, case.region.samples
     files = []
+    meshed = {"fsw.ply": case.summary["mesh"] is not None,
+              "fsw_realisable.ply": case.summary["realisable"]["mesh"] is not None}
     for name, reg in (("fsw.ply", wr.fsw_region), ("fsw_realisable.ply", wr.realisable_region)):
+        if not meshed[name]:
+            continue
         tmp = out / f".{name}.tmp"
         reg.mesh().export(tmp, file_type="ply")
         tmp.replace(out / name)
         files.append(name)
-    np.savez_compressed(out / "samples.npz", tensions=s.tensions, source=s.source, tip=s.tip, stage=s.stage,
-                        converged=s.converged, stable=s.stable, below_base=s.below_base,
-                        disks_touch=s.disks_touch, sources=np.array(SOURCES))
+    _save_samples(out, s)
     files.append("samples.npz")
     if case.support is not None:
         sf = case.support
@@ -171,7 +210,8 @@ def _write_case(out: Path, case: WorkspaceCase, robot: Robot, settings: dict[str
         files.append("support.csv")
         files += save_figure(plot_support_map(sf.directions, sf.h, f"robot '{robot.name}': h(d), {case.name}"),
                              out, "support_map")
-    meshes = {"FSW": wr.fsw_region.mesh(), "realisable": wr.realisable_region.mesh()}
+    meshes = {"FSW": wr.fsw_region.mesh() if meshed["fsw.ply"] else None,
+              "realisable": wr.realisable_region.mesh() if meshed["fsw_realisable.ply"] else None}
     pose = _robot_at(case, robot, settings)
     files += save_figure(plot_region_slices({"FSW": wr.fsw_region, "realisable": wr.realisable_region},
                                             robot.length, f"robot '{robot.name}': workspace slices, {case.name}"),
@@ -206,7 +246,7 @@ def run_workspace(robot: Robot, loads: Loads, bounds: TensionBounds, n: int, see
     """
     settings = _settings(model, options, voxel, warm, search, budget, directions, on_round)
     with output_folder(out, "workspace", {"n": n, "seed": seed, "bounds": bounds.to_dict()}) as run:
-        case = _case("as given", robot, loads, bounds, n, seed, settings, progress)
+        case = _case("as given", robot, loads, bounds, n, seed, settings, progress, _checkpoint(run.staging, run))
         with saving():
             files = _write_case(run.staging, case, robot, settings, command)
     return WorkspaceRun([case], case.summary, files)
@@ -220,7 +260,8 @@ def _report(summary: dict[str, Any], command: str) -> str:
         return f" ({d['volume_err_m3'] / d['volume_m3']:.0%})" if d["volume_m3"] else ""
 
     lines = [f"# Feasible static workspace of robot '{summary['inputs']['robot']['name']}'", "",
-             f"Made by `{command}`.", "",
+             f"Made by `{command}`.", "", *[f"**Warning:** {w}." for w in summary.get("warnings", [])],
+             *([""] if summary.get("warnings") else []),
              "| region | volume [cm³] | error [cm³] | largest reach [m] | points |", "|---|---|---|---|---|",
              f"| FSW (converged, stable) | {f['volume_m3'] * 1e6:.0f} | {f['volume_err_m3'] * 1e6:.0f}{pct(f)} | "
              f"{f['largest_reach_m'] or 0:.4f} | {f['points']} |",
@@ -328,13 +369,15 @@ def run_workspace_compare(robot: Robot, cases: dict[str, tuple[Robot, Loads]], b
                                                           "cases": list(cases)}) as run:
         files = []
         for name, (case_robot, loads) in cases.items():
-            case = _case(name, case_robot, loads, bounds, n, seed, settings, progress)
             sub = run.staging / _slug(name)
             sub.mkdir()
+            whole = f"saved {len(done)} of {len(cases)} load cases whole; "
+            case = _case(name, case_robot, loads, bounds, n, seed, settings, progress, _checkpoint(sub, run, whole, f"{sub.name}/"))
             with saving():
                 _write_case(sub, case, case_robot, settings, command)
             done.append(case)
             files.append(sub.name)
+            run.interrupted_note = f"saved {len(done)} of {len(cases)} load cases whole, not their comparison"
         with saving():
             files += _write_comparison(run.staging, done, robot, command)
     return WorkspaceRun(done, {"cases": _comparison(done)}, files)
