@@ -21,7 +21,7 @@ LAYERS = [
     {"statics"},
     {"workspace", "region", "optimize", "compare", "accuracy"},
     {"plotting"},
-    {"study"},
+    {"study", "designs"},
     {"cli"},
 ]
 

@@ -147,6 +147,25 @@ def test_sigint_workspace_keeps_the_samples_solved(tmp_path):
     assert not (out / "fsw.ply").exists() and sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 
+def test_sigint_designs_keeps_finished_designs_and_resumes(tmp_path):
+    out = tmp_path / "out"
+    example = str(Path(__file__).resolve().parents[1] / "examples" / "design_study_small.toml")
+    p = Proc("designs", example, "--workers", "2", "--out", str(out))
+    p.wait_for(r"designs:.*?(\d+)/4", at_least=1)
+    code, line = p.interrupt()
+    assert code == 130
+    m = re.fullmatch(rf"tdcr: interrupted; saved (\d) of 4 designs in {re.escape(str(out))} \(run the same "
+                     r"command again to compute the rest\)", line)
+    assert m, line
+    saved = int(m.group(1))
+    assert 1 <= saved <= 4 and len(list((out / "designs").glob("*.json"))) == saved
+    assert json.loads((out / "manifest.json").read_text())["status"] == "interrupted"
+    done = subprocess.run([*TDCR, "designs", example, "--out", str(out)], capture_output=True, text=True,
+                          timeout=600, check=False)
+    assert done.returncode == 0, done.stderr[-1000:]
+    assert f"{4 - saved} computed, {saved} reused" in done.stdout
+
+
 def test_sigint_inside_one_long_solve(tmp_path):
     """A single solve of 1,000 disks (seconds in one compiled call): the command still leaves at once."""
     robot = tmp_path / "long.toml"

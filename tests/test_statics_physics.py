@@ -20,6 +20,7 @@ from pytdcr import (
     solve,
     solve_batch,
 )
+from pytdcr.contact import bending_curvature
 from pytdcr.paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT
 
 PAPER_FORCE = np.array(PAPER_TIP_FORCE)
@@ -56,6 +57,8 @@ def test_pure_tip_moment_gives_a_circular_arc(backbone, axis):
     # every disk on the circle of radius 1/kappa
     centre = bend_dir / kappa
     assert np.allclose(np.linalg.norm(sol.disk_positions - centre, axis=1), 1 / kappa, rtol=1e-9)
+    # the curvature the disk frames give (the design studies' peak stress E kappa r) is M / EI everywhere
+    assert np.allclose(bending_curvature(sol.disk_rotations, robot.subsegment_lengths), kappa, rtol=1e-7)
 
 
 def test_pure_torsion_twists_uniformly(backbone):

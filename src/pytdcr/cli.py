@@ -301,6 +301,40 @@ class _Bars:
             self.bar = None
 
 
+def _cmd_designs(args: argparse.Namespace) -> int:
+    from .designs import load_study, run_designs
+
+    study, robot, text = load_study(args.study)
+    if args.workers is not None and not 1 <= args.workers <= 4096:
+        raise CliError(f"--workers = {args.workers}: must be in [1, 4096]")
+    bar = _Bar("designs", 0, "design")
+
+    def progress(done: int, failed: int, total: int) -> None:
+        if bar.bar is None:
+            bar.total = total
+            bar.step(done, f"failed={failed}")
+        else:
+            bar.step(done - bar.bar.n, f"failed={failed}")
+
+    try:
+        run = run_designs(study, robot, args.out, study_text=text, scheduler=args.scheduler, workers=args.workers,
+                          restart=args.restart, progress=progress)
+    finally:
+        bar.__exit__()
+    s = run.summary
+    print(f"design study '{study.name}': {s['designs']} designs, {s['designs_computed']} computed, "
+          f"{s['designs_reused']} reused, {s['designs_failed']} failed, on {s['executor']} in {s['seconds']:.1f} s")
+    ok = run.table[run.table["status"] == "ok"]
+    for case in dict.fromkeys(ok["load_case"]):
+        sub = ok[ok["load_case"] == case]
+        best = sub.loc[sub["volume_m3"].idxmax()]
+        print(f"  {case}: largest FSW {best['volume_m3'] * 1e6:.0f} ± {best['volume_err_m3'] * 1e6:.0f} cm^3, design "
+              f"{int(best['design'])}")
+    print(f"wrote designs.parquet, designs.csv, timings.csv, summary.json, report.md, best/ in "
+          f"{escape_controls(str(run.path))}")
+    return EXIT_OK if s["designs_failed"] < s["designs"] else EXIT_NOT_CONVERGED
+
+
 def _workspace_lines(name: str, s: dict[str, Any]) -> list[str]:
     out = [f"  {name}:"]
     for label, d in (("FSW", s), ("realisable", s["realisable"])):
@@ -783,6 +817,17 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--payload-g", type=real_type, default=10.0, help="payload of the last load group [10 g]")
     a.add_argument("--out", default="out/accuracy", help="output folder [out/accuracy]")
     a.set_defaults(func=_cmd_accuracy)
+
+    d = sub.add_parser("designs", help="a design study: a workspace study per design, on local processes or a "
+                       "Dask cluster; resumable")
+    d.add_argument("study", help="the study file (TOML; see examples/design_study_small.toml)")
+    d.add_argument("--out", default="out/designs", help="output folder; a stopped study there resumes "
+                   "[out/designs]")
+    d.add_argument("--scheduler", help="a Dask scheduler's address (tcp://host:8786) to run on; default: local "
+                   "processes")
+    d.add_argument("--workers", type=int, help="local processes [all cores]")
+    d.add_argument("--restart", action="store_true", help="discard what the folder holds and start again")
+    d.set_defaults(func=_cmd_designs)
 
     r = sub.add_parser("robot", help="print a robot as TOML (a starting point for your own)")
     r.add_argument("--robot", default="paper", help="built-in robot or TOML file [paper]")

@@ -20,7 +20,8 @@ from typing import NamedTuple
 import numpy as np
 from scipy.spatial import cKDTree
 
-__all__ = ["Contact", "backbone_contact", "contact_failure", "disks_below_base", "disks_touch", "turning_angle"]
+__all__ = ["Contact", "backbone_contact", "bending_curvature", "contact_failure", "disks_below_base", "disks_touch",
+           "turning_angle"]
 
 #: a curve that turns less than this in all cannot touch itself two diameters on [rad]
 _SAFE_TURNING = 2.0 * np.pi / 3.0
@@ -93,6 +94,17 @@ def contact_failure(points: np.ndarray, radius: float) -> str:
     """The reason to refuse a shape whose backbone of ``radius`` [m] passes through itself, or ``""``."""
     c = backbone_contact(points, radius)
     return "" if c is None else c.describe(2.0 * radius)
+
+
+def bending_curvature(rotations: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """The backbone's bending curvature on each subsegment [1/m]: the angle between the disks' z axes at its
+    ends over its arc length (exact for a constant-curvature arc; the mean for a rod that bends unevenly).
+
+    ``rotations`` (..., N+1, 3, 3) disk frames, ``lengths`` (N,) subsegment arc lengths [m]; returns (..., N).
+    """
+    z = rotations[..., :, 2]
+    cos = np.clip(np.sum(z[..., 1:, :] * z[..., :-1, :], axis=-1), -1.0, 1.0)
+    return np.arccos(cos) / lengths
 
 
 def disks_below_base(positions: np.ndarray, rotations: np.ndarray, radius: float) -> np.ndarray:

@@ -189,7 +189,8 @@ def _solved(solver: _Solver, T: np.ndarray, q0: np.ndarray | None, stage: int, c
         got, report = _checked(solver, T, q0, check, seed, 0)
     return RegionSamples(T, np.full(T.shape[0], SEARCH, dtype=np.int8), got["tip"], got["converged"],
                          got["stable"], got["below_base"], got["disks_touch"], 0, seconds=time.perf_counter() - t0,
-                         q=got["q"], stage=np.full(T.shape[0], stage, dtype=np.int8)), report
+                         q=got["q"], stage=np.full(T.shape[0], stage, dtype=np.int8),
+                         curvature=got["curvature"]), report
 
 
 def _voxels(samples: RegionSamples, mask: np.ndarray, voxel: float) -> int:

@@ -12,7 +12,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..bounds import TensionBounds
-from ..contact import disks_below_base, disks_touch
+from ..contact import bending_curvature, disks_below_base, disks_touch
 from ..design import Robot
 from ..limits import check_memory
 from ..loads import Loads
@@ -97,6 +97,9 @@ class RegionSamples:
     stage : ndarray of int8, shape (M,), or None
         The nested sample size from which each row counts: 0 at n/4 base samples (the first quarter of the
         Sobol points, the box's corners and edges, the boundary search from them), 1 at n/2, 2 at n.
+    curvature : ndarray, shape (M,), or None
+        The largest bending curvature of any subsegment [1/m] (:func:`pytdcr.contact.bending_curvature`); NaN
+        where not converged. The backbone's peak bending stress is ``E * curvature * outer radius``.
     """
 
     tensions: np.ndarray
@@ -111,6 +114,7 @@ class RegionSamples:
     seconds: float = 0.0
     q: np.ndarray | None = None
     stage: np.ndarray | None = None
+    curvature: np.ndarray | None = None
 
     @property
     def feasible(self) -> np.ndarray:
@@ -129,18 +133,21 @@ class RegionSamples:
                              self.stable[idx], self.below_base[idx], self.disks_touch[idx],
                              int(np.sum(self.source[idx] == 0)), self.warm, self.seconds,
                              None if self.q is None else self.q[idx],
-                             None if self.stage is None else self.stage[idx])
+                             None if self.stage is None else self.stage[idx],
+                             None if self.curvature is None else self.curvature[idx])
 
     def joined(self, other: RegionSamples) -> RegionSamples:
         """These samples followed by ``other``'s (unknowns and stages kept when both have them)."""
         cat = np.concatenate
         q = cat([self.q, other.q]) if self.q is not None and other.q is not None else None
         stage = cat([self.stage, other.stage]) if self.stage is not None and other.stage is not None else None
+        kappa = (cat([self.curvature, other.curvature])
+                 if self.curvature is not None and other.curvature is not None else None)
         return RegionSamples(cat([self.tensions, other.tensions]), cat([self.source, other.source]),
                              cat([self.tip, other.tip]), cat([self.converged, other.converged]),
                              cat([self.stable, other.stable]), cat([self.below_base, other.below_base]),
                              cat([self.disks_touch, other.disks_touch]), self.n_base + other.n_base, self.warm,
-                             self.seconds + other.seconds, q, stage)
+                             self.seconds + other.seconds, q, stage, kappa)
 
 
 @dataclass
@@ -168,7 +175,9 @@ class _Solver:
         stable = b.stable if self.stability else np.full(ok.shape, np.nan)
         q = np.array(b.q, dtype=float)
         q[~ok] = np.nan
-        return {"tip": b.tip_position, "converged": ok, "stable": stable, "q": q,
+        kappa = bending_curvature(rot, self.robot.subsegment_lengths).max(axis=1)
+        kappa[~ok] = np.nan
+        return {"tip": b.tip_position, "converged": ok, "stable": stable, "q": q, "curvature": kappa,
                 "plain": np.asarray(b.path == "loading", dtype=bool),
                 "below_base": disks_below_base(pos, rot, r) & ok, "disks_touch": disks_touch(pos, rot, r) & ok}
 
@@ -243,11 +252,11 @@ def solve_plan(robot: Robot, loads: Loads, bounds: TensionBounds, plan: TensionP
         out, report = _checked(solver, rest, q0, check, seed, n_anchor)
     else:
         out = solver.solve(rest) if rest.shape[0] else {}
-    keys = ("tip", "converged", "stable", "below_base", "disks_touch", "q")
+    keys = ("tip", "converged", "stable", "below_base", "disks_touch", "q", "curvature")
     got = {k: np.concatenate([anchors[k], out[k]]) if out else anchors[k] for k in keys}
     return RegionSamples(T, plan.source, got["tip"], got["converged"], got["stable"], got["below_base"],
                          got["disks_touch"], plan.n_base, report, time.perf_counter() - t0, got["q"],
-                         plan_stages(plan))
+                         plan_stages(plan), got["curvature"])
 
 
 def plan_stages(plan: TensionPlan) -> np.ndarray:

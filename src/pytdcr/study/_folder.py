@@ -43,8 +43,17 @@ from ..io import to_jsonable
 from ..statics import mark_saving
 from ..validate import escape_controls, show, show_path
 
-__all__ = ["MANIFEST", "FolderError", "OutputRun", "RunInterrupted", "atomic_write_text", "check_output_folder",
-           "output_folder"]
+__all__ = [
+    "MANIFEST",
+    "FolderError",
+    "OutputRun",
+    "RunInterrupted",
+    "StudyChanged",
+    "atomic_write_text",
+    "check_output_folder",
+    "output_folder",
+    "resumable_folder",
+]
 
 #: the name of every run's manifest
 MANIFEST = "manifest.json"
@@ -317,4 +326,67 @@ def output_folder(path: str | Path, command: str, inputs: dict[str, Any] | None 
         _finish(run, "complete")
     finally:
         shutil.rmtree(staging, ignore_errors=True)
+        lock.release()
+
+
+class StudyChanged(FolderError):
+    """A resumable folder was started by a study that differs from the one given now."""
+
+
+@contextmanager
+def resumable_folder(path: str | Path, command: str, inputs: dict[str, Any], digest: str,
+                     restart: bool = False, layout: tuple[str, ...] = ()) -> Iterator[OutputRun]:
+    """The one exception to the rule above (``tdcr designs``): a folder whose run stopped is resumed in place.
+
+    A new or empty folder is started; a folder of the same study (its manifest's ``digest``) is resumed, its
+    finished work kept; one of another study, or of another command, is refused (:class:`StudyChanged`) unless
+    ``restart``, which empties it first. Files other than a tdcr run's are refused as always; a folder in use
+    is refused. The run writes into the folder itself (``run.staging`` is ``run.path``), each file atomically;
+    the manifest says ``running``, then ``complete`` or ``interrupted``; it lists the ``layout`` names (the files
+    and sub-folders the run may write) from the start, so a run killed outright is still recognised as one.
+    """
+    path = _target(path)
+    _check_target(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    lock = _take_lock(path, command)
+    try:
+        old = _read_manifest(path) if path.is_dir() else None
+        if old is not None and (old.get("command") != command or old.get("digest") != digest):
+            what = (f"a run of 'tdcr {old.get('command')}'" if old.get("command") != command
+                    else "another study (the study file changed since it was started)")
+            if not restart:
+                raise StudyChanged(f"--out {show_path(path)}: holds {what}; give a new folder, or --restart to "
+                                   "discard it and start again")
+        if restart and path.is_dir():
+            for p in path.iterdir():
+                shutil.rmtree(p) if p.is_dir() and not p.is_symlink() else p.unlink()
+            old = None
+        path.mkdir(exist_ok=True)
+        manifest = {"command": command, "argv": list(sys.argv), "pytdcr": __version__,
+                    "python": platform.python_version(), "host": socket.gethostname(), "digest": digest,
+                    "started": (old or {}).get("started", time.strftime("%Y-%m-%dT%H:%M:%S%z")),
+                    "resumed": time.strftime("%Y-%m-%dT%H:%M:%S%z") if old else None,
+                    "status": "running", "inputs": inputs, "files": (old or {}).get("files", [])}
+        run = OutputRun(path, path, manifest)
+
+        def close(status: str) -> None:
+            mark_saving()
+            here = {p.name for p in path.iterdir() if not p.name.startswith(".") and p.name != MANIFEST}
+            manifest.update(status=status, finished=time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+                            files=sorted(here | (set(layout) if status == "running" else set())))
+            if status == "interrupted" and run.interrupted_note:
+                manifest["interrupted"] = run.interrupted_note
+            atomic_write_text(path / MANIFEST, json.dumps(to_jsonable(manifest), indent=2, allow_nan=False))
+
+        close("running")
+        try:
+            yield run
+        except KeyboardInterrupt:
+            close("interrupted")
+            raise
+        except BaseException:
+            close("interrupted")
+            raise
+        close("complete")
+    finally:
         lock.release()

@@ -372,7 +372,8 @@ def run_workspace_compare(robot: Robot, cases: dict[str, tuple[Robot, Loads]], b
             sub = run.staging / _slug(name)
             sub.mkdir()
             whole = f"saved {len(done)} of {len(cases)} load cases whole; "
-            case = _case(name, case_robot, loads, bounds, n, seed, settings, progress, _checkpoint(sub, run, whole, f"{sub.name}/"))
+            save = _checkpoint(sub, run, whole, f"{sub.name}/")
+            case = _case(name, case_robot, loads, bounds, n, seed, settings, progress, save)
             with saving():
                 _write_case(sub, case, case_robot, settings, command)
             done.append(case)

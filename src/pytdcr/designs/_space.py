@@ -1,0 +1,144 @@
+"""The design space: the robot fields a study may vary, how a set of values makes a robot, and how designs are
+chosen (every combination of a grid, or scrambled Sobol points in the ranges)."""
+
+from __future__ import annotations
+
+import itertools
+import re
+import warnings
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from pydantic import ValidationError
+from scipy.stats import qmc
+
+from ..design import Robot
+from ..io import format_validation_error
+
+__all__ = ["PARAMETERS", "ParameterInfo", "apply_parameters", "choose_designs", "parameter_info"]
+
+
+@dataclass(frozen=True)
+class ParameterInfo:
+    """What a parameter name means: its base (``routing_radius``), the segment it is limited to (1-based, or
+    None for all), its unit and whether it takes whole numbers."""
+
+    base: str
+    segment: int | None
+    unit: str
+    integer: bool
+    doc: str
+
+
+#: the parameters by base name: unit, whole numbers, meaning; ``<base>_<k>`` limits one to segment k
+PARAMETERS: dict[str, tuple[str, bool, str]] = {
+    "routing_radius": ("m", False, "the routing radius of the tendons (of segment k)"),
+    "segment_length": ("m", False, "the arc length of every segment (of segment k); subsegments scale with it"),
+    "disks": ("", True, "the disks per segment (of segment k), evenly spaced"),
+    "tendon_angle_offset": ("deg", False, "added to the routing angles of the tendons (of segment k)"),
+    "backbone_radius": ("m", False, "the backbone's outer radius (its bore is kept)"),
+    "youngs_modulus": ("Pa", False, "the backbone's Young's modulus E (G follows from Poisson's ratio when given)"),
+    "disk_radius": ("m", False, "the disks' radius (for the contact test)"),
+}
+_PER_SEGMENT = ("routing_radius", "segment_length", "disks", "tendon_angle_offset")
+
+
+def parameter_info(name: str) -> ParameterInfo:
+    """The meaning of a parameter name; ValueError naming the known ones."""
+    m = re.fullmatch(r"([a-z_]+?)(?:_(\d+))?", name)
+    base, seg = (m.group(1), m.group(2)) if m else (name, None)
+    if base not in PARAMETERS or (seg is not None and base not in _PER_SEGMENT):
+        known = ", ".join(f"{b}[_k]" if b in _PER_SEGMENT else b for b in PARAMETERS)
+        raise ValueError(f"unknown parameter {name!r}; known: {known} (k: a segment, from 1)")
+    unit, integer, doc = PARAMETERS[base]
+    return ParameterInfo(base, int(seg) if seg is not None else None, unit, integer, doc)
+
+
+def _segments(data: dict[str, Any], seg: int | None, name: str) -> list[int]:
+    n = len(data["segments"])
+    if seg is None:
+        return list(range(n))
+    if not 1 <= seg <= n:
+        raise ValueError(f"{name}: the robot has segments 1 to {n}")
+    return [seg - 1]
+
+
+def _set(data: dict[str, Any], name: str, value: float) -> None:
+    info = parameter_info(name)
+    segs = _segments(data, info.segment, name)
+    tendons = [t for t in data["tendons"] if t["segment"] - 1 in segs]
+    if info.base == "routing_radius":
+        for t in tendons:
+            t["radius"] = float(value)
+    elif info.base == "tendon_angle_offset":
+        for t in tendons:
+            t["angle_deg"] = float(t["angle_deg"]) + float(value)
+    elif info.base == "segment_length":
+        for k in segs:
+            s = data["segments"][k]
+            if s.get("subsegment_lengths") is not None:
+                s["subsegment_lengths"] = tuple(float(x) * value / s["length"] for x in s["subsegment_lengths"])
+            s["length"] = float(value)
+    elif info.base == "disks":
+        for k in segs:
+            data["segments"][k]["n_disks"] = int(value)
+            data["segments"][k]["subsegment_lengths"] = None
+    elif info.base == "backbone_radius":
+        data["backbone"]["outer_radius"] = float(value)
+    elif info.base == "youngs_modulus":
+        data["backbone"]["youngs_modulus"] = float(value)
+        if data["backbone"].get("poissons_ratio") is not None:
+            data["backbone"]["shear_modulus"] = None
+    else:  # disk_radius
+        data["disk_radius"] = float(value)
+
+
+def apply_parameters(robot: Robot, values: dict[str, float]) -> Robot:
+    """``robot`` with the parameters set, in the order given; ValueError when the robot it makes is invalid
+    (naming the robot field and its range)."""
+    data = robot.model_dump()
+    for name, value in values.items():
+        _set(data, name, value)
+    try:
+        return Robot.model_validate(data)
+    except ValidationError as err:
+        raise ValueError(format_validation_error(err)) from None
+
+
+def _levels(p: Any, integer: bool) -> list[float]:
+    if p.values is not None:
+        vals = list(p.values)
+    else:
+        lo, hi = p.range
+        vals = list(np.linspace(lo, hi, p.steps or 3))
+    return [int(np.rint(v)) if integer else float(v) for v in vals]
+
+
+def choose_designs(parameters: dict[str, Any], method: str, count: int | None, seed: int) -> list[dict[str, float]]:
+    """The designs: each a dict of parameter values, in a fixed order (the design's index is its place).
+
+    ``grid``: every combination of the parameters' values (a range gives ``steps`` evenly spaced values, 3 by
+    default), the first parameter varying slowest. ``sobol``: ``count`` scrambled Sobol points (``seed``);
+    a range is sampled uniformly, a list of values by an even share of the unit interval each.
+    """
+    names = list(parameters)
+    infos = [parameter_info(n) for n in names]
+    if method == "grid":
+        levels = [_levels(parameters[n], i.integer) for n, i in zip(names, infos, strict=True)]
+        return [dict(zip(names, combo, strict=True)) for combo in itertools.product(*levels)]
+    with warnings.catch_warnings():  # a count that is not a power of two is less balanced, not wrong
+        warnings.simplefilter("ignore", UserWarning)
+        u = qmc.Sobol(len(names), scramble=True, seed=np.random.default_rng([seed, 0x5D])).random(count)
+    out = []
+    for row in u:
+        d = {}
+        for x, n, info in zip(row, names, infos, strict=True):
+            p = parameters[n]
+            if p.values is not None:
+                v = p.values[min(int(x * len(p.values)), len(p.values) - 1)]
+            else:
+                v = p.range[0] + x * (p.range[1] - p.range[0])
+            d[n] = int(np.rint(v)) if info.integer else float(v)
+        out.append(d)
+    return out

@@ -1,0 +1,246 @@
+"""A design study's file (TOML), validated strictly before any work: the base robot, the parameters to vary,
+how designs are chosen, the load cases, the tension bounds, the model, the per-design budget and the measures.
+
+An example (``examples/design_study_small.toml`` is a complete one)::
+
+    name = "routing"
+    robot = "paper"            # a built-in robot or a robot TOML file (relative to the study file)
+    seed = 7
+    bounds = [0.0, 20.0]       # every tendon's tension bounds [N]
+    model = "pcc"
+
+    [designs]
+    method = "grid"            # "grid" (every combination) or "sobol" (count points, seeded)
+
+    [parameters]
+    routing_radius_2 = { values = [0.006, 0.008] }
+    segment_length_1 = { range = [0.15, 0.25], steps = 3 }
+
+    [budget]
+    samples = 200              # base samples per design and load case
+    search = 0                 # boundary-search solves per design and load case
+
+    [loads]
+    cases = ["paper wrench"]   # names of tdcr workspace --compare-loads; custom ones below
+    custom.heavy = { tip_force = [0.0, 0.0, -0.5] }
+
+    [measures]
+    directions = { up = [0.0, 0.0, 1.0] }   # h(d) along each named direction
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from ..design import Robot
+from ..io import format_validation_error, load_robot, read_toml
+from ..paper import workspace_load_cases
+from ..statics import MODELS
+from ._space import apply_parameters, parameter_info
+
+__all__ = ["LOAD_CASE_NAMES", "MAX_DESIGNS", "DesignStudy", "Parameter", "StudyError", "load_study", "study_from_dict"]
+
+#: the most designs one study may hold (a grid multiplies quickly)
+MAX_DESIGNS = 100_000
+#: the load cases a study may name (those of ``tdcr workspace --compare-loads``)
+LOAD_CASE_NAMES = ("no load", "gravity only", "payload 5 g", "payload 10 g", "payload 20 g", "paper wrench")
+
+
+class StudyError(ValueError):
+    """A study file that cannot be used: names the key, the value and what is allowed."""
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(frozen=True, extra="forbid", strict=True)
+
+
+Finite = Annotated[float, Field(allow_inf_nan=False)]
+Vector = Annotated[list[Finite], Field(min_length=3, max_length=3)]
+Pair = Annotated[list[Finite], Field(min_length=2, max_length=2)]
+
+
+class Parameter(_Strict):
+    """One varied parameter: a list of ``values``, or a ``range`` [lo, hi] (with ``steps`` for a grid)."""
+
+    values: list[Finite] | None = Field(default=None, min_length=1, max_length=10_000)
+    range: Pair | None = None
+    steps: Annotated[int, Field(ge=1, le=10_000)] | None = None
+
+    @model_validator(mode="after")
+    def _one_kind(self) -> Parameter:
+        if (self.values is None) == (self.range is None):
+            raise ValueError("give either values = [...] or range = [lo, hi]")
+        if self.range is not None and not self.range[0] <= self.range[1]:
+            raise ValueError(f"range = {list(self.range)}: lo must not exceed hi")
+        if self.values is not None and self.steps is not None:
+            raise ValueError("steps goes with range, not with values")
+        if self.values is not None and not all(np.isfinite(v) for v in self.values):
+            raise ValueError("values must be finite numbers")
+        return self
+
+
+class Designs(_Strict):
+    """How designs are chosen: every combination (``grid``), or ``count`` scrambled Sobol points (``sobol``)."""
+
+    method: Literal["grid", "sobol"] = "grid"
+    count: Annotated[int, Field(ge=1, le=MAX_DESIGNS)] | None = None
+
+    @model_validator(mode="after")
+    def _count(self) -> Designs:
+        if self.method == "sobol" and self.count is None:
+            raise ValueError("method = 'sobol' needs count = N (designs)")
+        if self.method == "grid" and self.count is not None:
+            raise ValueError("count goes with method = 'sobol'; a grid has one design per combination")
+        return self
+
+
+class Budget(_Strict):
+    """Work per design and load case: base samples, boundary-search solves, whether to search the largest reach."""
+
+    samples: Annotated[int, Field(ge=16, le=1_000_000)] = 500
+    search: Annotated[int, Field(ge=0, le=100_000_000)] = 0
+    reach_search: bool = False
+
+
+class CustomLoad(_Strict):
+    """A load case of the study's own: a tip wrench (base frame) with or without gravity."""
+
+    tip_force: Vector = [0.0, 0.0, 0.0]
+    tip_moment: Vector = [0.0, 0.0, 0.0]
+    gravity: bool = True
+
+
+class LoadCases(_Strict):
+    """Named cases (:data:`LOAD_CASE_NAMES`) and custom ones."""
+
+    cases: list[Literal[LOAD_CASE_NAMES]] = ["paper wrench"]  # type: ignore[valid-type]
+    custom: dict[str, CustomLoad] = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _some(self) -> LoadCases:
+        if not self.cases and not self.custom:
+            raise ValueError("no load case: name at least one in cases = [...] or add a custom one")
+        clash = set(self.cases) & set(self.custom)
+        if clash:
+            raise ValueError(f"custom load case {sorted(clash)[0]!r} has the name of a built-in case")
+        return self
+
+
+class Measures(_Strict):
+    """What is measured beyond the fixed set: h(d) along each named direction."""
+
+    directions: dict[str, Vector] = Field(default_factory=dict)
+
+    @field_validator("directions")
+    @classmethod
+    def _unit(cls, v: dict[str, Any]) -> dict[str, Any]:
+        for name, d in v.items():
+            if not name.isidentifier():
+                raise ValueError(f"direction name {name!r}: letters, digits and _ only (it names a column)")
+            if float(np.linalg.norm(d)) == 0.0:
+                raise ValueError(f"direction {name!r} is zero")
+        return v
+
+
+class DesignStudy(_Strict):
+    """A validated study file (see the module's docstring); ``robot`` is the base robot's name or file."""
+
+    name: Annotated[str, Field(min_length=1, max_length=100, pattern=r"^[A-Za-z0-9_.\- ]+$")] = "study"
+    robot: str = "paper"
+    seed: Annotated[int, Field(ge=0, le=2**63 - 1)] = 0
+    bounds: Pair = [0.0, 20.0]
+    model: str = "pcc"
+    designs: Designs = Field(default_factory=Designs)
+    parameters: dict[str, Parameter] = Field(min_length=1)
+    budget: Budget = Field(default_factory=Budget)
+    loads: LoadCases = Field(default_factory=LoadCases)
+    measures: Measures = Field(default_factory=Measures)
+
+    @field_validator("model")
+    @classmethod
+    def _model(cls, v: str) -> str:
+        if v not in MODELS:
+            raise ValueError(f"unknown model {v!r}; one of {sorted(MODELS)}")
+        return v
+
+    @field_validator("bounds")
+    @classmethod
+    def _bounds(cls, v: list[float]) -> list[float]:
+        if not 0.0 <= v[0] < v[1] <= 1e4:
+            raise ValueError(f"bounds = {list(v)}: need 0 <= lo < hi <= 10000 N")
+        return v
+
+    @field_validator("parameters")
+    @classmethod
+    def _known(cls, v: dict[str, Parameter]) -> dict[str, Parameter]:
+        for name in v:
+            parameter_info(name)  # ValueError naming the parameter and the known ones
+        return v
+
+    def digest(self) -> str:
+        """A hash of the validated study: two files that mean the same study have the same digest."""
+        text = json.dumps(self.model_dump(mode="json"), sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    def load_cases(self, robot: Robot) -> dict[str, tuple[Robot, Any]]:
+        """The study's load cases on ``robot``, in the file's order (named, then custom): name → (robot, loads)."""
+        from ..loads import Loads
+
+        named = workspace_load_cases(robot)
+        out = {name: named[name] for name in self.loads.cases}
+        heavy = named["gravity only"][0]
+        for name, c in self.loads.custom.items():
+            r = heavy if c.gravity else robot.with_gravity((0.0, 0.0, 0.0))
+            out[name] = (r, Loads(np.zeros(robot.n_tendons), tip_force=c.tip_force, tip_moment=c.tip_moment))
+        return out
+
+
+def study_from_dict(data: dict[str, Any], source: str = "study", base_dir: Path | None = None
+                    ) -> tuple[DesignStudy, Robot]:
+    """Validate a study (as read from TOML) and load its base robot; every parameter's range is tried on the
+    base robot, one parameter at a time, so an impossible range is refused here, naming its key.
+
+    Raises
+    ------
+    StudyError
+    """
+    try:
+        study = DesignStudy.model_validate(data)
+    except ValidationError as err:
+        raise StudyError(f"{source}: {format_validation_error(err)}") from None
+    spec = study.robot
+    if base_dir is not None and spec.endswith(".toml") and not Path(spec).is_absolute():
+        spec = str(base_dir / spec)
+    try:
+        robot = load_robot(spec)
+    except ValueError as err:
+        raise StudyError(f"{source}: robot: {err}") from None
+    for name, p in study.parameters.items():
+        info = parameter_info(name)
+        ends = p.values if p.values is not None else p.range
+        for value in ends:
+            if info.integer and float(value) != int(value):
+                raise StudyError(f"{source}: parameters.{name} = {value!r}: must be a whole number ({info.doc})")
+            try:
+                apply_parameters(robot, {name: value})
+            except ValueError as err:
+                raise StudyError(f"{source}: parameters.{name} = {value!r}: {err}") from None
+    return study, robot
+
+
+def load_study(path: str | Path) -> tuple[DesignStudy, Robot, str]:
+    """Read and validate a study file; returns the study, its base robot and the file's text."""
+    path = Path(path)
+    try:
+        data = read_toml(path, "study file")
+    except ValueError as err:
+        raise StudyError(str(err)) from None
+    study, robot = study_from_dict(data, str(path), path.parent)
+    return study, robot, path.read_text(encoding="utf-8")
+

@@ -1,0 +1,129 @@
+"""Design studies: the study file's validation, the choice of designs, and runs on local processes and on a real
+Dask LocalCluster that give the same table, resume, refuse a changed study and record failed designs."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from pytdcr.designs import StudyError, choose_designs, evaluate_design, load_study, run_designs, study_from_dict
+from pytdcr.paper import paper_robot
+from pytdcr.study import FolderError
+
+
+def _study(**over):
+    data = {"name": "t", "robot": "paper", "seed": 3, "bounds": [0.0, 10.0],
+            "parameters": {"backbone_radius": {"values": [0.0007, 0.003]},
+                           "routing_radius_2": {"values": [0.002, 0.01]}},
+            "budget": {"samples": 24}, "loads": {"cases": ["no load"]},
+            "measures": {"directions": {"up": [0.0, 0.0, 1.0]}}}
+    data.update(over)
+    return data
+
+
+@pytest.mark.parametrize(("change", "says"), [
+    ({"colour": "red"}, "colour: unknown key"),
+    ({"seed": "7"}, "seed"),
+    ({"parameters": {"routing_radius_3": {"values": [0.01]}}}, "routing_radius_3: the robot has segments 1 to 2"),
+    ({"parameters": {"wing_span": {"values": [1.0]}}}, "unknown parameter 'wing_span'"),
+    ({"parameters": {"backbone_radius": {"range": [0.001, 0.2]}}}, "parameters.backbone_radius = 0.2"),
+    ({"parameters": {"disks_1": {"values": [10.5]}}}, "must be a whole number"),
+    ({"parameters": {"disks": {"range": [5, 3]}}}, "lo must not exceed hi"),
+    ({"designs": {"method": "sobol"}}, "needs count"),
+    ({"bounds": [5.0, 1.0]}, "bounds = [5.0, 1.0]"),
+    ({"loads": {"cases": ["on the moon"]}}, "loads.cases"),
+    ({"model": "fem"}, "unknown model 'fem'"),
+    ({"measures": {"directions": {"up": [0.0, 0.0, 0.0]}}}, "direction 'up' is zero"),
+])
+def test_a_bad_study_is_refused_naming_the_key(change, says):
+    with pytest.raises(StudyError) as err:
+        study_from_dict(_study(**change), "s.toml")
+    assert says in str(err.value) and str(err.value).startswith("s.toml: ")
+
+
+def test_designs_are_a_grid_or_seeded_sobol_points():
+    study, _ = study_from_dict(_study())
+    grid = choose_designs(study.parameters, "grid", None, 0)
+    assert grid == [{"backbone_radius": a, "routing_radius_2": b} for a in (0.0007, 0.003) for b in (0.002, 0.01)]
+    study, _ = study_from_dict(_study(parameters={"segment_length_1": {"range": [0.1, 0.3]},
+                                                  "disks": {"values": [5, 10, 20]}}))
+    a = choose_designs(study.parameters, "sobol", 16, 5)
+    assert a == choose_designs(study.parameters, "sobol", 16, 5) != choose_designs(study.parameters, "sobol", 16, 6)
+    assert all(0.1 <= d["segment_length_1"] <= 0.3 and d["disks"] in (5, 10, 20) for d in a)
+    assert {d["disks"] for d in a} == {5, 10, 20}
+
+
+def test_a_design_whose_robot_is_impossible_fails_with_its_reason():
+    study, robot = study_from_dict(_study())
+    rec = evaluate_design(study.model_dump(), robot.model_dump(), 3, {"backbone_radius": 0.003,
+                                                                      "routing_radius_2": 0.002})
+    assert rec["status"] == "failed" and "must exceed backbone.outer_radius" in rec["reason"] and rec["rows"] == []
+
+
+def test_the_small_example_is_valid():
+    study, robot, text = load_study("examples/design_study_small.toml")
+    assert robot.name == paper_robot().name and "design" in text and len(choose_designs(
+        study.parameters, study.designs.method, study.designs.count, study.seed)) == 4
+
+
+@pytest.mark.slow
+def test_local_and_dask_runs_give_one_table_and_resume(tmp_path):
+    from distributed import LocalCluster
+
+    study, robot = study_from_dict(_study())
+    local = run_designs(study, robot, tmp_path / "local", workers=2)
+    t = local.table
+    assert len(t) == 4 and list(t["design"]) == [0, 1, 2, 3]
+    failed = t[t["status"] == "failed"]
+    assert list(failed["design"]) == [2] and "must exceed" in failed["reason"].iloc[0]  # (0.003, 0.002)
+    ok = t[t["status"] == "ok"]
+    assert np.all(ok["volume_m3"] > 0) and np.all(ok["largest_reach_m"] <= ok["arc_length_m"] + 1e-12)
+    assert np.all(ok["h_up_m"] <= ok["largest_reach_m"] + 1e-12) and np.all(ok["peak_stress_pa"] > 0)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        remote = run_designs(study, robot, tmp_path / "dask", scheduler=cluster.scheduler_address)
+    assert "Dask" in remote.summary["executor"]
+    assert (tmp_path / "local" / "designs.csv").read_text() == (tmp_path / "dask" / "designs.csv").read_text()
+    # run again: everything reused, the same table
+    again = run_designs(study, robot, tmp_path / "local", workers=1)
+    assert again.summary["designs_reused"] == 4 and again.summary["designs_computed"] == 0
+    assert again.table.equals(local.table)
+    # a missing design file is computed again, alone
+    (tmp_path / "local" / "designs" / "000001.json").unlink()
+    part = run_designs(study, robot, tmp_path / "local", workers=1)
+    assert (part.summary["designs_reused"], part.summary["designs_computed"]) == (3, 1)
+    assert (tmp_path / "local" / "designs.csv").read_text() == (tmp_path / "dask" / "designs.csv").read_text()
+    summary = json.loads((tmp_path / "local" / "summary.json").read_text())
+    assert summary["designs_reused"] == 3 and summary["seed"] == 3
+    # another study into the same folder is refused, or restarted when asked
+    other, _ = study_from_dict(_study(seed=4))
+    with pytest.raises(FolderError, match="the study file changed"):
+        run_designs(other, robot, tmp_path / "local")
+    (tmp_path / "x").mkdir()
+    (tmp_path / "x" / "notes.txt").write_text("mine")
+    with pytest.raises(FolderError, match="not part of a tdcr run"):
+        run_designs(study, robot, tmp_path / "x")
+    best = tmp_path / "local" / "best"
+    assert len(list(best.glob("design_*.toml"))) == 1
+
+
+@pytest.mark.slow
+def test_tdcr_designs_runs_the_small_example(tmp_path, capsys):
+    from pytdcr.cli import main
+
+    out = tmp_path / "small"
+    code = main(["designs", "examples/design_study_small.toml", "--out", str(out)])
+    text, err = capsys.readouterr()
+    assert code == 0, err
+    assert "4 designs, 4 computed, 0 reused, 0 failed" in text
+    import pandas as pd
+
+    t = pd.read_parquet(out / "designs.parquet")
+    assert len(t) == 4 and set(t["load_case"]) == {"paper wrench"} and (t["status"] == "ok").all()
+    assert {"h_up_m", "h_side_m", "peak_stress_pa", "volume_err_m3"} <= set(t.columns)
+    assert pd.read_csv(out / "designs.csv")["design"].tolist() == [0, 1, 2, 3]
+    assert (out / "study.toml").read_text() == open("examples/design_study_small.toml").read()
+    assert json.loads((out / "manifest.json").read_text())["status"] == "complete"
+    code = main(["designs", "examples/design_study_small.toml", "--out", str(out)])
+    assert code == 0 and "0 computed, 4 reused" in capsys.readouterr()[0]
