@@ -33,6 +33,8 @@ def _study(**over):
     ({"parameters": {"disks": {"range": [5, 3]}}}, "lo must not exceed hi"),
     ({"designs": {"method": "sobol"}}, "needs count"),
     ({"bounds": [5.0, 1.0]}, "bounds = [5.0, 1.0]"),
+    ({"parameters": {"disks": {"range": [1, 10000], "steps": 10000},
+                     "segment_length": {"range": [0.1, 0.3], "steps": 10000}}}, "the grid holds 100,000,000 designs"),
     ({"loads": {"cases": ["on the moon"]}}, "loads.cases"),
     ({"model": "fem"}, "unknown model 'fem'"),
     ({"measures": {"directions": {"up": [0.0, 0.0, 0.0]}}}, "direction 'up' is zero"),

@@ -40,6 +40,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from ..design import Robot
 from ..io import format_validation_error, load_robot, read_toml
+from ..loads import Loads
 from ..paper import workspace_load_cases
 from ..statics import MODELS
 from ._space import apply_parameters, parameter_info
@@ -183,6 +184,17 @@ class DesignStudy(_Strict):
             parameter_info(name)  # ValueError naming the parameter and the known ones
         return v
 
+    @model_validator(mode="after")
+    def _grid_size(self) -> DesignStudy:
+        if self.designs.method == "grid":
+            size = 1
+            for p in self.parameters.values():
+                size *= len(p.values) if p.values is not None else (p.steps or 3)
+            if size > MAX_DESIGNS:
+                raise ValueError(f"the grid holds {size:,} designs; at most {MAX_DESIGNS:,} (fewer values or steps, "
+                                 "or method = 'sobol' with a count)")
+        return self
+
     def digest(self) -> str:
         """A hash of the validated study: two files that mean the same study have the same digest."""
         text = json.dumps(self.model_dump(mode="json"), sort_keys=True)
@@ -190,8 +202,6 @@ class DesignStudy(_Strict):
 
     def load_cases(self, robot: Robot) -> dict[str, tuple[Robot, Any]]:
         """The study's load cases on ``robot``, in the file's order (named, then custom): name → (robot, loads)."""
-        from ..loads import Loads
-
         named = workspace_load_cases(robot)
         out = {name: named[name] for name in self.loads.cases}
         heavy = named["gravity only"][0]
