@@ -381,10 +381,7 @@ def resumable_folder(path: str | Path, command: str, inputs: dict[str, Any], dig
         close("running")
         try:
             yield run
-        except KeyboardInterrupt:
-            close("interrupted")
-            raise
-        except BaseException:
+        except BaseException:  # Ctrl-C or an error: what was finished stays, for the next run to resume
             close("interrupted")
             raise
         close("complete")
