@@ -8,7 +8,19 @@ import json
 import numpy as np
 import pytest
 
-from pytdcr.designs import StudyError, choose_designs, evaluate_design, load_study, run_designs, study_from_dict
+from pytdcr.designs import (
+    StudyError,
+    apply_parameters,
+    choose_designs,
+    evaluate_design,
+    from_unit,
+    load_study,
+    objective_matrix,
+    pareto_front,
+    read_parameter,
+    run_designs,
+    study_from_dict,
+)
 from pytdcr.paper import paper_robot
 from pytdcr.study import FolderError
 
@@ -38,6 +50,18 @@ def _study(**over):
     ({"loads": {"cases": ["on the moon"]}}, "loads.cases"),
     ({"model": "fem"}, "unknown model 'fem'"),
     ({"measures": {"directions": {"up": [0.0, 0.0, 0.0]}}}, "direction 'up' is zero"),
+    ({"designs": {"method": "optimize", "population": 8}}, "needs generations"),
+    ({"designs": {"method": "optimize", "population": 8, "generations": 2, "count": 5}}, "count goes with"),
+    ({"designs": {"method": "grid", "population": 8}}, "population goes with method = 'optimize'"),
+    ({"designs": {"method": "optimize", "population": 2, "generations": 2}}, "designs.population"),
+    ({"objectives": [{"measure": "beauty", "goal": "max"}]}, "objectives[0].measure = 'beauty'"),
+    ({"objectives": [{"measure": "h_side_m", "goal": "max"}]}, "objectives[0].measure = 'h_side_m'"),
+    ({"objectives": [{"measure": "volume_m3", "goal": "most"}]}, "objectives.0.goal"),
+    ({"objectives": [{"measure": "volume_m3", "goal": "max", "load_case": "paper wrench"}]},
+     "objectives[0].load_case = 'paper wrench'"),
+    ({"objectives": [{"measure": "volume_m3", "goal": "max"}, {"measure": "volume_m3", "goal": "min"}]},
+     "the same measure and load case twice"),
+    ({"budget": {"samples": 24, "voxel": 0.0}}, "budget.voxel"),
 ])
 def test_a_bad_study_is_refused_naming_the_key(change, says):
     with pytest.raises(StudyError) as err:
@@ -70,6 +94,13 @@ def test_the_small_example_is_valid():
         study.parameters, study.designs.method, study.designs.count, study.seed)) == 4
 
 
+@pytest.mark.parametrize(("name", "designs"), [("design_study_routing.toml", 200),
+                                               ("design_study_optimize.toml", 40)])
+def test_the_other_examples_are_valid(name, designs):
+    study, _, _ = load_study(f"examples/{name}")
+    assert (study.designs.count or study.designs.total) == designs
+
+
 @pytest.mark.slow
 def test_local_and_dask_runs_give_one_table_and_resume(tmp_path):
     from distributed import LocalCluster
@@ -77,7 +108,10 @@ def test_local_and_dask_runs_give_one_table_and_resume(tmp_path):
     study, robot = study_from_dict(_study())
     local = run_designs(study, robot, tmp_path / "local", workers=2)
     t = local.table
-    assert len(t) == 4 and list(t["design"]) == [0, 1, 2, 3]
+    assert list(t["design"]) == [-1, 0, 1, 2, 3] and local.summary["reference"] == "ok"
+    ref = t[t["design"] == -1].iloc[0]  # the base robot, measured like a design
+    assert (ref["backbone_radius"], ref["routing_radius_2"]) == (0.0007, 0.01) and ref["status"] == "ok"
+    t = t[t["design"] >= 0]
     failed = t[t["status"] == "failed"]
     assert list(failed["design"]) == [2] and "must exceed" in failed["reason"].iloc[0]  # (0.003, 0.002)
     ok = t[t["status"] == "ok"]
@@ -122,10 +156,80 @@ def test_tdcr_designs_runs_the_small_example(tmp_path, capsys):
     import pandas as pd
 
     t = pd.read_parquet(out / "designs.parquet")
-    assert len(t) == 4 and set(t["load_case"]) == {"paper wrench"} and (t["status"] == "ok").all()
-    assert {"h_up_m", "h_side_m", "peak_stress_pa", "volume_err_m3"} <= set(t.columns)
-    assert pd.read_csv(out / "designs.csv")["design"].tolist() == [0, 1, 2, 3]
+    assert len(t) == 5 and set(t["load_case"]) == {"paper wrench"} and (t["status"] == "ok").all()
+    assert {"h_up_m", "h_side_m", "peak_stress_pa", "volume_err_m3", "pareto", "generation"} <= set(t.columns)
+    assert pd.read_csv(out / "designs.csv")["design"].tolist() == [-1, 0, 1, 2, 3]
+    for stem in ("pareto", "measures", "best_designs"):
+        assert (out / f"{stem}.png").stat().st_size > 10_000 and (out / f"{stem}.pdf").exists()
+    report = (out / "report.md").read_text()
+    assert "Against the base robot 'paper'" in report and "![pareto.png](pareto.png)" in report
     assert (out / "study.toml").read_text() == open("examples/design_study_small.toml").read()
     assert json.loads((out / "manifest.json").read_text())["status"] == "complete"
     code = main(["designs", "examples/design_study_small.toml", "--out", str(out)])
     assert code == 0 and "0 computed, 4 reused" in capsys.readouterr()[0]
+
+
+def test_a_parameter_reads_back_from_the_robot_it_sets():
+    robot = paper_robot()
+    for name, value in (("routing_radius_2", 0.007), ("segment_length_1", 0.18), ("disks", 12),
+                        ("backbone_radius", 0.0009), ("youngs_modulus", 60e9)):
+        assert read_parameter(apply_parameters(robot, {name: value}), name) == pytest.approx(value)
+    mixed = apply_parameters(robot, {"routing_radius_2": 0.007})
+    assert np.isnan(read_parameter(mixed, "routing_radius"))  # the segments differ: no one value
+    assert read_parameter(robot, "tendon_angle_offset_1") == 0.0
+
+
+def test_a_unit_point_maps_onto_the_ranges_and_values():
+    study, _ = study_from_dict(_study(parameters={"segment_length_1": {"range": [0.1, 0.3]},
+                                                  "disks": {"values": [5, 10, 20]}}))
+    assert from_unit(np.array([0.0, 0.0]), study.parameters) == {"segment_length_1": 0.1, "disks": 5}
+    assert from_unit(np.array([1.0, 1.0]), study.parameters) == {"segment_length_1": 0.3, "disks": 20}
+    assert from_unit(np.array([0.5, 0.5]), study.parameters) == {"segment_length_1": pytest.approx(0.2), "disks": 10}
+
+
+def test_the_pareto_front_is_the_set_no_design_dominates():
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        F = rng.integers(0, 6, size=(30, 2)).astype(float)  # ties and duplicates on purpose
+        ok = rng.random(30) > 0.2
+        front = pareto_front(F, ok)
+        assert not np.any(front & ~ok)
+        for i in np.flatnonzero(ok):
+            beaten = any(np.all(F[j] <= F[i]) and np.any(F[j] < F[i]) for j in np.flatnonzero(ok))
+            assert front[i] == (not beaten)
+
+
+def test_objectives_are_minimised_and_a_failed_design_has_none():
+    study, _ = study_from_dict(_study(objectives=[{"measure": "volume_m3", "goal": "max"},
+                                                  {"measure": "peak_stress_pa", "goal": "min"}]))
+    good = {"status": "ok", "rows": [{"load_case": "no load", "volume_m3": 2.0, "peak_stress_pa": 5.0}]}
+    nan = {"status": "ok", "rows": [{"load_case": "no load", "volume_m3": float("nan"), "peak_stress_pa": 5.0}]}
+    bad = {"status": "failed", "rows": []}
+    F, ok = objective_matrix(study, [good, nan, bad])
+    assert F[0].tolist() == [-2.0, 5.0] and ok.tolist() == [True, False, False] and not F[1:].any()
+
+
+@pytest.mark.slow
+def test_an_optimised_study_is_the_same_on_any_executor_and_resumes(tmp_path):
+    from distributed import LocalCluster
+
+    study, robot = study_from_dict(_study(
+        designs={"method": "optimize", "population": 4, "generations": 3},
+        parameters={"routing_radius_2": {"range": [0.004, 0.012]}, "disks_1": {"range": [6, 12]}},
+        budget={"samples": 16}, objectives=[{"measure": "largest_reach_m", "goal": "max"},
+                                            {"measure": "peak_stress_pa", "goal": "min"}]))
+    local = run_designs(study, robot, tmp_path / "local", workers=1, figures=False)
+    t = local.table
+    assert list(t["design"]) == list(range(-1, len(t) - 1)) and set(t["generation"]) == {-1, 0, 1, 2}
+    assert 4 < local.summary["designs"] <= 12 and local.summary["designs_failed"] == 0
+    assert t["routing_radius_2"].between(0.004, 0.012).all() and t["disks_1"].isin(range(6, 13)).all()
+    assert t[t["design"] >= 0].drop_duplicates(["routing_radius_2", "disks_1"]).shape[0] == local.summary["designs"]
+    assert t["pareto"].any() and not t.loc[t["design"] == -1, "pareto"].any()
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        run_designs(study, robot, tmp_path / "dask", scheduler=cluster.scheduler_address, figures=False)
+    assert (tmp_path / "local" / "designs.csv").read_text() == (tmp_path / "dask" / "designs.csv").read_text()
+    # the optimiser replays its generations from the files: nothing computed again
+    (tmp_path / "local" / "designs" / "000005.json").unlink()
+    again = run_designs(study, robot, tmp_path / "local", workers=1, figures=False)
+    assert (again.summary["designs_computed"], again.summary["designs_reused"]) == (1, local.summary["designs"] - 1)
+    assert (tmp_path / "local" / "designs.csv").read_text() == (tmp_path / "dask" / "designs.csv").read_text()

@@ -151,14 +151,15 @@ def test_sigint_designs_keeps_finished_designs_and_resumes(tmp_path):
     out = tmp_path / "out"
     example = str(Path(__file__).resolve().parents[1] / "examples" / "design_study_small.toml")
     p = Proc("designs", example, "--workers", "2", "--out", str(out))
-    p.wait_for(r"designs:.*?(\d+)/4", at_least=1)
+    p.wait_for(r"designs:.*?(\d+)/5", at_least=2)  # 4 designs and the base robot
     code, line = p.interrupt()
     assert code == 130
-    m = re.fullmatch(rf"tdcr: interrupted; saved (\d) of 4 designs in {re.escape(str(out))} \(run the same "
-                     r"command again to compute the rest\)", line)
+    m = re.fullmatch(rf"tdcr: interrupted; saved (\d) of 4 designs( and the base robot)? in {re.escape(str(out))} "
+                     r"\(run the same command again to compute the rest\)", line)
     assert m, line
     saved = int(m.group(1))
-    assert 1 <= saved <= 4 and len(list((out / "designs").glob("*.json"))) == saved
+    assert 0 <= saved <= 4 and len(list((out / "designs").glob("0*.json"))) == saved
+    assert (out / "designs" / "reference.json").exists() == bool(m.group(2)) and saved + bool(m.group(2)) >= 2
     assert json.loads((out / "manifest.json").read_text())["status"] == "interrupted"
     done = subprocess.run([*TDCR, "designs", example, "--out", str(out)], capture_output=True, text=True,
                           timeout=600, check=False)

@@ -318,7 +318,7 @@ def _cmd_designs(args: argparse.Namespace) -> int:
 
     try:
         run = run_designs(study, robot, args.out, study_text=text, scheduler=args.scheduler, workers=args.workers,
-                          restart=args.restart, progress=progress)
+                          restart=args.restart, progress=progress, figures=not args.no_figures)
     finally:
         bar.__exit__()
     s = run.summary
@@ -326,11 +326,17 @@ def _cmd_designs(args: argparse.Namespace) -> int:
           f"{s['designs_reused']} reused, {s['designs_failed']} failed, on {s['executor']} in {s['seconds']:.1f} s")
     ok = run.table[run.table["status"] == "ok"]
     for case in dict.fromkeys(ok["load_case"]):
-        sub = ok[ok["load_case"] == case]
+        sub = ok[(ok["load_case"] == case) & (ok["design"] >= 0)]
+        ref = ok[(ok["load_case"] == case) & (ok["design"] == -1)]
+        if sub.empty:
+            continue
         best = sub.loc[sub["volume_m3"].idxmax()]
+        versus = (f" (base robot {ref['volume_m3'].iloc[0] * 1e6:.0f} ± {ref['volume_err_m3'].iloc[0] * 1e6:.0f})"
+                  if not ref.empty else "")
         print(f"  {case}: largest FSW {best['volume_m3'] * 1e6:.0f} ± {best['volume_err_m3'] * 1e6:.0f} cm^3, design "
-              f"{int(best['design'])}")
-    print(f"wrote designs.parquet, designs.csv, timings.csv, summary.json, report.md, best/ in "
+              f"{int(best['design'])}{versus}")
+    figures = ", figures" if s.get("figures") else ""
+    print(f"wrote designs.parquet, designs.csv, timings.csv, summary.json, report.md, best/{figures} in "
           f"{escape_controls(str(run.path))}")
     return EXIT_OK if s["designs_failed"] < s["designs"] else EXIT_NOT_CONVERGED
 
@@ -827,6 +833,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "processes")
     d.add_argument("--workers", type=int, help="local processes [all cores]")
     d.add_argument("--restart", action="store_true", help="discard what the folder holds and start again")
+    d.add_argument("--no-figures", action="store_true", help="write no figures (the table and report only)")
     d.set_defaults(func=_cmd_designs)
 
     r = sub.add_parser("robot", help="print a robot as TOML (a starting point for your own)")

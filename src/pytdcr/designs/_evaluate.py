@@ -17,45 +17,33 @@ import numpy as np
 
 from ..bounds import TensionBounds
 from ..optimize import ReachProblem
-from ..region import largest_reach, support_function, workspace_region
+from ..region import VOXELS_PER_LENGTH, largest_reach, support_function, workspace_region
 from ..statics import Cancelled, resolve
 from ._space import apply_parameters
-from ._spec import DesignStudy
+from ._spec import MEASURES, DesignStudy
 
 __all__ = ["MEASURES", "design_seed", "evaluate_design"]
 
-#: the measures of every row, with their units (h along the study's named directions come after, ``h_<name>_m``)
-MEASURES = {
-    "volume_m3": "FSW volume (converged, stable equilibria) [m^3]",
-    "volume_err_m3": "its error [m^3]",
-    "realisable_volume_m3": "volume of the realisable region (no disk below the base, no disks touching) [m^3]",
-    "realisable_volume_err_m3": "its error [m^3]",
-    "largest_reach_m": "largest ||tip|| over the feasible samples and the tips attaining h (searched when "
-                       "budget.reach_search) [m]",
-    "fraction_converged": "converged samples / samples solved",
-    "fraction_realisable": "realisable samples / converged samples",
-    "peak_stress_pa": "largest backbone bending stress E kappa r over the converged samples [Pa]",
-    "arc_length_m": "the robot's length [m]",
-}
-
-
 def design_seed(study_seed: int, index: int) -> int:
-    """The seed of design ``index``: from the study's seed and the index alone."""
-    return int(np.random.SeedSequence([int(study_seed), int(index)]).generate_state(1, dtype=np.uint32)[0])
+    """The seed of design ``index``: from the study's seed and the index alone (the reference, index -1, has its
+    own)."""
+    entropy = [int(study_seed), int(index)] if index >= 0 else [int(study_seed), 0, -int(index)]
+    return int(np.random.SeedSequence(entropy).generate_state(1, dtype=np.uint32)[0])
 
 
-def _case_row(study: DesignStudy, robot: Any, loads: Any, seed: int) -> dict[str, Any]:
+def _case_row(study: DesignStudy, robot: Any, loads: Any, seed: int, voxel: float) -> dict[str, Any]:
     bounds = TensionBounds.uniform(robot.n_tendons, *study.bounds)
     m, opts = resolve(study.model, robot, loads, None)
-    wr = workspace_region(robot, loads, bounds, study.budget.samples, seed, model=m, options=opts,
+    wr = workspace_region(robot, loads, bounds, study.budget.samples, seed, model=m, options=opts, voxel=voxel,
                           search=study.budget.search > 0, budget=study.budget.search, threads=1)
     s = wr.samples
     ok, feas = s.converged, s.feasible
     tips = s.tip[feas]
+    reach = np.linalg.norm(tips, axis=1)
+    far = (float(reach.max()), s.tensions[feas][int(reach.argmax())]) if tips.size else (np.nan, None)
     row: dict[str, Any] = {
         "volume_m3": wr.fsw.volume_m3, "volume_err_m3": wr.fsw.error_m3,
         "realisable_volume_m3": wr.realisable.volume_m3, "realisable_volume_err_m3": wr.realisable.error_m3,
-        "largest_reach_m": float(np.linalg.norm(tips, axis=1).max()) if tips.size else np.nan,
         "fraction_converged": float(ok.mean()),
         "fraction_realisable": float(s.realisable.sum() / max(int(ok.sum()), 1)),
         "peak_stress_pa": (float(robot.backbone.youngs_modulus * np.nanmax(s.curvature)
@@ -70,12 +58,18 @@ def _case_row(study: DesignStudy, robot: Any, loads: Any, seed: int) -> dict[str
         if problem is not None:
             sf = support_function(problem, s.tensions[feas], tips, D, threads=1)
             h = sf.h  # the tips that attain h are feasible too: the largest reach is at least theirs
-            row["largest_reach_m"] = max(row["largest_reach_m"], float(np.linalg.norm(sf.tips, axis=1).max()))
+            r = np.linalg.norm(sf.tips, axis=1)
+            if r.max() > far[0]:
+                far = (float(r.max()), sf.tensions[int(r.argmax())])
         else:
             h = (tips @ D.T).max(axis=0) if tips.size else np.full(len(names), np.nan)
         row.update({f"h_{k}_m": float(v) for k, v in zip(names, h, strict=True)})
     if study.budget.reach_search and problem is not None:
-        row["largest_reach_m"] = float(largest_reach(problem, s.tensions[feas], tips, threads=1).reach)
+        lr = largest_reach(problem, s.tensions[feas], tips, threads=1)
+        far = (float(lr.reach), lr.tensions)
+    row["largest_reach_m"] = far[0]
+    # not a column: the tensions that reach farthest, to draw the design (the table ignores this key)
+    row["reach_tensions_n"] = None if far[1] is None else [float(t) for t in far[1]]
     return row
 
 
@@ -96,8 +90,9 @@ def evaluate_design(study_data: dict[str, Any], robot_data: dict[str, Any], inde
     try:
         robot = apply_parameters(base, params)
         seed = design_seed(study.seed, index)
+        voxel = study.budget.voxel or base.length / VOXELS_PER_LENGTH  # one voxel for every design
         for name, (case_robot, loads) in study.load_cases(robot).items():
-            row = _case_row(study, case_robot, loads, seed)
+            row = _case_row(study, case_robot, loads, seed, voxel)
             out["rows"].append({"load_case": name, **row})
         if all(r["fraction_converged"] == 0.0 for r in out["rows"]):
             out["status"], out["reason"] = "failed", "no sample converged under any load case"

@@ -27,15 +27,17 @@ from ..statics import check_cancelled, mark_saving
 from ..statics._batch import default_threads
 from ..study._folder import RunInterrupted, atomic_write_text, resumable_folder
 from ..study._output import write_json
-from ._evaluate import MEASURES, evaluate_design
-from ._space import apply_parameters, choose_designs
-from ._spec import DesignStudy, StudyError
+from ._evaluate import evaluate_design
+from ._figures import write_design_figures
+from ._optimize import design_batches, objective_matrix, pareto_front
+from ._space import apply_parameters, choose_designs, read_parameter
+from ._spec import MEASURES, DesignStudy, StudyError
 
 __all__ = ["DesignsRun", "run_designs"]
 
 #: files and folders a study's folder holds
 LAYOUT = ("study.toml", "designs", "designs.csv", "designs.parquet", "timings.csv", "summary.json", "report.md",
-          "best")
+          "best", "pareto.png", "pareto.pdf", "measures.png", "measures.pdf", "best_designs.png", "best_designs.pdf")
 #: how often the waiting loop looks for finished designs and for Ctrl-C [s]
 POLL_S = 0.1
 
@@ -50,21 +52,16 @@ class DesignsRun:
 
 
 def _design_file(out: Path, index: int) -> Path:
-    return out / "designs" / f"{index:06d}.json"
+    return out / "designs" / (f"{index:06d}.json" if index >= 0 else "reference.json")
 
 
-def _done(out: Path, designs: list[dict[str, float]]) -> dict[int, dict[str, Any]]:
-    """The designs already in the folder (a file that does not parse, or holds other values, is redone)."""
-    got = {}
-    for k, params in enumerate(designs):
-        f = _design_file(out, k)
-        try:
-            rec = json.loads(f.read_text(encoding="utf-8"))
-        except (OSError, ValueError):
-            continue
-        if rec.get("design") == k and rec.get("params") == params:
-            got[k] = rec
-    return got
+def _reuse(out: Path, index: int, params: dict[str, float]) -> dict[str, Any] | None:
+    """Design ``index``'s record in the folder, if it is there for these values (else it is redone)."""
+    try:
+        rec = json.loads(_design_file(out, index).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return rec if rec.get("design") == index and rec.get("params") == params else None
 
 
 class _Local:
@@ -125,42 +122,91 @@ def _wait(executor: Any, jobs: dict[Any, int], on_result: Callable[[dict[str, An
             on_result(f.result())
 
 
-def _table(study: DesignStudy, designs: list[dict[str, float]], records: dict[int, dict[str, Any]]) -> Any:
+def _table(study: DesignStudy, robot: Robot, records: dict[int, dict[str, Any]],
+           generation_of: dict[int, int]) -> Any:
+    """One row per design and load case, sorted (the reference, design -1, first); a failed design has one row
+    with no load case."""
     import pandas as pd
 
     names = list(study.parameters)
     measures = list(MEASURES) + [f"h_{k}_m" for k in study.measures.directions]
+    order = sorted(records)
+    F, ok = objective_matrix(study, [records[k] for k in order])
+    designs = np.array(order) >= 0
+    front = np.zeros(len(order), dtype=bool)
+    front[designs] = pareto_front(F[designs], ok[designs])
+    base = {n: read_parameter(robot, n) for n in names}
     rows = []
-    for k in sorted(records):
+    for k, on_front in zip(order, front, strict=True):
         rec = records[k]
-        base = {"design": k, **{n: designs[k][n] for n in names}, "status": rec["status"], "reason": rec["reason"]}
+        params = base if k < 0 else rec["params"]
+        head = {"design": k, "generation": generation_of.get(k, -1), **{n: params[n] for n in names},
+                "status": rec["status"], "reason": rec["reason"], "pareto": bool(on_front)}
         if not rec["rows"]:
-            rows.append({**base, "load_case": "", **{m: np.nan for m in measures}})
+            rows.append({**head, "load_case": "", **{m: np.nan for m in measures}})
         for r in rec["rows"]:
-            rows.append({**base, "load_case": r["load_case"], **{m: r.get(m, np.nan) for m in measures}})
-    cols = ["design", "load_case", *names, "status", "reason", *measures]
+            rows.append({**head, "load_case": r["load_case"], **{m: r.get(m, np.nan) for m in measures}})
+    cols = ["design", "generation", "load_case", *names, "status", "reason", "pareto", *measures]
     return pd.DataFrame(rows, columns=cols)
 
 
-def _report(study: DesignStudy, table: Any, summary: dict[str, Any], best: list[tuple[str, int, str]]) -> str:
+def _fmt(value: float, measure: str) -> str:
+    """A measure in the unit a person reads (cm³, mm, MPa, %)."""
+    if not np.isfinite(value):
+        return "—"
+    if measure.endswith("volume_m3"):
+        return f"{value * 1e6:.0f} cm³"
+    if measure.endswith("_m"):
+        return f"{value * 1e3:.1f} mm"
+    if measure.endswith("_pa"):
+        return f"{value / 1e6:.0f} MPa"
+    return f"{100 * value:.1f} %"
+
+
+def _versus_reference(study: DesignStudy, ok: Any, case: str, index: int) -> list[str]:
+    """How the best design compares with the base robot under ``case`` (same budget and measures)."""
+    ref = ok[(ok["design"] == -1) & (ok["load_case"] == case)]
+    if ref.empty:
+        return []
+    best = ok[(ok["design"] == index) & (ok["load_case"] == case)].iloc[0]
+    ref = ref.iloc[0]
+    lines = ["", f"Against the base robot '{study.robot}' (the reference row, design -1):", "",
+             "| measure | base robot | best design | change |", "|---|---|---|---|"]
+    for m in ("volume_m3", "realisable_volume_m3", "largest_reach_m", "peak_stress_pa", "arc_length_m",
+              *[f"h_{k}_m" for k in study.measures.directions]):
+        change = (best[m] / ref[m] - 1.0) * 100 if ref[m] else np.nan
+        err = m.replace("_m3", "_err_m3")
+        a, b = ((_fmt(r[m], m) + (f" ± {_fmt(r[err], m)}" if err != m else "")) for r in (ref, best))
+        lines.append(f"| {m} | {a} | {b} | {change:+.0f} % |")
+    return lines
+
+
+def _report(study: DesignStudy, table: Any, summary: dict[str, Any], best: list[tuple[str, int, str]],
+            figures: list[str]) -> str:
     lines = [f"# Design study '{study.name}'", "",
              f"{summary['designs']} designs ({study.designs.method}) of robot '{study.robot}', load cases "
              f"{', '.join(summary['load_cases'])}, tensions in [{study.bounds[0]:g}, {study.bounds[1]:g}] N, model "
              f"{study.model}, {study.budget.samples} samples and {study.budget.search} search solves per design "
              f"and load case; seed {study.seed}.", "",
              f"Computed {summary['designs_computed']}, reused {summary['designs_reused']}, failed "
-             f"{summary['designs_failed']}; ran on {summary['executor']}.", ""]
+             f"{summary['designs_failed']}; ran on {summary['executor']} in {summary['seconds']:.0f} s.", ""]
     ok = table[table["status"] == "ok"]
     for case, index, robot_file in best:
-        sub = ok[ok["load_case"] == case].sort_values("volume_m3", ascending=False).head(5)
-        lines += [f"## Largest FSW under '{case}'", "", f"Best: design {index}, robot file `{robot_file}`.", "",
+        sub = ok[(ok["load_case"] == case) & (ok["design"] >= 0)].sort_values("volume_m3", ascending=False).head(5)
+        lines += [f"## Largest FSW under '{case}'", "", f"Best: design {index}, robot file `{robot_file}` "
+                  f"(`tdcr workspace --robot {robot_file}`).", "",
                   "| design | " + " | ".join(study.parameters) + " | FSW [cm³] | ± | reach [mm] | peak stress [MPa] |",
                   "|---" * (len(study.parameters) + 5) + "|"]
         for _, r in sub.iterrows():
             lines.append(f"| {r['design']} | " + " | ".join(f"{r[p]:.6g}" for p in study.parameters)
                          + f" | {r['volume_m3'] * 1e6:.0f} | {r['volume_err_m3'] * 1e6:.0f} | "
                          f"{r['largest_reach_m'] * 1e3:.1f} | {r['peak_stress_pa'] / 1e6:.0f} |")
-        lines.append("")
+        lines += [*_versus_reference(study, ok, case, index), ""]
+    goals = ", ".join(f"{o.goal} {o.measure} under '{study.objective_case(o)}'" for o in study.objectives)
+    front = ok[ok["pareto"]].drop_duplicates("design")
+    lines += [f"## Pareto front ({goals})", "", f"{len(front)} designs: "
+              + ", ".join(str(d) for d in front["design"]) + ".", ""]
+    lines += [f"![{f}]({f})" for f in figures if f.endswith(".png")] + [""]
     failed = table[table["status"] == "failed"]
     if len(failed):
         lines += ["## Failed designs", ""] + [f"- design {r['design']}: {r['reason']}" for _, r in
@@ -169,17 +215,17 @@ def _report(study: DesignStudy, table: Any, summary: dict[str, Any], best: list[
 
 
 def _write_best(out: Path, study: DesignStudy, robot: Robot, table: Any,
-                designs: list[dict[str, float]]) -> list[tuple[str, int, str]]:
+                records: dict[int, dict[str, Any]]) -> list[tuple[str, int, str]]:
     """The robot file of the design with the largest FSW under each load case, in ``best/``."""
     (out / "best").mkdir(exist_ok=True)
-    ok = table[table["status"] == "ok"]
+    ok = table[(table["status"] == "ok") & (table["design"] >= 0)]
     best = []
     for case in dict.fromkeys(ok["load_case"]):
         sub = ok[ok["load_case"] == case]
         k = int(sub.loc[sub["volume_m3"].idxmax(), "design"])
         name = f"best/design_{k:06d}.toml"
-        write_robot(apply_parameters(robot, designs[k]).model_copy(update={"name": f"{study.name}-design-{k}"}),
-                    out / name)
+        write_robot(apply_parameters(robot, records[k]["params"]).model_copy(
+            update={"name": f"{study.name}-design-{k}"}), out / name)
         best.append((case, k, name))
     return best
 
@@ -187,85 +233,132 @@ def _write_best(out: Path, study: DesignStudy, robot: Robot, table: Any,
 def _versions() -> dict[str, str]:
     import dask
     import numba
+    import pymoo
     import scipy
 
     return {"pytdcr": __version__, "python": platform.python_version(), "numpy": np.__version__,
-            "scipy": scipy.__version__, "numba": numba.__version__, "dask": dask.__version__}
+            "scipy": scipy.__version__, "numba": numba.__version__, "dask": dask.__version__,
+            "pymoo": pymoo.__version__}
 
 
-def _finish(out: Path, study: DesignStudy, robot: Robot, designs: list[dict[str, float]],
-            records: dict[int, dict[str, Any]], summary: dict[str, Any]) -> Any:
-    table = _table(study, designs, records)
+def _finish(out: Path, study: DesignStudy, robot: Robot, records: dict[int, dict[str, Any]],
+            generation_of: dict[int, int], summary: dict[str, Any], figures: bool) -> Any:
+    import pandas as pd
+
+    table = _table(study, robot, records, generation_of)
     tmp = out / ".designs.parquet.tmp"
     table.to_parquet(tmp, index=False)
     tmp.replace(out / "designs.parquet")
     atomic_write_text(out / "designs.csv", table.to_csv(index=False))
     timing = [{"design": k, **records[k]["timing"]} for k in sorted(records)]
-    import pandas as pd
-
     atomic_write_text(out / "timings.csv", pd.DataFrame(timing).to_csv(index=False))
-    best = _write_best(out, study, robot, table, designs) if (table["status"] == "ok").any() else []
+    ok = (table["status"] == "ok") & (table["design"] >= 0)
+    best = _write_best(out, study, robot, table, records) if ok.any() else []
+    written = write_design_figures(out, study, robot, table, records) if figures and ok.any() else []
+    summary["figures"] = written
     write_json(out / "summary.json", summary)
-    atomic_write_text(out / "report.md", _report(study, table, summary, best))
+    atomic_write_text(out / "report.md", _report(study, table, summary, best, written))
     return table
+
+
+class _Runner:
+    """Evaluates batches of designs into the folder: reuses a design's file when it is there, sends the rest to
+    the executor (made when first needed), writes each record as it arrives, counts and reports progress."""
+
+    def __init__(self, study: DesignStudy, robot: Robot, run: Any, total: int, scheduler: str | None,
+                 workers: int | None, progress: Callable[[int, int, int], None] | None) -> None:
+        self.study, self.robot, self.run, self.path = study, robot, run, run.path
+        self.total = total + study.reference
+        self.scheduler, self.workers, self.progress = scheduler, workers, progress
+        self.records: dict[int, dict[str, Any]] = {}
+        self.reused = self.computed = self.failed = 0
+        self.executor: Any = None
+        self._reference = study.reference
+
+    def saved(self) -> str:
+        """How much is saved: "K of N designs" (and the base robot, when it is)."""
+        k = sum(i >= 0 for i in self.records)
+        return (f"saved {k} of {self.total - self.study.reference} designs"
+                + (" and the base robot" if -1 in self.records else ""))
+
+    def _report(self) -> None:
+        self.run.interrupted_note = self.saved()
+        if self.progress is not None:
+            self.progress(len(self.records), self.failed, self.total)
+
+    def _keep(self, generation: int, rec: dict[str, Any]) -> None:
+        mark_saving()
+        rec["generation"] = generation
+        atomic_write_text(_design_file(self.path, rec["design"]), json.dumps(rec, allow_nan=True))
+        self.records[rec["design"]] = rec
+        self.computed += rec["design"] >= 0
+        self.failed += rec["status"] == "failed"
+        self._report()
+
+    def batch(self, generation: int, batch: list[tuple[int, dict[str, float]]]) -> dict[int, dict[str, Any]]:
+        """Evaluate ``batch`` [(index, values)] (with the reference, index -1, the first time); returns the
+        batch's records by index."""
+        jobs = ([(-1, {})] if self._reference else []) + list(batch)
+        self._reference = False
+        todo = []
+        for k, params in jobs:
+            rec = _reuse(self.path, k, params)
+            if rec is None:
+                todo.append((k, params))
+                continue
+            self.records[k] = rec
+            self.reused += k >= 0
+            self.failed += rec["status"] == "failed"
+        self._report()
+        if todo:
+            if self.executor is None:
+                self.executor = (_Dask(self.scheduler) if self.scheduler else
+                                 _Local(min(self.workers or default_threads(), self.total)))
+            study_data, robot_data = self.study.model_dump(mode="python"), self.robot.model_dump(mode="python")
+            jobs_ = {self.executor.submit(study_data, robot_data, k, p): k for k, p in todo}
+            _wait(self.executor, jobs_, lambda rec: self._keep(generation, rec))
+        return {k: self.records[k] for k, _ in batch}
 
 
 def run_designs(study: DesignStudy, robot: Robot, out: str | Path, *, study_text: str | None = None,
                 scheduler: str | None = None, workers: int | None = None, restart: bool = False,
-                progress: Callable[[int, int, int], None] | None = None) -> DesignsRun:
+                progress: Callable[[int, int, int], None] | None = None, figures: bool = True) -> DesignsRun:
     """Evaluate every design of ``study`` (base robot ``robot``) into the folder ``out``, resuming it.
 
     ``scheduler``: a Dask scheduler's address (``tcp://host:8786``) to run on; default local processes
     (``workers``, default all cores). ``progress(done, failed, total)`` is called as designs finish. Ctrl-C
     stops at once, keeping every finished design (:class:`pytdcr.study.RunInterrupted` says how many).
+    ``figures``: draw the Pareto front, the measures against the parameters and the best designs.
     Returns the table (also ``designs.parquet`` and ``designs.csv``) and the summary (``summary.json``).
     """
     t0 = time.perf_counter()
-    designs = choose_designs(study.parameters, study.designs.method, study.designs.count, study.seed)
-    inputs = {"study": study.model_dump(mode="json"), "designs": len(designs)}
+    designs = (None if study.designs.method == "optimize" else
+               choose_designs(study.parameters, study.designs.method, study.designs.count, study.seed))
+    total = study.designs.total if designs is None else len(designs)
+    inputs = {"study": study.model_dump(mode="json"), "designs": total}
     with resumable_folder(out, "designs", inputs, study.digest(), restart, LAYOUT) as run:
-        path = run.path
-        (path / "designs").mkdir(exist_ok=True)
+        (run.path / "designs").mkdir(exist_ok=True)
         if study_text is not None:
-            atomic_write_text(path / "study.toml", study_text)
-        records = _done(path, designs)
-        reused = len(records)
-        todo = [k for k in range(len(designs)) if k not in records]
-        failed = sum(r["status"] == "failed" for r in records.values())
-        state = {"computed": 0, "failed": failed}
-        if progress is not None:
-            progress(len(records), failed, len(designs))
-
-        def keep(rec: dict[str, Any]) -> None:
-            mark_saving()
-            atomic_write_text(_design_file(path, rec["design"]), json.dumps(rec, allow_nan=True))
-            records[rec["design"]] = rec
-            state["computed"] += 1
-            state["failed"] += rec["status"] == "failed"
-            run.interrupted_note = f"saved {len(records)} of {len(designs)} designs"
-            if progress is not None:
-                progress(len(records), state["failed"], len(designs))
-
-        run.interrupted_note = f"saved {len(records)} of {len(designs)} designs"
-        executor: Any = None
+            atomic_write_text(run.path / "study.toml", study_text)
+        runner = _Runner(study, robot, run, total, scheduler, workers, progress)
         try:
-            if todo:
-                executor = _Dask(scheduler) if scheduler else _Local(min(workers or default_threads(), len(todo)))
-                study_data, robot_data = study.model_dump(mode="python"), robot.model_dump(mode="python")
-                jobs = {executor.submit(study_data, robot_data, k, designs[k]): k for k in todo}
-                _wait(executor, jobs, keep)
+            generation_of = design_batches(study, designs, runner.batch)
         except KeyboardInterrupt:
-            if executor is not None:
-                executor.close(cancel=True)
-            raise RunInterrupted(f"saved {len(records)} of {len(designs)} designs in {path} (run the same command "
-                                 "again to compute the rest)") from None
-        if executor is not None:
-            executor.close(cancel=False)
-        summary = {"study": study.name, "digest": study.digest(), "seed": study.seed, "designs": len(designs),
-                   "designs_reused": reused, "designs_computed": state["computed"],
-                   "designs_failed": state["failed"], "load_cases": list(study.load_cases(robot)),
-                   "executor": executor.name if executor is not None else "none (every design reused)",
+            if runner.executor is not None:
+                runner.executor.close(cancel=True)
+            raise RunInterrupted(f"{runner.saved()} in {run.path} (run the same command again to compute the "
+                                 "rest)") from None
+        if runner.executor is not None:
+            runner.executor.close(cancel=False)
+        n = sum(k >= 0 for k in runner.records)
+        summary = {"study": study.name, "digest": study.digest(), "seed": study.seed, "designs": n,
+                   "designs_reused": runner.reused, "designs_computed": runner.computed,
+                   "designs_failed": sum(r["status"] == "failed" for k, r in runner.records.items() if k >= 0),
+                   "reference": "off" if not study.reference else
+                   ("failed" if runner.records[-1]["status"] == "failed" else "ok"),
+                   "load_cases": list(study.load_cases(robot)),
+                   "executor": runner.executor.name if runner.executor is not None else "none (every design reused)",
                    "seconds": time.perf_counter() - t0, "inputs": inputs["study"], "versions": _versions(),
                    "measures": MEASURES}
-        table = _finish(path, study, robot, designs, records, summary)
-    return DesignsRun(table, summary, path)
+        table = _finish(run.path, study, robot, runner.records, generation_of, summary, figures)
+    return DesignsRun(table, summary, run.path)

@@ -16,7 +16,8 @@ from scipy.stats import qmc
 from ..design import Robot
 from ..io import format_validation_error
 
-__all__ = ["PARAMETERS", "ParameterInfo", "apply_parameters", "choose_designs", "parameter_info"]
+__all__ = ["PARAMETERS", "ParameterInfo", "apply_parameters", "choose_designs", "from_unit", "parameter_info",
+           "read_parameter"]
 
 
 @dataclass(frozen=True)
@@ -130,15 +131,42 @@ def choose_designs(parameters: dict[str, Any], method: str, count: int | None, s
     with warnings.catch_warnings():  # a count that is not a power of two is less balanced, not wrong
         warnings.simplefilter("ignore", UserWarning)
         u = qmc.Sobol(len(names), scramble=True, seed=np.random.default_rng([seed, 0x5D])).random(count)
-    out = []
-    for row in u:
-        d = {}
-        for x, n, info in zip(row, names, infos, strict=True):
-            p = parameters[n]
-            if p.values is not None:
-                v = p.values[min(int(x * len(p.values)), len(p.values) - 1)]
-            else:
-                v = p.range[0] + x * (p.range[1] - p.range[0])
-            d[n] = int(np.rint(v)) if info.integer else float(v)
-        out.append(d)
-    return out
+    return [from_unit(row, parameters) for row in u]
+
+
+def from_unit(u: np.ndarray, parameters: dict[str, Any]) -> dict[str, float]:
+    """The design at the point ``u`` (shape (n_parameters,), in [0, 1]) of the unit cube: a range is mapped
+    linearly (whole numbers rounded), a list of values gives each an even share of the interval."""
+    d: dict[str, float] = {}
+    for x, n in zip(np.clip(np.asarray(u, dtype=float), 0.0, 1.0), parameters, strict=True):
+        p, integer = parameters[n], parameter_info(n).integer
+        if p.values is not None:
+            v = p.values[min(int(x * len(p.values)), len(p.values) - 1)]
+        else:
+            v = p.range[0] + x * (p.range[1] - p.range[0])
+        d[n] = int(np.rint(v)) if integer else float(v)
+    return d
+
+
+def read_parameter(robot: Robot, name: str) -> float:
+    """The value ``robot`` has for parameter ``name`` (NaN where its segments or tendons differ; an angle
+    offset is 0 for the robot itself)."""
+    info = parameter_info(name)
+    data = robot.model_dump()
+    segs = _segments(data, info.segment, name)
+    if info.base == "routing_radius":
+        vals = [t["radius"] for t in data["tendons"] if t["segment"] - 1 in segs]
+    elif info.base == "segment_length":
+        vals = [data["segments"][k]["length"] for k in segs]
+    elif info.base == "disks":
+        vals = [data["segments"][k]["n_disks"] for k in segs]
+    elif info.base == "tendon_angle_offset":
+        vals = [0.0]
+    elif info.base == "backbone_radius":
+        vals = [data["backbone"]["outer_radius"]]
+    elif info.base == "youngs_modulus":
+        vals = [data["backbone"]["youngs_modulus"]]
+    else:
+        vals = [data["disk_radius"]]
+    vals = [float(v) for v in vals if v is not None]
+    return vals[0] if vals and np.ptp(vals) == 0.0 else float("nan")

@@ -10,7 +10,8 @@ An example (``examples/design_study_small.toml`` is a complete one)::
     model = "pcc"
 
     [designs]
-    method = "grid"            # "grid" (every combination) or "sobol" (count points, seeded)
+    method = "grid"            # "grid" (every combination), "sobol" (count points, seeded) or "optimize"
+                               # (NSGA-II: population designs a generation, for generations)
 
     [parameters]
     routing_radius_2 = { values = [0.006, 0.008] }
@@ -18,7 +19,9 @@ An example (``examples/design_study_small.toml`` is a complete one)::
 
     [budget]
     samples = 200              # base samples per design and load case
-    search = 0                 # boundary-search solves per design and load case
+    search = 0                 # boundary-search solves per design and load case (fills the region: without
+                               # them the volume is only the voxels the samples hit, far below the FSW's)
+    voxel = 0.05               # the volume's voxel edge [m] (default the base robot's length / 32)
 
     [loads]
     cases = ["paper wrench"]   # names of tdcr workspace --compare-loads; custom ones below
@@ -26,6 +29,11 @@ An example (``examples/design_study_small.toml`` is a complete one)::
 
     [measures]
     directions = { up = [0.0, 0.0, 1.0] }   # h(d) along each named direction
+
+    [[objectives]]             # what "best" means: the Pareto front, the optimiser's goals (default: the
+    measure = "volume_m3"      # FSW volume, max, and the peak stress, min, under the first load case)
+    goal = "max"
+    load_case = "paper wrench"
 """
 
 from __future__ import annotations
@@ -45,12 +53,26 @@ from ..paper import workspace_load_cases
 from ..statics import MODELS
 from ._space import apply_parameters, parameter_info
 
-__all__ = ["LOAD_CASE_NAMES", "MAX_DESIGNS", "DesignStudy", "Parameter", "StudyError", "load_study", "study_from_dict"]
+__all__ = ["LOAD_CASE_NAMES", "MAX_DESIGNS", "MEASURES", "DesignStudy", "Objective", "Parameter", "StudyError",
+           "load_study", "study_from_dict"]
 
 #: the most designs one study may hold (a grid multiplies quickly)
 MAX_DESIGNS = 100_000
 #: the load cases a study may name (those of ``tdcr workspace --compare-loads``)
 LOAD_CASE_NAMES = ("no load", "gravity only", "payload 5 g", "payload 10 g", "payload 20 g", "paper wrench")
+#: the measures of every row, with their units (h along the study's named directions come after, ``h_<name>_m``)
+MEASURES = {
+    "volume_m3": "FSW volume (converged, stable equilibria) [m^3]",
+    "volume_err_m3": "its error [m^3]",
+    "realisable_volume_m3": "volume of the realisable region (no disk below the base, no disks touching) [m^3]",
+    "realisable_volume_err_m3": "its error [m^3]",
+    "largest_reach_m": "largest ||tip|| over the feasible samples and the tips attaining h (searched when "
+                       "budget.reach_search) [m]",
+    "fraction_converged": "converged samples / samples solved",
+    "fraction_realisable": "realisable samples / converged samples",
+    "peak_stress_pa": "largest backbone bending stress E kappa r over the converged samples [Pa]",
+    "arc_length_m": "the robot's length [m]",
+}
 
 
 class StudyError(ValueError):
@@ -89,24 +111,42 @@ class Parameter(_Strict):
 class Designs(_Strict):
     """How designs are chosen: every combination (``grid``), or ``count`` scrambled Sobol points (``sobol``)."""
 
-    method: Literal["grid", "sobol"] = "grid"
+    method: Literal["grid", "sobol", "optimize"] = "grid"
     count: Annotated[int, Field(ge=1, le=MAX_DESIGNS)] | None = None
+    population: Annotated[int, Field(ge=4, le=10_000)] | None = None
+    generations: Annotated[int, Field(ge=1, le=10_000)] | None = None
 
     @model_validator(mode="after")
     def _count(self) -> Designs:
         if self.method == "sobol" and self.count is None:
             raise ValueError("method = 'sobol' needs count = N (designs)")
-        if self.method == "grid" and self.count is not None:
-            raise ValueError("count goes with method = 'sobol'; a grid has one design per combination")
+        if self.method != "sobol" and self.count is not None:
+            raise ValueError(f"count goes with method = 'sobol', not {self.method!r}")
+        wants = self.method == "optimize"
+        for key in ("population", "generations"):
+            if wants and getattr(self, key) is None:
+                raise ValueError(f"method = 'optimize' needs {key} = N")
+            if not wants and getattr(self, key) is not None:
+                raise ValueError(f"{key} goes with method = 'optimize', not {self.method!r}")
+        if wants and self.population * self.generations > MAX_DESIGNS:
+            raise ValueError(f"population x generations = {self.population * self.generations:,} designs; at most "
+                             f"{MAX_DESIGNS:,}")
         return self
+
+    @property
+    def total(self) -> int | None:
+        """The number of designs for optimize (population x generations); None otherwise."""
+        return self.population * self.generations if self.method == "optimize" else None
 
 
 class Budget(_Strict):
-    """Work per design and load case: base samples, boundary-search solves, whether to search the largest reach."""
+    """Work per design and load case: base samples, boundary-search solves, whether to search the largest reach,
+    and the volume's voxel edge [m] (the same for every design; default the base robot's length / 32)."""
 
     samples: Annotated[int, Field(ge=16, le=1_000_000)] = 500
     search: Annotated[int, Field(ge=0, le=100_000_000)] = 0
     reach_search: bool = False
+    voxel: Annotated[float, Field(gt=1e-4, le=1.0, allow_inf_nan=False)] | None = None
 
 
 class CustomLoad(_Strict):
@@ -149,6 +189,19 @@ class Measures(_Strict):
         return v
 
 
+class Objective(_Strict):
+    """One goal: a measure (:data:`MEASURES` or ``h_<direction>_m``) to ``max``imise or ``min``imise under a
+    load case (default: the study's first)."""
+
+    measure: str
+    goal: Literal["max", "min"]
+    load_case: str | None = None
+
+
+def _default_objectives() -> list[Objective]:
+    return [Objective(measure="volume_m3", goal="max"), Objective(measure="peak_stress_pa", goal="min")]
+
+
 class DesignStudy(_Strict):
     """A validated study file (see the module's docstring); ``robot`` is the base robot's name or file."""
 
@@ -162,6 +215,8 @@ class DesignStudy(_Strict):
     budget: Budget = Field(default_factory=Budget)
     loads: LoadCases = Field(default_factory=LoadCases)
     measures: Measures = Field(default_factory=Measures)
+    objectives: list[Objective] = Field(default_factory=_default_objectives, min_length=1, max_length=6)
+    reference: bool = True
 
     @field_validator("model")
     @classmethod
@@ -194,6 +249,24 @@ class DesignStudy(_Strict):
                 raise ValueError(f"the grid holds {size:,} designs; at most {MAX_DESIGNS:,} (fewer values or steps, "
                                  "or method = 'sobol' with a count)")
         return self
+
+    @model_validator(mode="after")
+    def _objectives(self) -> DesignStudy:
+        measures = [m for m in MEASURES if not m.endswith("_err_m3")] + [f"h_{k}_m" for k in self.measures.directions]
+        cases = [*self.loads.cases, *self.loads.custom]
+        for k, o in enumerate(self.objectives):
+            if o.measure not in measures:
+                raise ValueError(f"objectives[{k}].measure = {o.measure!r}: one of {measures}")
+            if o.load_case is not None and o.load_case not in cases:
+                raise ValueError(f"objectives[{k}].load_case = {o.load_case!r}: not a load case of the study {cases}")
+        keys = [(o.measure, self.objective_case(o)) for o in self.objectives]
+        if len(set(keys)) != len(keys):
+            raise ValueError("objectives: the same measure and load case twice")
+        return self
+
+    def objective_case(self, objective: Objective) -> str:
+        """The load case an objective is measured under (its own, else the study's first)."""
+        return objective.load_case or [*self.loads.cases, *self.loads.custom][0]
 
     def digest(self) -> str:
         """A hash of the validated study: two files that mean the same study have the same digest."""

@@ -1,0 +1,162 @@
+"""A study's figures: the Pareto front of its objectives, each measure against each parameter, and the best
+designs drawn at the tensions that reach farthest. matplotlib is loaded when a figure is made."""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..design import Robot
+from ..plotting import pyplot, set_equal_aspect
+from ..study._output import save_figure
+from ._spec import DesignStudy
+
+__all__ = ["write_design_figures"]
+
+#: the measures drawn against the parameters (h along the study's directions are added)
+DRAWN = ("volume_m3", "realisable_volume_m3", "largest_reach_m", "peak_stress_pa", "fraction_converged")
+#: how a measure is shown: (factor, unit)
+_UNITS = {"m3": (1e6, "cm³"), "m": (1e3, "mm"), "pa": (1e-6, "MPa")}
+
+
+def _scale(measure: str) -> tuple[float, str]:
+    return _UNITS.get(measure.rsplit("_", 1)[-1], (1.0, ""))
+
+
+def _label(measure: str, case: str | None = None) -> str:
+    unit = _scale(measure)[1]
+    text = f"{measure.rsplit('_', 1)[0]} [{unit}]" if unit else measure
+    return text + (f"\n({case})" if case else "")
+
+
+def _objective_values(study: DesignStudy, table: Any) -> tuple[Any, list[str]]:
+    """One row per design (the reference included): the objectives' values in display units."""
+    cols = []
+    wide = table[["design", "generation", "pareto", "status"]].drop_duplicates("design").set_index("design")
+    for o in study.objectives:
+        case = study.objective_case(o)
+        sub = table[table["load_case"] == case].set_index("design")[o.measure]
+        name = f"{o.goal} {_label(o.measure, case)}"
+        wide[name] = sub * _scale(o.measure)[0]
+        cols.append(name)
+    return wide, cols
+
+
+def _pareto_figure(study: DesignStudy, table: Any) -> Any:
+    plt = pyplot()
+    wide, cols = _objective_values(study, table)
+    ok = wide[(wide["status"] == "ok") & (wide.index >= 0)]
+    pairs = list(itertools.combinations(range(len(cols)), 2))[:6] or [(0, 0)]
+    fig, axes = plt.subplots(1, len(pairs), figsize=(4.6 * len(pairs), 4.0), squeeze=False, layout="constrained")
+    by_generation = study.designs.method == "optimize"
+    for ax, (i, j) in zip(axes[0], pairs, strict=True):
+        x = ok[cols[i]] if i != j else ok.index.to_series()
+        y = ok[cols[j]]
+        colour = {"c": ok["generation"], "cmap": "viridis"} if by_generation else {"color": "0.6"}
+        sc = ax.scatter(x, y, s=14, label="designs", zorder=2, **colour)
+        front = ok[ok["pareto"]]
+        fx = front[cols[i]] if i != j else front.index.to_series()
+        order = np.argsort(fx.to_numpy())
+        ax.plot(fx.to_numpy()[order], front[cols[j]].to_numpy()[order], "o-", color="tab:red", ms=5, lw=1,
+                label="Pareto front", zorder=3)
+        if -1 in wide.index and wide.loc[-1, "status"] == "ok":
+            rx = wide.loc[-1, cols[i]] if i != j else -1
+            ax.plot(rx, wide.loc[-1, cols[j]], "k*", ms=14, label=f"base robot '{study.robot}'", zorder=4)
+        ax.set_xlabel(cols[i] if i != j else "design")
+        ax.set_ylabel(cols[j])
+        ax.grid(alpha=0.3)
+    axes[0][0].legend(fontsize=8)
+    if by_generation:
+        fig.colorbar(sc, ax=axes[0].tolist(), label="generation")
+    fig.suptitle(f"Design study '{study.name}': objectives and Pareto front")
+    return fig
+
+
+def _measures_figure(study: DesignStudy, table: Any) -> Any:
+    plt = pyplot()
+    params = list(study.parameters)
+    measures = [*DRAWN, *[f"h_{k}_m" for k in study.measures.directions]]
+    fig, axes = plt.subplots(len(measures), len(params), figsize=(2.9 * len(params) + 0.8, 2.3 * len(measures)),
+                             squeeze=False, sharex="col", sharey="row", layout="constrained")
+    ok = table[table["status"] == "ok"]
+    cases = list(dict.fromkeys(ok["load_case"]))
+    colours = pyplot().get_cmap("tab10")
+    for (r, m), (c, p) in itertools.product(enumerate(measures), enumerate(params)):
+        ax = axes[r][c]
+        factor = _scale(m)[0]
+        for k, case in enumerate(cases):
+            sub = ok[(ok["load_case"] == case) & (ok["design"] >= 0)]
+            ax.scatter(sub[p], sub[m] * factor, s=8, color=colours(k), alpha=0.7, label=case)
+            ref = ok[(ok["load_case"] == case) & (ok["design"] == -1)]
+            if not ref.empty:
+                ax.axhline(float(ref[m].iloc[0]) * factor, color=colours(k), ls="--", lw=0.8)
+        if r == len(measures) - 1:
+            ax.set_xlabel(p)
+        if c == 0:
+            ax.set_ylabel(_label(m))
+        ax.grid(alpha=0.3)
+    axes[0][0].legend(fontsize=7, title="load case (dashed: base robot)", title_fontsize=7)
+    fig.suptitle(f"Design study '{study.name}': each measure against each parameter")
+    return fig
+
+
+def _picked(study: DesignStudy, table: Any) -> list[int]:
+    """The designs drawn: the best for each objective among the Pareto front (at most 3), reference first."""
+    wide, cols = _objective_values(study, table)
+    front = wide[wide["pareto"] & (wide.index >= 0)]
+    picked = [-1] if -1 in wide.index and wide.loc[-1, "status"] == "ok" else []
+    for o, col in zip(study.objectives, cols, strict=True):
+        if not front.empty:
+            k = int(front[col].idxmax() if o.goal == "max" else front[col].idxmin())
+            if k not in picked:
+                picked.append(k)
+    return picked[:4]
+
+
+def _best_figure(study: DesignStudy, robot: Robot, table: Any, records: dict[int, dict[str, Any]]) -> Any:
+    from ..statics import solve
+    from ._space import apply_parameters
+
+    plt = pyplot()
+    case = study.objective_case(study.objectives[0])
+    picked = _picked(study, table)
+    fig = plt.figure(figsize=(4.2 * max(len(picked), 1), 4.6), layout="constrained")
+    axes, points = [], []
+    for n, k in enumerate(picked):
+        ax = fig.add_subplot(1, len(picked), n + 1, projection="3d")
+        axes.append(ax)
+        row = next(r for r in records[k]["rows"] if r["load_case"] == case)
+        design = apply_parameters(robot, records[k]["params"])
+        case_robot, loads = study.load_cases(design)[case]
+        title = "base robot" if k < 0 else f"design {k}"
+        t = row.get("reach_tensions_n")
+        sol = solve(case_robot, loads.with_tensions(np.asarray(t)), model=study.model) if t is not None else None
+        if sol is None or not sol.converged:
+            ax.set_title(f"{title}: farthest shape not converged", fontsize=9)
+            continue
+        from ..plotting import plot_robot
+
+        if abs(float(np.linalg.norm(sol.tip_position)) - row["largest_reach_m"]) > 1e-3:
+            title += " (re-solved on another branch)"
+        plot_robot(sol, case_robot, ax, frames=False, equal=False)
+        points.append(sol.disk_positions)
+        ax.set_title(f"{title}\nreach {row['largest_reach_m'] * 1e3:.0f} mm, FSW "
+                     f"{row['volume_m3'] * 1e6:.0f} cm³", fontsize=9)
+    if points:
+        allp = np.vstack([*points, np.zeros((1, 3))])
+        for ax in axes:
+            set_equal_aspect(ax, allp)
+    fig.suptitle(f"Farthest-reaching shapes under '{case}' (best designs of the Pareto front)")
+    return fig
+
+
+def write_design_figures(out: Path, study: DesignStudy, robot: Robot, table: Any,
+                         records: dict[int, dict[str, Any]]) -> list[str]:
+    """Write ``pareto``, ``measures`` and ``best_designs`` (.png and .pdf) in ``out``; returns the file names."""
+    names = save_figure(_pareto_figure(study, table), out, "pareto")
+    names += save_figure(_measures_figure(study, table), out, "measures")
+    names += save_figure(_best_figure(study, robot, table, records), out, "best_designs")
+    return names
