@@ -233,3 +233,18 @@ def test_an_optimised_study_is_the_same_on_any_executor_and_resumes(tmp_path):
     again = run_designs(study, robot, tmp_path / "local", workers=1, figures=False)
     assert (again.summary["designs_computed"], again.summary["designs_reused"]) == (1, local.summary["designs"] - 1)
     assert (tmp_path / "local" / "designs.csv").read_text() == (tmp_path / "dask" / "designs.csv").read_text()
+
+
+def test_the_report_warns_when_volume_errors_exceed_the_margins():
+    import pandas as pd
+
+    from pytdcr.designs._run import _screening_note
+
+    def table(err: float) -> pd.DataFrame:
+        return pd.DataFrame({"design": [-1, 0, 1, 2], "load_case": ["c"] * 4,
+                             "volume_m3": [0.03, 0.05, 0.04, 0.02], "volume_err_m3": [err] * 4})
+
+    assert _screening_note(table(0.002), "c", 0, "best/design_000000.toml") == []
+    note = " ".join(_screening_note(table(0.02), "c", 0, "best/design_000000.toml"))
+    assert "screening index" in note and "--robot best/design_000000.toml" in note
+    assert "(10000 cm³)" in note  # the margin over the next design, 0.01 m³

@@ -335,6 +335,9 @@ def _cmd_designs(args: argparse.Namespace) -> int:
                   if not ref.empty else "")
         print(f"  {case}: largest FSW {best['volume_m3'] * 1e6:.0f} ± {best['volume_err_m3'] * 1e6:.0f} cm^3, design "
               f"{int(best['design'])}{versus}")
+    if s.get("warnings"):
+        print("  the volume errors exceed the margins between the leading designs: a screening ranking, to be "
+              "confirmed at a full budget (see report.md)")
     figures = ", figures" if s.get("figures") else ""
     print(f"wrote designs.parquet, designs.csv, timings.csv, summary.json, report.md, best/{figures} in "
           f"{escape_controls(str(run.path))}")

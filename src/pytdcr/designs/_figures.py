@@ -123,7 +123,7 @@ def _best_figure(study: DesignStudy, robot: Robot, table: Any, records: dict[int
     plt = pyplot()
     case = study.objective_case(study.objectives[0])
     picked = _picked(study, table)
-    fig = plt.figure(figsize=(4.2 * max(len(picked), 1), 4.6), layout="constrained")
+    fig = plt.figure(figsize=(4.2 * max(len(picked), 1), 4.6))
     axes, points = [], []
     for n, k in enumerate(picked):
         ax = fig.add_subplot(1, len(picked), n + 1, projection="3d")

@@ -181,6 +181,26 @@ def _versus_reference(study: DesignStudy, ok: Any, case: str, index: int) -> lis
     return lines
 
 
+def _screening_note(ok: Any, case: str, index: int, robot_file: str) -> list[str]:
+    """A warning when the volume errors are larger than the margins the ranking rests on.
+
+    At a screening budget (few samples, an unfinished boundary search) the error of each volume can exceed the
+    differences between designs: the order is then an index to shortlist designs, not a measurement.
+    """
+    sub = ok[ok["load_case"] == case]
+    rel = (sub["volume_err_m3"] / sub["volume_m3"]).median()
+    ranked = sub[sub["design"] >= 0].sort_values("volume_m3", ascending=False)["volume_m3"].to_numpy()
+    best = sub[sub["design"] == index].iloc[0]
+    margin = ranked[0] - ranked[1] if len(ranked) > 1 else np.inf
+    if best["volume_err_m3"] <= margin and rel <= 0.5:
+        return []
+    return ["", f"**At this budget the volumes are a screening index, not a measurement:** the median error is "
+            f"{100 * rel:.0f} % of the volume and the best design's error ({_fmt(best['volume_err_m3'], 'volume_m3')}) "
+            f"exceeds its margin over the next design ({_fmt(margin, 'volume_m3')}). Confirm the leading designs at "
+            f"a full budget, e.g. `tdcr workspace --robot {robot_file} --n 1000 --budget 60000` beside the base "
+            "robot with the same options."]
+
+
 def _report(study: DesignStudy, table: Any, summary: dict[str, Any], best: list[tuple[str, int, str]],
             figures: list[str]) -> str:
     lines = [f"# Design study '{study.name}'", "",
@@ -201,7 +221,7 @@ def _report(study: DesignStudy, table: Any, summary: dict[str, Any], best: list[
             lines.append(f"| {r['design']} | " + " | ".join(f"{r[p]:.6g}" for p in study.parameters)
                          + f" | {r['volume_m3'] * 1e6:.0f} | {r['volume_err_m3'] * 1e6:.0f} | "
                          f"{r['largest_reach_m'] * 1e3:.1f} | {r['peak_stress_pa'] / 1e6:.0f} |")
-        lines += [*_versus_reference(study, ok, case, index), ""]
+        lines += [*_versus_reference(study, ok, case, index), *_screening_note(ok, case, index, robot_file), ""]
     goals = ", ".join(f"{o.goal} {o.measure} under '{study.objective_case(o)}'" for o in study.objectives)
     front = ok[ok["pareto"]].drop_duplicates("design")
     lines += [f"## Pareto front ({goals})", "", f"{len(front)} designs: "
@@ -256,6 +276,9 @@ def _finish(out: Path, study: DesignStudy, robot: Robot, records: dict[int, dict
     best = _write_best(out, study, robot, table, records) if ok.any() else []
     written = write_design_figures(out, study, robot, table, records) if figures and ok.any() else []
     summary["figures"] = written
+    oks = table[table["status"] == "ok"]
+    summary["warnings"] = [f"{case}: " + " ".join(note).replace("**", "").strip() for case, k, name in best
+                           if (note := _screening_note(oks, case, k, name))]
     write_json(out / "summary.json", summary)
     atomic_write_text(out / "report.md", _report(study, table, summary, best, written))
     return table
