@@ -314,6 +314,7 @@ def _cmd_designs(args: argparse.Namespace) -> int:
             bar.total = total
             bar.step(done, f"failed={failed}")
         else:
+            bar.bar.total = total  # the optimiser's total is an upper bound until it ends
             bar.step(done - bar.bar.n, f"failed={failed}")
 
     try:

@@ -68,9 +68,13 @@ def _pareto_figure(study: DesignStudy, table: Any) -> Any:
         ax.set_xlabel(cols[i] if i != j else "design")
         ax.set_ylabel(cols[j])
         ax.grid(alpha=0.3)
-    axes[0][0].legend(fontsize=8)
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncols=len(labels), fontsize=8)
     if by_generation:
-        fig.colorbar(sc, ax=axes[0].tolist(), label="generation")
+        bar = fig.colorbar(sc, ax=axes[0].tolist(), label="generation")
+        from matplotlib.ticker import MaxNLocator
+
+        bar.ax.yaxis.set_major_locator(MaxNLocator(integer=True))
     fig.suptitle(f"Design study '{study.name}': objectives and Pareto front")
     return fig
 

@@ -197,8 +197,26 @@ def _screening_note(ok: Any, case: str, index: int, robot_file: str) -> list[str
     return ["", f"**At this budget the volumes are a screening index, not a measurement:** the median error is "
             f"{100 * rel:.0f} % of the volume and the best design's error ({_fmt(best['volume_err_m3'], 'volume_m3')}) "
             f"exceeds its margin over the next design ({_fmt(margin, 'volume_m3')}). Confirm the leading designs at "
-            f"a full budget, e.g. `tdcr workspace --robot {robot_file} --n 1000 --budget 60000` beside the base "
-            "robot with the same options."]
+            f"a full budget under '{case}' (e.g. `tdcr workspace --robot {robot_file} --n 1000 --budget 60000` "
+            "with that load), beside the base robot measured the same way."]
+
+
+def _front_table(study: DesignStudy, ok: Any) -> list[str]:
+    """The designs on the Pareto front: their parameters and objective values, by the first objective."""
+    front = ok[ok["pareto"]].drop_duplicates("design")["design"].tolist()
+    heads = [f"{o.goal} {o.measure} ({study.objective_case(o)})" for o in study.objectives]
+    rows = []
+    for k in front:
+        vals = [ok[(ok["design"] == k) & (ok["load_case"] == study.objective_case(o))][o.measure].iloc[0]
+                for o in study.objectives]
+        params = ok[ok["design"] == k].iloc[0]
+        rows.append((vals, f"| {k} | " + " | ".join(f"{params[p]:.6g}" for p in study.parameters) + " | "
+                     + " | ".join(_fmt(v, o.measure) for v, o in zip(vals, study.objectives, strict=True)) + " |"))
+    first = study.objectives[0]
+    rows.sort(key=lambda r: -r[0][0] if first.goal == "max" else r[0][0])
+    return [f"{len(front)} designs (no other design is better on one objective and as good on the rest):", "",
+            "| design | " + " | ".join(study.parameters) + " | " + " | ".join(heads) + " |",
+            "|---" * (1 + len(study.parameters) + len(heads)) + "|", *(r[1] for r in rows)]
 
 
 def _report(study: DesignStudy, table: Any, summary: dict[str, Any], best: list[tuple[str, int, str]],
@@ -223,9 +241,7 @@ def _report(study: DesignStudy, table: Any, summary: dict[str, Any], best: list[
                          f"{r['largest_reach_m'] * 1e3:.1f} | {r['peak_stress_pa'] / 1e6:.0f} |")
         lines += [*_versus_reference(study, ok, case, index), *_screening_note(ok, case, index, robot_file), ""]
     goals = ", ".join(f"{o.goal} {o.measure} under '{study.objective_case(o)}'" for o in study.objectives)
-    front = ok[ok["pareto"]].drop_duplicates("design")
-    lines += [f"## Pareto front ({goals})", "", f"{len(front)} designs: "
-              + ", ".join(str(d) for d in front["design"]) + ".", ""]
+    lines += [f"## Pareto front ({goals})", "", *_front_table(study, ok), ""]
     lines += [f"![{f}]({f})" for f in figures if f.endswith(".png")] + [""]
     failed = table[table["status"] == "failed"]
     if len(failed):
@@ -373,6 +389,8 @@ def run_designs(study: DesignStudy, robot: Robot, out: str | Path, *, study_text
                                  "rest)") from None
         if runner.executor is not None:
             runner.executor.close(cancel=False)
+        if progress is not None:  # the optimiser skips designs that come up again: its total was an upper bound
+            progress(len(runner.records), runner.failed, len(runner.records))
         n = sum(k >= 0 for k in runner.records)
         summary = {"study": study.name, "digest": study.digest(), "seed": study.seed, "designs": n,
                    "designs_reused": runner.reused, "designs_computed": runner.computed,
