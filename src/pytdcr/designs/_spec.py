@@ -256,9 +256,9 @@ class DesignStudy(_Strict):
         cases = [*self.loads.cases, *self.loads.custom]
         for k, o in enumerate(self.objectives):
             if o.measure not in measures:
-                raise ValueError(f"objectives[{k}].measure = {o.measure!r}: one of {measures}")
+                raise ValueError(f"objectives.{k}.measure = {o.measure!r}: one of {measures}")
             if o.load_case is not None and o.load_case not in cases:
-                raise ValueError(f"objectives[{k}].load_case = {o.load_case!r}: not a load case of the study {cases}")
+                raise ValueError(f"objectives.{k}.load_case = {o.load_case!r}: not a load case of the study {cases}")
         keys = [(o.measure, self.objective_case(o)) for o in self.objectives]
         if len(set(keys)) != len(keys):
             raise ValueError("objectives: the same measure and load case twice")
