@@ -144,6 +144,8 @@ def test_tdcr_workspace_writes_the_named_files(capsys, tmp_path):
     assert 0 < summary["largest_reach_m"] <= paper_robot().length * (1 + 1e-12)  # rounding of a straight robot
     search = summary["boundary_search"]
     assert 0 < search["solves"] <= 300 and summary["counts"]["by_source"]["search"] == search["solves"]
+    assert search["stop"] == "budget"  # 300 solves cannot finish the search: the user is told, not left to guess
+    assert any("stopped at its budget" in w for w in summary["warnings"]) and "raise --budget" in err
     support = summary["support"]
     assert len(support["h"]) == 8 and summary["inputs"]["directions"] == 8
     html = (out / "workspace.html").read_text()

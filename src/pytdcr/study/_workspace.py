@@ -92,8 +92,15 @@ def _numbers(est: Any, samples: RegionSamples, mask: np.ndarray, mesh: str, reac
 
 
 def _warnings(summary: dict[str, Any]) -> list[str]:
-    """One line per region with too few points to mesh: what was not written, and why."""
+    """One line per region with too few points to mesh (what was not written, and why), and one when the
+    boundary search ran out of budget before the region converged (the volume is then a lower bound)."""
     out = []
+    search, vol = summary.get("boundary_search"), summary["volume"]
+    if search is not None and search["stop"] == "budget" and summary["points"]:
+        out.append(f"the boundary search stopped at its budget ({search['solves']} solves) before the region "
+                   f"converged: the volume {vol['volume_m3'] * 1e6:.0f} cm³ is close to a lower bound and its error "
+                   f"(± {vol['error_m3'] * 1e6:.0f} cm³) is mostly the growth the last rounds point to "
+                   f"({vol['search_m3'] * 1e6:.0f} cm³); raise --budget for a measurement")
     for label, d, name in (("FSW", summary, "fsw.ply"), ("realisable region", summary["realisable"],
                                                          "fsw_realisable.ply")):
         if d["mesh"] is None:
@@ -343,6 +350,11 @@ def _compare_report(rows: list[dict[str, Any]], cases: list[WorkspaceCase], comm
                      f"{r['realisable_m3'] * 1e6:.0f} | {r['realisable_err_m3'] * 1e6:.0f} | "
                      f"{r['largest_reach_m'] or 0:.4f} | {r['volume_ratio'] or 0:.2f} | "
                      f"({sh[0]:.0f}, {sh[1]:.0f}, {sh[2]:.0f}) |")
+    short = [c.name for c in cases if c.summary["boundary_search"] and c.summary["boundary_search"]["stop"] == "budget"]
+    if short:
+        lines += ["", f"**Warning:** the boundary search ran out of budget before the region converged under "
+                  f"{', '.join(short)}: those volumes are close to lower bounds with large errors, and their "
+                  "ratios compare unfinished searches, not regions. Raise `--budget` to compare the regions."]
     if all(c.support is not None for c in cases):
         d = cases[0].support.directions
         pick = [int(np.argmax(d @ e)) for e in np.vstack([np.eye(3), -np.eye(3)])]
