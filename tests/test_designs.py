@@ -134,8 +134,12 @@ def test_local_and_dask_runs_give_one_table_and_resume(tmp_path):
     assert summary["designs_reused"] == 3 and summary["seed"] == 3
     # another study into the same folder is refused, or restarted when asked
     other, _ = study_from_dict(_study(seed=4))
-    with pytest.raises(FolderError, match="the study file changed"):
+    with pytest.raises(FolderError, match="the study file, its base robot"):
         run_designs(other, robot, tmp_path / "local")
+    # the same study on a changed base robot (its file edited) is another study too
+    heavier = robot.model_copy(update={"backbone": robot.backbone.model_copy(update={"youngs_modulus": 1e11})})
+    with pytest.raises(FolderError, match="the study file, its base robot"):
+        run_designs(study, heavier, tmp_path / "local")
     (tmp_path / "x").mkdir()
     (tmp_path / "x" / "notes.txt").write_text("mine")
     with pytest.raises(FolderError, match="not part of a tdcr run"):
@@ -225,6 +229,13 @@ def test_an_optimised_study_is_the_same_on_any_executor_and_resumes(tmp_path):
     assert t["routing_radius_2"].between(0.004, 0.012).all() and t["disks_1"].isin(range(6, 13)).all()
     assert t[t["design"] >= 0].drop_duplicates(["routing_radius_2", "disks_1"]).shape[0] == local.summary["designs"]
     assert t["pareto"].any() and not t.loc[t["design"] == -1, "pareto"].any()
+    # "best" follows the first objective (the largest reach here), in best/, the summary and the report
+    best = local.summary["best"][0]
+    designs = t[t["design"] >= 0]
+    assert best["measure"] == "largest_reach_m" and best["design"] == designs.loc[designs["largest_reach_m"].idxmax(),
+                                                                                   "design"]
+    assert (tmp_path / "local" / best["robot_file"]).is_file() and best["error"] is None
+    assert "(max largest_reach_m, the first objective)" in (tmp_path / "local" / "report.md").read_text()
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         run_designs(study, robot, tmp_path / "dask", scheduler=cluster.scheduler_address, figures=False)
     assert (tmp_path / "local" / "designs.csv").read_text() == (tmp_path / "dask" / "designs.csv").read_text()
@@ -244,7 +255,131 @@ def test_the_report_warns_when_volume_errors_exceed_the_margins():
         return pd.DataFrame({"design": [-1, 0, 1, 2], "load_case": ["c"] * 4,
                              "volume_m3": [0.03, 0.05, 0.04, 0.02], "volume_err_m3": [err] * 4})
 
-    assert _screening_note(table(0.002), "c", 0, "best/design_000000.toml") == []
-    note = " ".join(_screening_note(table(0.02), "c", 0, "best/design_000000.toml"))
+    study, _ = study_from_dict(_study())  # ranked by volume (the default first objective)
+    assert _screening_note(study, table(0.002), "c", 0, "best/design_000000.toml") == []
+    note = " ".join(_screening_note(study, table(0.02), "c", 0, "best/design_000000.toml"))
     assert "screening index" in note and "--robot best/design_000000.toml" in note
-    assert "(10000 cm³)" in note  # the margin over the next design, 0.01 m³
+    assert "best design's error (20000 cm³) exceeds its margin over the next design (10000 cm³)" in note
+    assert "and the median error is 58 % of the volume" in note  # both reasons, each in its own words
+    note = " ".join(_screening_note(study, table(0.011), "c", 0, "f.toml"))
+    assert "exceeds its margin" in note and "median error" not in note  # 32 % of the volume: not said
+    # errors larger than half the volumes but under the margin: only that is said
+    wide = pd.DataFrame({"design": [-1, 0, 1], "load_case": ["c"] * 3, "volume_m3": [0.01, 0.05, 0.01],
+                         "volume_err_m3": [0.008, 0.03, 0.008]})
+    note = " ".join(_screening_note(study, wide, "c", 0, "f.toml"))
+    assert "the median error is 80 % of the volume" in note and "exceeds its margin" not in note
+    # a ranking by a measure without an error has nothing to warn about
+    reach, _ = study_from_dict(_study(objectives=[{"measure": "largest_reach_m", "goal": "max"}]))
+    assert _screening_note(reach, table(0.02), "c", 0, "f.toml") == []
+
+
+def test_the_comparison_with_the_base_robot_shows_no_change_it_cannot_compute():
+    import pandas as pd
+
+    from pytdcr.designs._run import _versus_reference
+
+    study, _ = study_from_dict(_study())
+    row = {"load_case": "c", "volume_m3": 0.02, "volume_err_m3": 0.001, "realisable_volume_m3": 0.01,
+           "realisable_volume_err_m3": 0.001, "largest_reach_m": 0.3, "peak_stress_pa": 1e9, "arc_length_m": 0.4,
+           "h_up_m": 0.2}
+    ok = pd.DataFrame([{"design": -1, **row, "h_up_m": float("nan")}, {"design": 0, **row, "volume_m3": 0.03}])
+    lines = _versus_reference(study, ok, "c", 0)
+    assert "nan" not in " ".join(lines).lower()
+    assert any(line.startswith("| h_up_m |") and line.endswith("| — |") for line in lines)
+    assert any(line.startswith("| volume_m3 |") and "+50 %" in line for line in lines)
+
+
+def test_integer_ranges_give_each_whole_number_its_share_and_a_grid_has_no_twins():
+    study, _ = study_from_dict(_study(parameters={"disks": {"range": [3, 5], "steps": 4}}))
+    assert choose_designs(study.parameters, "grid", None, 0) == [{"disks": 3}, {"disks": 4}, {"disks": 5}]
+    study, _ = study_from_dict(_study(parameters={"disks_1": {"range": [6, 14]}}, designs={"method": "sobol",
+                                                                                            "count": 9}))
+    p = study.parameters
+    assert [from_unit(np.array([x]), p)["disks_1"] for x in (0.0, 0.11, 0.112, 0.5, 0.888, 0.89, 1.0)] == \
+        [6, 6, 7, 10, 13, 14, 14]
+    values = [from_unit(np.array([x]), p)["disks_1"] for x in (np.arange(9000) + 0.5) / 9000]
+    assert np.bincount(values)[6:].tolist() == [1000] * 9  # each of 6..14 the same share, the ends too
+
+
+@pytest.mark.parametrize(("change", "says"), [
+    ({"parameters": {"routing_radius": {"values": [0.01]}, "routing_radius_2": {"values": [0.01]}}},
+     "routing_radius and routing_radius_2 set the same field"),
+    ({"parameters": {"disks_1": {"values": [5]}, "disks_01": {"values": [6]}}}, "disks_1 and disks_01"),
+    ({"designs": {"method": "sobol", "count": 4}, "parameters": {"disks": {"range": [3, 5], "steps": 3}}},
+     "parameters.disks.steps goes with method = 'grid'"),
+    ({"loads": {"custom": {" ": {"tip_force": [0.0, 0.0, -0.1]}}}}, "custom load case name ' '"),
+    ({"loads": {"custom": {"a|b": {}}}}, "without | or `"),
+])
+def test_an_ambiguous_study_is_refused(change, says):
+    with pytest.raises(StudyError) as err:
+        study_from_dict(_study(**change), "s.toml")
+    assert says in str(err.value) and str(err.value).startswith("s.toml: ")
+
+
+def test_the_largest_reach_is_at_least_every_direction_s_support():
+    """With directions and the reach search, the largest reach keeps the farthest of both (|tip| >= d.tip)."""
+    study, robot = study_from_dict(_study(budget={"samples": 32, "reach_search": True}, measures={"directions": {
+        "up": [0.0, 0.0, 1.0], "side": [1.0, 0.0, 0.0], "out": [1.0, 1.0, 0.3], "down": [0.0, 0.0, -1.0]}}))
+    rec = evaluate_design(study.model_dump(), robot.model_dump(), 0, {"backbone_radius": 0.0007,
+                                                                      "routing_radius_2": 0.01})
+    row = rec["rows"][0]
+    assert rec["status"] == "ok", rec["reason"]
+    assert row["largest_reach_m"] >= max(row[f"h_{k}_m"] for k in ("up", "side", "out", "down")) - 1e-12
+    assert row["largest_reach_m"] <= row["arc_length_m"] + 1e-12
+
+
+def test_a_design_that_kills_its_dask_workers_is_recorded_as_failed():
+    from concurrent.futures import Future
+
+    from distributed import KilledWorker
+
+    from pytdcr.designs._run import _wait
+
+    dead, good = Future(), Future()
+    from types import SimpleNamespace
+
+    dead.set_exception(KilledWorker("evaluate_design-1", SimpleNamespace(address="tcp://10.0.0.7:40000"), 3))
+    good.set_result({"design": 0, "params": {"disks": 4}, "status": "ok", "reason": "", "rows": []})
+    got = []
+    _wait(None, {dead: (1, {"disks": 5}), good: (0, {"disks": 4})}, got.append)
+    rec = {r["design"]: r for r in got}
+    assert rec[0]["status"] == "ok" and rec[1]["status"] == "failed" and rec[1]["params"] == {"disks": 5}
+    assert "KilledWorker" in rec[1]["reason"] and "out of memory" in rec[1]["reason"]
+
+
+@pytest.mark.slow
+def test_a_local_worker_that_dies_stops_the_run_saved_and_resumable(tmp_path, monkeypatch):
+    """A worker process killed (as the out-of-memory killer would) breaks the local pool: the run stops with
+    WorkersLost naming what is saved, leaves no process behind, and the same call resumes."""
+    import multiprocessing
+    import threading
+    import time
+
+    from pytdcr.designs import WorkersLost, _run
+
+    study, robot = study_from_dict(_study(budget={"samples": 16}, reference=False))
+    made = []
+    real = _run._Local.__init__
+
+    def spy(self, workers):
+        real(self, workers)
+        made.append(self)
+
+    def killer():
+        for _ in range(600):  # the pool exists once the first design is submitted; kill its first worker
+            procs = list(getattr(made[0].pool, "_processes", {}).values()) if made else []
+            if procs:
+                procs[0].kill()
+                return
+            time.sleep(0.05)
+
+    monkeypatch.setattr(_run._Local, "__init__", spy)
+    threading.Thread(target=killer, daemon=True).start()
+    with pytest.raises(WorkersLost, match=r"saved \d of 4 designs in .*run the same command again"):
+        run_designs(study, robot, tmp_path / "out", workers=2, figures=False)
+    monkeypatch.undo()
+    assert multiprocessing.active_children() == []
+    manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
+    assert manifest["status"] == "interrupted"
+    again = run_designs(study, robot, tmp_path / "out", workers=2, figures=False)
+    assert again.summary["designs"] == 4 and again.summary["designs_computed"] + again.summary["designs_reused"] == 4

@@ -303,6 +303,7 @@ class _Bars:
 
 def _cmd_designs(args: argparse.Namespace) -> int:
     from .designs import load_study, run_designs
+    from .designs._run import format_measure
 
     study, robot, text = load_study(args.study)
     if args.workers is not None and not 1 <= args.workers <= 4096:
@@ -325,20 +326,17 @@ def _cmd_designs(args: argparse.Namespace) -> int:
     s = run.summary
     print(f"design study '{study.name}': {s['designs']} designs, {s['designs_computed']} computed, "
           f"{s['designs_reused']} reused, {s['designs_failed']} failed, on {s['executor']} in {s['seconds']:.1f} s")
-    ok = run.table[run.table["status"] == "ok"]
-    for case in dict.fromkeys(ok["load_case"]):
-        sub = ok[(ok["load_case"] == case) & (ok["design"] >= 0)]
-        ref = ok[(ok["load_case"] == case) & (ok["design"] == -1)]
-        if sub.empty:
-            continue
-        best = sub.loc[sub["volume_m3"].idxmax()]
-        versus = (f" (base robot {ref['volume_m3'].iloc[0] * 1e6:.0f} ± {ref['volume_err_m3'].iloc[0] * 1e6:.0f})"
-                  if not ref.empty else "")
-        print(f"  {case}: largest FSW {best['volume_m3'] * 1e6:.0f} ± {best['volume_err_m3'] * 1e6:.0f} cm^3, design "
-              f"{int(best['design'])}{versus}")
+    t = run.table
+    for b in s["best"]:
+        m = b["measure"]
+        ref = t[(t["load_case"] == b["load_case"]) & (t["design"] == -1) & (t["status"] == "ok")]
+        err = f" ± {format_measure(b['error'], m)}" if b["error"] is not None else ""
+        versus = f" (base robot {format_measure(ref[m].iloc[0], m)})" if not ref.empty else ""
+        print(f"  {escape_controls(b['load_case'])}: best by {b['goal']} {m}: design {b['design']}, "
+              f"{format_measure(b['value'], m)}{err}{versus}")
     if s.get("warnings"):
-        print("  the volume errors exceed the margins between the leading designs: a screening ranking, to be "
-              "confirmed at a full budget (see report.md)")
+        print("  warning: at this budget the volumes are a screening index, not a measurement: their errors exceed "
+              "the margins between the leading designs (see report.md)")
     figures = ", figures" if s.get("figures") else ""
     print(f"wrote designs.parquet, designs.csv, timings.csv, summary.json, report.md, best/{figures} in "
           f"{escape_controls(str(run.path))}")
@@ -872,6 +870,8 @@ def _glue_negative_values(argv: Sequence[str]) -> list[str]:
 #: exit statuses (README): success, a solve that did not converge, bad input, interrupted, a bug (sysexits'
 #: EX_SOFTWARE)
 EXIT_OK, EXIT_NOT_CONVERGED, EXIT_BAD_INPUT, EXIT_INTERRUPTED, EXIT_INTERNAL = 0, 1, 2, 130, 70
+#: the compute went away under a run that resumes (sysexits' EX_TEMPFAIL: try again)
+EXIT_TRY_AGAIN = 75
 
 
 def _one_line(message: object, limit: int = 600) -> str:
@@ -936,7 +936,8 @@ def _run_command(args: argparse.Namespace) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``tdcr``; returns the exit status (0 success, 1 not converged, 2 bad input, 130 Ctrl-C).
+    """Entry point of ``tdcr``; returns the exit status (0 success, 1 not converged, 2 bad input, 130 Ctrl-C,
+    75 the compute went away under a resumable run, 70 a bug).
 
     Arguments are checked before any work starts; errors are one line on stderr. The command line writes
     figures to files and never opens a window: it alone picks matplotlib's Agg backend (unless
@@ -958,11 +959,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"tdcr: error: {_one_line(err)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except Exception as err:  # a search with nothing converged, or a bug: one line, no traceback unless asked
+        from .designs import WorkersLost
         from .optimize import SearchFailed
 
         if isinstance(err, SearchFailed):
             print(f"tdcr: {_one_line(err)}", file=sys.stderr)
             return EXIT_NOT_CONVERGED
+        if isinstance(err, WorkersLost):
+            print(f"tdcr: {_one_line(err)}", file=sys.stderr)
+            return EXIT_TRY_AGAIN
         if os.environ.get("PYTDCR_DEBUG"):
             raise
         print(f"tdcr: internal error: {type(err).__name__}: {_one_line(err, 300)} (a bug in pytdcr: please report "

@@ -50,6 +50,7 @@ def _case_row(study: DesignStudy, robot: Any, loads: Any, seed: int, voxel: floa
                                  * robot.backbone.outer_radius) if ok.any() else np.nan),
         "arc_length_m": float(robot.length)}
     names = list(study.measures.directions)
+    sf = None
     gradient = m.capabilities.gradient is not None
     problem = ReachProblem.create(robot, loads, bounds, model=m, options=opts) if gradient and tips.size else None
     if names:
@@ -65,8 +66,9 @@ def _case_row(study: DesignStudy, robot: Any, loads: Any, seed: int, voxel: floa
             h = (tips @ D.T).max(axis=0) if tips.size else np.full(len(names), np.nan)
         row.update({f"h_{k}_m": float(v) for k, v in zip(names, h, strict=True)})
     if study.budget.reach_search and problem is not None:
-        lr = largest_reach(problem, s.tensions[feas], tips, threads=1)
-        far = (float(lr.reach), lr.tensions)
+        lr = largest_reach(problem, s.tensions[feas], tips, support=sf, threads=1)
+        if lr.reach >= far[0]:  # keep the farther of the search and the support function's tips
+            far = (float(lr.reach), lr.tensions)
     row["largest_reach_m"] = far[0]
     # not a column: the tensions that reach farthest, to draw the design (the table ignores this key)
     row["reach_tensions_n"] = None if far[1] is None else [float(t) for t in far[1]]

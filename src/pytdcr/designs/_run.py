@@ -8,12 +8,14 @@ at a time the designs ran.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import multiprocessing
 import platform
 import time
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import CancelledError, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -33,13 +35,18 @@ from ._optimize import design_batches, objective_matrix, pareto_front
 from ._space import apply_parameters, choose_designs, read_parameter
 from ._spec import MEASURES, DesignStudy, StudyError
 
-__all__ = ["DesignsRun", "run_designs"]
+__all__ = ["DesignsRun", "WorkersLost", "run_designs"]
 
 #: files and folders a study's folder holds
 LAYOUT = ("study.toml", "designs", "designs.csv", "designs.parquet", "timings.csv", "summary.json", "report.md",
           "best", "pareto.png", "pareto.pdf", "measures.png", "measures.pdf", "best_designs.png", "best_designs.pdf")
 #: how often the waiting loop looks for finished designs and for Ctrl-C [s]
 POLL_S = 0.1
+
+
+class WorkersLost(RuntimeError):
+    """The compute went away under the run (a local worker process died, the Dask scheduler closed): what was
+    finished is saved and the same command resumes it."""
 
 
 @dataclass(frozen=True)
@@ -108,8 +115,23 @@ class _Dask:
         self.client.close()
 
 
-def _wait(executor: Any, jobs: dict[Any, int], on_result: Callable[[dict[str, Any]], None]) -> None:
-    """Hand each finished design to ``on_result`` as it comes; Ctrl-C (the run's cancel scope) stops at once."""
+def _killed(index: int, params: dict[str, float], err: BaseException) -> dict[str, Any]:
+    """The record of a design whose Dask workers died running it (the scheduler gave up on it): failed."""
+    return {"design": int(index), "params": dict(params), "status": "failed", "rows": [],
+            "reason": f"{type(err).__name__}: the workers running this design died (out of memory, or a crash "
+                      f"in compiled code): {err}"[:500],
+            "timing": {"seconds": float("nan"), "host": "", "pid": -1}}
+
+
+def _wait(executor: Any, jobs: dict[Any, tuple[int, dict[str, float]]],
+          on_result: Callable[[dict[str, Any]], None]) -> None:
+    """Hand each finished design to ``on_result`` as it comes; Ctrl-C (the run's cancel scope) stops at once.
+
+    A design that killed the Dask workers that ran it (``KilledWorker``) is recorded as failed and the study goes
+    on; a local pool whose worker process died is broken for every design in it: :class:`WorkersLost`.
+    """
+    from distributed import KilledWorker
+
     pending = dict(jobs)
     while pending:
         check_cancelled()
@@ -118,8 +140,17 @@ def _wait(executor: Any, jobs: dict[Any, int], on_result: Callable[[dict[str, An
             time.sleep(POLL_S)
             continue
         for f in finished:
-            pending.pop(f)
-            on_result(f.result())
+            index, params = pending.pop(f)
+            try:
+                rec = f.result()
+            except KilledWorker as err:
+                rec = _killed(index, params, err)
+            except (BrokenProcessPool, CancelledError, OSError) as err:
+                running = sorted(k for k, _ in [*pending.values(), (index, params)])
+                raise WorkersLost(f"the compute stopped under the run while designs {running[:8]}"
+                                  f"{' ...' if len(running) > 8 else ''} were to run ({type(err).__name__}: "
+                                  f"{err or 'a worker process died: killed, out of memory, or a crash'})") from None
+            on_result(rec)
 
 
 def _table(study: DesignStudy, robot: Robot, records: dict[int, dict[str, Any]],
@@ -150,7 +181,7 @@ def _table(study: DesignStudy, robot: Robot, records: dict[int, dict[str, Any]],
     return pd.DataFrame(rows, columns=cols)
 
 
-def _fmt(value: float, measure: str) -> str:
+def format_measure(value: float, measure: str) -> str:
     """A measure in the unit a person reads (cm³, mm, MPa, %)."""
     if not np.isfinite(value):
         return "—"
@@ -176,29 +207,44 @@ def _versus_reference(study: DesignStudy, ok: Any, case: str, index: int) -> lis
               *[f"h_{k}_m" for k in study.measures.directions]):
         change = (best[m] / ref[m] - 1.0) * 100 if ref[m] else np.nan
         err = m.replace("_m3", "_err_m3")
-        a, b = ((_fmt(r[m], m) + (f" ± {_fmt(r[err], m)}" if err != m else "")) for r in (ref, best))
-        lines.append(f"| {m} | {a} | {b} | {change:+.0f} % |")
+        a, b = ((format_measure(r[m], m) + (f" ± {format_measure(r[err], m)}" if err != m else ""))
+                for r in (ref, best))
+        lines.append(f"| {m} | {a} | {b} | {f'{change:+.0f} %' if np.isfinite(change) else '—'} |")
     return lines
 
 
-def _screening_note(ok: Any, case: str, index: int, robot_file: str) -> list[str]:
+def _ranked_by(study: DesignStudy) -> tuple[str, str]:
+    """What "best" means in the report and ``best/``: the first objective's measure and goal."""
+    return study.objectives[0].measure, study.objectives[0].goal
+
+
+def _screening_note(study: DesignStudy, ok: Any, case: str, index: int, robot_file: str) -> list[str]:
     """A warning when the volume errors are larger than the margins the ranking rests on.
 
     At a screening budget (few samples, an unfinished boundary search) the error of each volume can exceed the
-    differences between designs: the order is then an index to shortlist designs, not a measurement.
+    differences between designs: the order is then an index to shortlist designs, not a measurement. Only a
+    ranking by a volume has an error to compare (the other measures have none).
     """
-    sub = ok[ok["load_case"] == case]
-    rel = (sub["volume_err_m3"] / sub["volume_m3"]).median()
-    ranked = sub[sub["design"] >= 0].sort_values("volume_m3", ascending=False)["volume_m3"].to_numpy()
-    best = sub[sub["design"] == index].iloc[0]
-    margin = ranked[0] - ranked[1] if len(ranked) > 1 else np.inf
-    if best["volume_err_m3"] <= margin and rel <= 0.5:
+    measure, goal = _ranked_by(study)
+    if not measure.endswith("volume_m3"):
         return []
-    return ["", f"**At this budget the volumes are a screening index, not a measurement:** the median error is "
-            f"{100 * rel:.0f} % of the volume and the best design's error ({_fmt(best['volume_err_m3'], 'volume_m3')}) "
-            f"exceeds its margin over the next design ({_fmt(margin, 'volume_m3')}). Confirm the leading designs at "
-            f"a full budget under '{case}' (e.g. `tdcr workspace --robot {robot_file} --n 1000 --budget 60000` "
-            "with that load), beside the base robot measured the same way."]
+    err = measure.replace("_m3", "_err_m3")
+    sub = ok[ok["load_case"] == case]
+    rel = (sub[err] / sub[measure]).median()
+    ranked = sub[sub["design"] >= 0][measure].dropna().sort_values(ascending=goal == "min").to_numpy()
+    best = sub[sub["design"] == index].iloc[0]
+    margin = abs(ranked[0] - ranked[1]) if len(ranked) > 1 else np.inf
+    why = []
+    if best[err] > margin:
+        why.append(f"the best design's error ({format_measure(best[err], measure)}) exceeds its margin over the next "
+                   f"design ({format_measure(margin, measure)})")
+    if rel > 0.5:
+        why.append(f"the median error is {100 * rel:.0f} % of the volume")
+    if not why:
+        return []
+    return ["", "**At this budget the volumes are a screening index, not a measurement:** " + "; and ".join(why)
+            + f". Confirm the leading designs at a full budget under '{case}' (e.g. `tdcr workspace --robot "
+            f"{robot_file} --n 1000 --budget 60000` with that load), beside the base robot measured the same way."]
 
 
 def _front_table(study: DesignStudy, ok: Any) -> list[str]:
@@ -211,7 +257,8 @@ def _front_table(study: DesignStudy, ok: Any) -> list[str]:
                 for o in study.objectives]
         params = ok[ok["design"] == k].iloc[0]
         rows.append((vals, f"| {k} | " + " | ".join(f"{params[p]:.6g}" for p in study.parameters) + " | "
-                     + " | ".join(_fmt(v, o.measure) for v, o in zip(vals, study.objectives, strict=True)) + " |"))
+                     + " | ".join(format_measure(v, o.measure) for v, o in zip(vals, study.objectives, strict=True))
+                     + " |"))
     first = study.objectives[0]
     rows.sort(key=lambda r: -r[0][0] if first.goal == "max" else r[0][0])
     return [f"{len(front)} designs (no other design is better on one objective and as good on the rest):", "",
@@ -229,17 +276,21 @@ def _report(study: DesignStudy, table: Any, summary: dict[str, Any], best: list[
              f"Computed {summary['designs_computed']}, reused {summary['designs_reused']}, failed "
              f"{summary['designs_failed']}; ran on {summary['executor']} in {summary['seconds']:.0f} s.", ""]
     ok = table[table["status"] == "ok"]
+    measure, goal = _ranked_by(study)
+    extra = [] if measure in ("volume_m3", "largest_reach_m", "peak_stress_pa") else [measure]
     for case, index, robot_file in best:
-        sub = ok[(ok["load_case"] == case) & (ok["design"] >= 0)].sort_values("volume_m3", ascending=False).head(5)
-        lines += [f"## Largest FSW under '{case}'", "", f"Best: design {index}, robot file `{robot_file}` "
-                  f"(`tdcr workspace --robot {robot_file}`).", "",
-                  "| design | " + " | ".join(study.parameters) + " | FSW [cm³] | ± | reach [mm] | peak stress [MPa] |",
-                  "|---" * (len(study.parameters) + 5) + "|"]
+        sub = ok[(ok["load_case"] == case) & (ok["design"] >= 0)].dropna(subset=[measure])
+        sub = sub.sort_values(measure, ascending=goal == "min").head(5)
+        lines += [f"## Best under '{case}' ({goal} {measure}, the first objective)", "",
+                  f"Best: design {index}, robot file `{robot_file}` (`tdcr workspace --robot {robot_file}`).", "",
+                  "| design | " + " | ".join(study.parameters) + " | FSW [cm³] | ± | reach [mm] | peak stress [MPa] |"
+                  + "".join(f" {m} |" for m in extra), "|---" * (len(study.parameters) + 5 + len(extra)) + "|"]
         for _, r in sub.iterrows():
             lines.append(f"| {r['design']} | " + " | ".join(f"{r[p]:.6g}" for p in study.parameters)
                          + f" | {r['volume_m3'] * 1e6:.0f} | {r['volume_err_m3'] * 1e6:.0f} | "
-                         f"{r['largest_reach_m'] * 1e3:.1f} | {r['peak_stress_pa'] / 1e6:.0f} |")
-        lines += [*_versus_reference(study, ok, case, index), *_screening_note(ok, case, index, robot_file), ""]
+                         f"{r['largest_reach_m'] * 1e3:.1f} | {r['peak_stress_pa'] / 1e6:.0f} |"
+                         + "".join(f" {format_measure(r[m], m)} |" for m in extra))
+        lines += [*_versus_reference(study, ok, case, index), *_screening_note(study, ok, case, index, robot_file), ""]
     goals = ", ".join(f"{o.goal} {o.measure} under '{study.objective_case(o)}'" for o in study.objectives)
     lines += [f"## Pareto front ({goals})", "", *_front_table(study, ok), ""]
     lines += [f"![{f}]({f})" for f in figures if f.endswith(".png")] + [""]
@@ -252,13 +303,15 @@ def _report(study: DesignStudy, table: Any, summary: dict[str, Any], best: list[
 
 def _write_best(out: Path, study: DesignStudy, robot: Robot, table: Any,
                 records: dict[int, dict[str, Any]]) -> list[tuple[str, int, str]]:
-    """The robot file of the design with the largest FSW under each load case, in ``best/``."""
+    """The robot file of the best design (by the first objective's measure and goal) under each load case, in
+    ``best/``; returns (load case, design, file name) for each."""
     (out / "best").mkdir(exist_ok=True)
-    ok = table[(table["status"] == "ok") & (table["design"] >= 0)]
+    measure, goal = _ranked_by(study)
+    ok = table[(table["status"] == "ok") & (table["design"] >= 0)].dropna(subset=[measure])
     best = []
     for case in dict.fromkeys(ok["load_case"]):
         sub = ok[ok["load_case"] == case]
-        k = int(sub.loc[sub["volume_m3"].idxmax(), "design"])
+        k = int(sub.loc[sub[measure].idxmax() if goal == "max" else sub[measure].idxmin(), "design"])
         name = f"best/design_{k:06d}.toml"
         write_robot(apply_parameters(robot, records[k]["params"]).model_copy(
             update={"name": f"{study.name}-design-{k}"}), out / name)
@@ -292,9 +345,17 @@ def _finish(out: Path, study: DesignStudy, robot: Robot, records: dict[int, dict
     best = _write_best(out, study, robot, table, records) if ok.any() else []
     written = write_design_figures(out, study, robot, table, records) if figures and ok.any() else []
     summary["figures"] = written
+    measure, goal = _ranked_by(study)
+    err = measure.replace("_m3", "_err_m3") if measure.endswith("volume_m3") else None
+    summary["best"] = []
+    for case, k, name in best:
+        row = table[(table["design"] == k) & (table["load_case"] == case)].iloc[0]
+        summary["best"].append({"load_case": case, "design": k, "robot_file": name, "measure": measure,
+                                "goal": goal, "value": float(row[measure]),
+                                "error": None if err is None else float(row[err])})
     oks = table[table["status"] == "ok"]
     summary["warnings"] = [f"{case}: " + " ".join(note).replace("**", "").strip() for case, k, name in best
-                           if (note := _screening_note(oks, case, k, name))]
+                           if (note := _screening_note(study, oks, case, k, name))]
     write_json(out / "summary.json", summary)
     atomic_write_text(out / "report.md", _report(study, table, summary, best, written))
     return table
@@ -354,9 +415,16 @@ class _Runner:
                 self.executor = (_Dask(self.scheduler) if self.scheduler else
                                  _Local(min(self.workers or default_threads(), self.total)))
             study_data, robot_data = self.study.model_dump(mode="python"), self.robot.model_dump(mode="python")
-            jobs_ = {self.executor.submit(study_data, robot_data, k, p): k for k, p in todo}
+            jobs_ = {self.executor.submit(study_data, robot_data, k, p): (k, p) for k, p in todo}
             _wait(self.executor, jobs_, lambda rec: self._keep(generation, rec))
         return {k: self.records[k] for k, _ in batch}
+
+
+def run_digest(study: DesignStudy, robot: Robot) -> str:
+    """What a folder's designs rest on: the study, the base robot's content (a robot file can change while the
+    study file does not) and pytdcr's version. A folder is resumed only when this is unchanged."""
+    text = json.dumps([study.digest(), robot.model_dump(mode="json"), __version__], sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 def run_designs(study: DesignStudy, robot: Robot, out: str | Path, *, study_text: str | None = None,
@@ -374,25 +442,30 @@ def run_designs(study: DesignStudy, robot: Robot, out: str | Path, *, study_text
     designs = (None if study.designs.method == "optimize" else
                choose_designs(study.parameters, study.designs.method, study.designs.count, study.seed))
     total = study.designs.total if designs is None else len(designs)
-    inputs = {"study": study.model_dump(mode="json"), "designs": total}
-    with resumable_folder(out, "designs", inputs, study.digest(), restart, LAYOUT) as run:
+    inputs = {"study": study.model_dump(mode="json"), "designs": total, "robot": robot.model_dump(mode="json")}
+    digest = run_digest(study, robot)
+    with resumable_folder(out, "designs", inputs, digest, restart, LAYOUT) as run:
         (run.path / "designs").mkdir(exist_ok=True)
         if study_text is not None:
             atomic_write_text(run.path / "study.toml", study_text)
         runner = _Runner(study, robot, run, total, scheduler, workers, progress)
+        finished = False
         try:
             generation_of = design_batches(study, designs, runner.batch)
+            finished = True
         except KeyboardInterrupt:
-            if runner.executor is not None:
-                runner.executor.close(cancel=True)
             raise RunInterrupted(f"{runner.saved()} in {run.path} (run the same command again to compute the "
                                  "rest)") from None
-        if runner.executor is not None:
-            runner.executor.close(cancel=False)
+        except WorkersLost as err:
+            raise WorkersLost(f"{err}; {runner.saved()} in {run.path}: run the same command again to compute the "
+                              "rest (with fewer --workers if memory ran out)") from None
+        finally:  # whatever stopped the run, no worker outlives it
+            if runner.executor is not None:
+                runner.executor.close(cancel=not finished)
         if progress is not None:  # the optimiser skips designs that come up again: its total was an upper bound
             progress(len(runner.records), runner.failed, len(runner.records))
         n = sum(k >= 0 for k in runner.records)
-        summary = {"study": study.name, "digest": study.digest(), "seed": study.seed, "designs": n,
+        summary = {"study": study.name, "digest": digest, "seed": study.seed, "designs": n,
                    "designs_reused": runner.reused, "designs_computed": runner.computed,
                    "designs_failed": sum(r["status"] == "failed" for k, r in runner.records.items() if k >= 0),
                    "reference": "off" if not study.reference else

@@ -113,14 +113,16 @@ def _levels(p: Any, integer: bool) -> list[float]:
     else:
         lo, hi = p.range
         vals = list(np.linspace(lo, hi, p.steps or 3))
-    return [int(np.rint(v)) if integer else float(v) for v in vals]
+    # whole numbers: steps finer than 1 round onto the same value; a grid holds each design once
+    return list(dict.fromkeys(int(np.rint(v)) if integer else float(v) for v in vals))
 
 
 def choose_designs(parameters: dict[str, Any], method: str, count: int | None, seed: int) -> list[dict[str, float]]:
     """The designs: each a dict of parameter values, in a fixed order (the design's index is its place).
 
     ``grid``: every combination of the parameters' values (a range gives ``steps`` evenly spaced values, 3 by
-    default), the first parameter varying slowest. ``sobol``: ``count`` scrambled Sobol points (``seed``);
+    default; a value that comes twice, as whole numbers rounded from close steps do, is kept once), the first
+    parameter varying slowest. ``sobol``: ``count`` scrambled Sobol points (``seed``);
     a range is sampled uniformly, a list of values by an even share of the unit interval each.
     """
     names = list(parameters)
@@ -136,15 +138,18 @@ def choose_designs(parameters: dict[str, Any], method: str, count: int | None, s
 
 def from_unit(u: np.ndarray, parameters: dict[str, Any]) -> dict[str, float]:
     """The design at the point ``u`` (shape (n_parameters,), in [0, 1]) of the unit cube: a range is mapped
-    linearly (whole numbers rounded), a list of values gives each an even share of the interval."""
+    linearly, a range of whole numbers and a list of values give each value an even share of the interval."""
     d: dict[str, float] = {}
     for x, n in zip(np.clip(np.asarray(u, dtype=float), 0.0, 1.0), parameters, strict=True):
         p, integer = parameters[n], parameter_info(n).integer
         if p.values is not None:
             v = p.values[min(int(x * len(p.values)), len(p.values) - 1)]
+        elif integer:  # lo..hi each with a share 1/(hi - lo + 1): rounding would halve the ends' shares
+            lo, hi = int(p.range[0]), int(p.range[1])
+            v = min(lo + int(np.floor(x * (hi - lo + 1))), hi)
         else:
             v = p.range[0] + x * (p.range[1] - p.range[0])
-        d[n] = int(np.rint(v)) if integer else float(v)
+        d[n] = int(v) if integer else float(v)
     return d
 
 

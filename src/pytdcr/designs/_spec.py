@@ -167,6 +167,10 @@ class LoadCases(_Strict):
     def _some(self) -> LoadCases:
         if not self.cases and not self.custom:
             raise ValueError("no load case: name at least one in cases = [...] or add a custom one")
+        for name in self.custom:
+            if not name.strip() or not all(c.isprintable() and c not in "|`" for c in name):
+                raise ValueError(f"custom load case name {name!r}: printable, not empty, without | or ` (it names "
+                                 "rows and report lines)")
         clash = set(self.cases) & set(self.custom)
         if clash:
             raise ValueError(f"custom load case {sorted(clash)[0]!r} has the name of a built-in case")
@@ -235,12 +239,23 @@ class DesignStudy(_Strict):
     @field_validator("parameters")
     @classmethod
     def _known(cls, v: dict[str, Parameter]) -> dict[str, Parameter]:
-        for name in v:
-            parameter_info(name)  # ValueError naming the parameter and the known ones
+        names = list(v)
+        for i, name in enumerate(names):
+            info = parameter_info(name)  # ValueError naming the parameter and the known ones
+            for other in names[:i]:
+                o = parameter_info(other)
+                if o.base == info.base and (None in (o.segment, info.segment) or o.segment == info.segment):
+                    raise ValueError(f"{other} and {name} set the same field (one for every segment, one for "
+                                     "segment k): keep one, or give each segment its own")
         return v
 
     @model_validator(mode="after")
     def _grid_size(self) -> DesignStudy:
+        if self.designs.method != "grid":
+            for name, p in self.parameters.items():
+                if p.steps is not None:
+                    raise ValueError(f"parameters.{name}.steps goes with method = 'grid' (method = "
+                                     f"{self.designs.method!r} samples the range)")
         if self.designs.method == "grid":
             size = 1
             for p in self.parameters.values():

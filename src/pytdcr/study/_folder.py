@@ -353,7 +353,8 @@ def resumable_folder(path: str | Path, command: str, inputs: dict[str, Any], dig
         old = _read_manifest(path) if path.is_dir() else None
         if old is not None and (old.get("command") != command or old.get("digest") != digest):
             what = (f"a run of 'tdcr {old.get('command')}'" if old.get("command") != command
-                    else "another study (the study file changed since it was started)")
+                    else "another study (the study file, its base robot or pytdcr's version changed since it was "
+                    "started)")
             if not restart:
                 raise StudyChanged(f"--out {show_path(path)}: holds {what}; give a new folder, or --restart to "
                                    "discard it and start again")
