@@ -383,3 +383,19 @@ def test_a_local_worker_that_dies_stops_the_run_saved_and_resumable(tmp_path, mo
     assert manifest["status"] == "interrupted"
     again = run_designs(study, robot, tmp_path / "out", workers=2, figures=False)
     assert again.summary["designs"] == 4 and again.summary["designs_computed"] + again.summary["designs_reused"] == 4
+
+
+def test_tdcr_designs_exits_75_when_the_compute_goes_away(tmp_path, capsys, monkeypatch):
+    """The command line's side of WorkersLost: one line saying what is saved, exit 75 (try again), no traceback."""
+    from pytdcr import designs
+    from pytdcr.cli import main
+
+    def lost(*args, **kwargs):
+        raise designs.WorkersLost("the compute stopped under the run; saved 3 of 4 designs in DIR: run the same "
+                                  "command again")
+
+    monkeypatch.setattr(designs, "run_designs", lost)
+    code = main(["designs", "examples/design_study_small.toml", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 75 and err[-1].startswith("tdcr: the compute stopped") and "saved 3 of 4" in err[-1]
+    assert "Traceback" not in "\n".join(err)
