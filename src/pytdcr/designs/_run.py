@@ -206,11 +206,16 @@ def _versus_reference(study: DesignStudy, ok: Any, case: str, index: int) -> lis
     for m in ("volume_m3", "realisable_volume_m3", "largest_reach_m", "peak_stress_pa", "arc_length_m",
               *[f"h_{k}_m" for k in study.measures.directions]):
         change = (best[m] / ref[m] - 1.0) * 100 if ref[m] else np.nan
-        err = m.replace("_m3", "_err_m3")
-        a, b = ((format_measure(r[m], m) + (f" ± {format_measure(r[err], m)}" if err != m else ""))
+        err = _error_column(m)
+        a, b = ((format_measure(r[m], m) + (f" ± {format_measure(r[err], m)}" if err else ""))
                 for r in (ref, best))
         lines.append(f"| {m} | {a} | {b} | {f'{change:+.0f} %' if np.isfinite(change) else '—'} |")
     return lines
+
+
+def _error_column(measure: str) -> str | None:
+    """The column of a measure's error: only the volumes have one."""
+    return measure.replace("_m3", "_err_m3") if measure.endswith("volume_m3") else None
 
 
 def _ranked_by(study: DesignStudy) -> tuple[str, str]:
@@ -226,9 +231,9 @@ def _screening_note(study: DesignStudy, ok: Any, case: str, index: int, robot_fi
     ranking by a volume has an error to compare (the other measures have none).
     """
     measure, goal = _ranked_by(study)
-    if not measure.endswith("volume_m3"):
+    err = _error_column(measure)
+    if err is None:
         return []
-    err = measure.replace("_m3", "_err_m3")
     sub = ok[ok["load_case"] == case]
     rel = (sub[err] / sub[measure]).median()
     ranked = sub[sub["design"] >= 0][measure].dropna().sort_values(ascending=goal == "min").to_numpy()
@@ -346,7 +351,7 @@ def _finish(out: Path, study: DesignStudy, robot: Robot, records: dict[int, dict
     written = write_design_figures(out, study, robot, table, records) if figures and ok.any() else []
     summary["figures"] = written
     measure, goal = _ranked_by(study)
-    err = measure.replace("_m3", "_err_m3") if measure.endswith("volume_m3") else None
+    err = _error_column(measure)
     summary["best"] = []
     for case, k, name in best:
         row = table[(table["design"] == k) & (table["load_case"] == case)].iloc[0]
