@@ -134,6 +134,8 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
+    if not 20 <= args.samples <= 1_000_000:
+        ap.error(f"--samples must be in [20, 1000000], got {args.samples}")
     warmup()
     robot, loads = paper_robot(), paper_loads()
     eq = PCC.equations(robot, loads)
