@@ -29,12 +29,11 @@ from numba import njit
 from scipy.spatial import cKDTree
 
 from pytdcr.paper import paper_loads, paper_robot
-from pytdcr.statics import _kernels as K
-from pytdcr.statics import _solver_kernels as SV
-from pytdcr.statics import solve_batch, warmup
-from pytdcr.statics._compiled import SolverOptions
-from pytdcr.statics._constants import PATH_NAMES
+from pytdcr.statics import PATH_NAMES, SolverOptions, solve_batch, warmup
+from pytdcr.statics.kernels import pcc as K
+from pytdcr.statics.kernels import solver as SV
 from pytdcr.statics.pcc import PCC
+from pytdcr.statics.solver import kernel_settings
 
 
 @njit(cache=False)
@@ -77,7 +76,7 @@ def kernel_costs(eq, q: np.ndarray) -> dict[str, float]:
 
 def cold(eq, T: np.ndarray) -> tuple[dict, np.ndarray]:
     """Solve every row of ``T`` on one thread; returns the summary and the per-solve table."""
-    settings = SolverOptions().settings()
+    settings = kernel_settings(SolverOptions())
     work = K.make_work(eq.n_disks, eq.packed.holes.shape[0])
     q0 = np.zeros(eq.n_unknowns)
     rows = []

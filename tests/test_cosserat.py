@@ -22,7 +22,7 @@ from pytdcr import (
     tip_gradient,
 )
 from pytdcr.statics import CosseratShooting
-from pytdcr.statics import _cosserat_kernels as CK  # the right-hand side kernel, tested on purpose
+from pytdcr.statics.kernels import cosserat as CK  # the right-hand side kernel, tested on purpose
 
 #: Rao et al. 2021, tensions [4, 0, 0, 0, 2, 0] N: their Cosserat model's tip (6 digits published) [m]
 RAO_COSSERAT_TIP = np.array([0.127608, 0.143467, 0.336407])

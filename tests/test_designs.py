@@ -22,7 +22,7 @@ from pytdcr.designs import (
     study_from_dict,
 )
 from pytdcr.paper import paper_robot
-from pytdcr.study import FolderError
+from pytdcr.runtime import FolderError
 
 
 def _study(**over):

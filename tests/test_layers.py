@@ -1,4 +1,5 @@
-"""House rules, checked in the source: layers, imports, function length, one registry, no import side effects."""
+"""House rules, checked in the source: layers, imports (at module level: no private module of another package),
+function length and parameters, one registry, one atomic write, no import side effects."""
 
 from __future__ import annotations
 
@@ -17,7 +18,8 @@ MODULES = sorted(p for p in SRC.rglob("*.py"))
 #: layers, lowest first: a module may import only from its own layer or lower ones
 LAYERS = [
     {"__init__", "_version"},  # the top-level package re-exports; checked apart below
-    {"validate", "design", "loads", "bounds", "paper", "kinematics", "contact", "results", "io", "limits"},
+    {"validate", "limits", "runtime"},  # shared infrastructure: numbers and files, memory, threads and folders
+    {"design", "loads", "bounds", "paper", "kinematics", "contact", "results", "io"},
     {"statics"},
     {"workspace", "region", "optimize", "compare", "accuracy"},
     {"plotting"},
@@ -28,7 +30,7 @@ LAYERS = [
 
 def _layer_of(module: str) -> int:
     first = module.split(".")[0]
-    for k, names in enumerate(LAYERS[1:], start=1):
+    for k, names in enumerate(LAYERS):
         if first in names:
             return k
     raise AssertionError(f"module {module} has no layer: add it to LAYERS")
@@ -40,10 +42,16 @@ def _name(path: Path) -> str:
     return ".".join(parts) or "__init__"
 
 
+def _is_module(name: str) -> bool:
+    rel = Path(*name.split("."))
+    return (SRC / rel).with_suffix(".py").exists() or (SRC / rel / "__init__.py").exists()
+
+
 def _imports(path: Path) -> set[str]:
-    """pytdcr modules imported by ``path`` (relative imports resolved), at any depth of the file."""
+    """pytdcr modules imported by ``path`` (relative imports resolved; ``from pkg import module`` counts the
+    module), at any depth of the file."""
     tree = ast.parse(path.read_text())
-    pkg = _name(path).split(".")
+    pkg = [] if _name(path) == "__init__" else _name(path).split(".")
     if path.name != "__init__.py":
         pkg = pkg[:-1]
     out = set()
@@ -58,6 +66,7 @@ def _imports(path: Path) -> set[str]:
                 continue
             if mod:
                 out.add(mod)
+                out |= {f"{mod}.{a.name}" for a in node.names if _is_module(f"{mod}.{a.name}")}
         elif isinstance(node, ast.Import):
             out |= {a.name.removeprefix("pytdcr.") for a in node.names if a.name.startswith("pytdcr.")}
     return out
@@ -66,14 +75,63 @@ def _imports(path: Path) -> set[str]:
 @pytest.mark.parametrize("path", MODULES, ids=[_name(p) for p in MODULES])
 def test_imports_flow_one_way(path):
     me = _name(path)
-    if me == "__init__":
+    if me in ("__init__", "_version"):
         return
     mine = _layer_of(me)
     for mod in _imports(path):
-        if mod == "__init__" or mod in ("", "pytdcr"):
+        if mod in ("__init__", "_version", "", "pytdcr"):
             continue
         theirs = _layer_of(mod)
         assert theirs <= mine, f"{me} (layer {mine}) imports {mod} (layer {theirs})"
+
+
+def _package_of(module: str, is_package: bool) -> tuple[str, ...]:
+    parts = tuple(module.split("."))
+    return parts if is_package else parts[:-1]
+
+
+@pytest.mark.parametrize("path", MODULES, ids=[_name(p) for p in MODULES])
+def test_no_module_imports_a_private_module_of_another_package(path):
+    """A private module (a part of its name starts with one underscore) is imported only from inside the package
+    that holds it: other packages use that package's public names."""
+    me = _name(path)
+    mine = _package_of(me, path.name == "__init__.py") if me != "__init__" else ()
+    for mod in _imports(path):
+        parts = mod.split(".")
+        for k, part in enumerate(parts):
+            if part.startswith("_") and not part.startswith("__"):
+                owner = tuple(parts[:k])
+                assert mine[: len(owner)] == owner, f"{me} imports the private module {mod} of package {owner}"
+
+
+@pytest.mark.parametrize("path", MODULES, ids=[_name(p) for p in MODULES])
+def test_no_function_outside_the_kernels_takes_more_than_8_parameters(path):
+    if _is_kernel_module(path):
+        return
+    for fn in _functions(ast.parse(path.read_text())):
+        a = fn.args
+        names = [x.arg for x in (*a.posonlyargs, *a.args, *a.kwonlyargs)]
+        names += [x.arg for x in (a.vararg, a.kwarg) if x is not None]
+        names = [n for n in names if n not in ("self", "cls")]
+        assert len(names) <= 8, f"{_name(path)}.{fn.name} takes {len(names)} parameters: {', '.join(names)}"
+
+
+def test_the_atomic_write_is_written_once():
+    """Files are replaced by a rename in one place (:mod:`pytdcr.runtime`), which every writer calls."""
+    for path in MODULES:
+        if "runtime" in path.relative_to(SRC).parts:
+            continue
+        text = path.read_text()
+        for needle in ("os.replace(", ".replace(out /", "os.rename("):
+            assert needle not in text, f"{_name(path)} renames a file itself ({needle}): use pytdcr.runtime"
+
+
+def test_the_command_line_is_a_package_of_short_modules():
+    cli = SRC / "cli"
+    assert (cli / "__init__.py").exists(), "the command line is a package"
+    for path in sorted(cli.rglob("*.py")):
+        lines = len(path.read_text().splitlines())
+        assert lines <= 300, f"{path.relative_to(SRC)} has {lines} lines"
 
 
 def test_core_never_imports_plotting_or_the_command_line():
@@ -93,9 +151,14 @@ def _functions(tree: ast.AST):
             yield node
 
 
+def _is_kernel_module(path: Path) -> bool:
+    """The compiled kernels: ``statics/kernels/*.py``."""
+    return "kernels" in path.relative_to(SRC).parts[:-1] or "kernel" in path.name
+
+
 @pytest.mark.parametrize("path", MODULES, ids=[_name(p) for p in MODULES])
 def test_no_function_over_120_lines_outside_kernel_modules(path):
-    if "kernel" in path.name:
+    if _is_kernel_module(path):
         return
     for fn in _functions(ast.parse(path.read_text())):
         length = fn.end_lineno - fn.lineno + 1
@@ -134,8 +197,8 @@ def test_import_has_no_side_effects():
         "import pytdcr, pytdcr.study, pytdcr.plotting, pytdcr.workspace, pytdcr.optimize, pytdcr.compare\n"
         "bad = [m for m in ('matplotlib', 'pytdcr.cli') if m in sys.modules]\n"
         "import numba\n"
-        "from pytdcr.statics import _kernels, _solver_kernels\n"
-        "loaded = [k for k, f in (('solve_range', _solver_kernels.solve_range), ('evaluate', _kernels.evaluate))\n"
+        "from pytdcr.statics.kernels import pcc, solver\n"
+        "loaded = [k for k, f in (('solve_range', solver.solve_range), ('evaluate', pcc.evaluate))\n"
         "          if f.signatures]\n"
         "print(','.join(bad + loaded))\n"
     )

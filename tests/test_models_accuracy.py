@@ -24,7 +24,7 @@ from pytdcr import (
 )
 from pytdcr.paper import PAPER_TIP_FORCE
 from pytdcr.statics import PCCEquations, SSCREquations, SSCROptions
-from pytdcr.statics._kernels import BALANCE_MIDPOINT
+from pytdcr.statics.kernels.pcc import BALANCE_MIDPOINT
 
 
 def robot_with(n_disks: int, friction=None, gravity: bool = True) -> Robot:

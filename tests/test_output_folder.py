@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from pytdcr import Loads, TensionBounds
+from pytdcr.runtime import MANIFEST, FolderError, RunInterrupted, output_folder, run_in_chunks, submit_in_context
 from pytdcr.statics import Cancelled, cancellable, solve_batch
-from pytdcr.statics._batch import run_in_chunks, submit_in_context
-from pytdcr.study import MANIFEST, FolderError, RunInterrupted, output_folder, run_sample
+from pytdcr.study import run_sample
 from pytdcr.workspace import SamplingInterrupted, sample_workspace
 
 
@@ -154,7 +154,7 @@ def test_an_interrupted_run_never_replaces_a_complete_one(tmp_path):
 
 _HOLDER = """
 import sys, time
-from pytdcr.study import output_folder
+from pytdcr.runtime import output_folder
 with output_folder(sys.argv[1], "holder") as run:
     print("locked", flush=True)
     time.sleep(float(sys.argv[2]))

@@ -3,6 +3,7 @@
 Importing the package runs nothing and imports no plotting library.
 """
 
+from ._version import __version__
 from .bounds import TensionBounds
 from .design import (
     Backbone,
@@ -28,8 +29,6 @@ from .statics import (
     solve_batch,
     tip_gradient,
 )
-
-__version__ = "0.1.0"
 
 __all__ = [
     "MODELS",

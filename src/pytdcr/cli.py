@@ -28,9 +28,10 @@ from typing import Any, NoReturn
 import numpy as np
 
 from .design import ConstantFriction, ExponentialFriction, NoFriction, Robot
-from .io import RobotFileError, dump_json, load_robot, read_toml, robot_to_dict, write_robot
+from .io import RobotFileError, load_robot, read_toml, robot_to_dict, write_robot
 from .loads import Loads, check_tensions
 from .paper import DEFAULT_BOUNDS
+from .runtime import dump_json
 from .statics import (
     DEFAULT_ATOL,
     MODELS,
@@ -255,7 +256,7 @@ class _Bar:
 
 def _check_out(text: str) -> Path:
     """--out: refused before any work if the output-folder rule will not use it (a file, other files, in use)."""
-    from .study import check_output_folder
+    from .runtime import check_output_folder
 
     check_output_folder(text)
     return Path(text)
@@ -693,7 +694,7 @@ def _stability_text(st: Any) -> str:
 
 
 def _plot_solution(sol: Any, robot: Robot, loads: Loads, path: Path) -> None:
-    from .plotting import plot_robot, pyplot
+    from .plotting import plot_robot, save_figure_as
 
     arrows = []
     if np.any(loads.tip_force):
@@ -702,13 +703,7 @@ def _plot_solution(sol: Any, robot: Robot, loads: Loads, path: Path) -> None:
     ax = plot_robot(sol, robot, loads=arrows)
     ax.set_title(f"{robot.name}: tip at {np.array2string(sol.tip_position, precision=3)} m")
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        ax.figure.savefig(tmp, dpi=150, bbox_inches="tight", format=path.suffix[1:].lower())
-        os.replace(tmp, path)  # whole or absent
-    finally:
-        tmp.unlink(missing_ok=True)
-        pyplot().close(ax.figure)
+    save_figure_as(ax.figure, path)  # whole or absent
 
 
 def _cmd_robot(args: argparse.Namespace) -> int:

@@ -30,18 +30,16 @@ A robot file::
 
 from __future__ import annotations
 
-import json
-import os
 import sys
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import tomli_w
 from pydantic import ValidationError
 
 from .design import Robot
 from .paper import BUILTIN_ROBOTS
+from .runtime import atomic_write_text, to_jsonable
 from .validate import escape_controls, is_integer, read_text_file, show, show_path
 
 if sys.version_info >= (3, 11):
@@ -180,12 +178,7 @@ def write_robot(robot: Robot, path: str | Path) -> None:
     if not path.parent.is_dir():
         raise RobotFileError(f"{show_path(path)}: its folder {show_path(path.parent)} does not exist")
     text = tomli_w.dumps(robot_to_dict(robot))
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, path)  # whole or absent
-    finally:
-        tmp.unlink(missing_ok=True)
+    atomic_write_text(path, text)  # whole or absent
 
 
 def load_robot(spec: str) -> Robot:
@@ -195,26 +188,3 @@ def load_robot(spec: str) -> Robot:
     if not spec.endswith(".toml") and not Path(spec).exists():
         raise RobotFileError(f"robot {show(spec)}: not a built-in robot ({', '.join(BUILTIN_ROBOTS)}) nor a file")
     return read_robot(spec)
-
-
-def to_jsonable(obj: Any) -> Any:
-    """Convert NumPy values inside ``obj`` to JSON-ready Python values."""
-    if isinstance(obj, dict):
-        return {str(k): to_jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [to_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return to_jsonable(obj.tolist())
-    if isinstance(obj, (np.floating, float)):
-        x = float(obj)
-        return x if np.isfinite(x) else None
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, np.bool_):
-        return bool(obj)
-    return obj
-
-
-def dump_json(obj: Any) -> str:
-    """Strict JSON (non-finite numbers become null)."""
-    return json.dumps(to_jsonable(obj), allow_nan=False)

@@ -9,20 +9,36 @@ the backend is never changed here (the command line alone picks Agg).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .design import Robot
 from .results import StaticSolution
+from .runtime import atomic_write
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from mpl_toolkits.mplot3d.axes3d import Axes3D
 
-__all__ = ["new_3d_axes", "plot_convergence", "plot_model_overlay", "plot_order", "plot_reach_samples",
-           "plot_region_3d", "plot_region_slices", "plot_robot", "plot_robots", "plot_support_map", "pyplot",
-           "set_equal_aspect", "write_region_html"]
+__all__ = [
+    "new_3d_axes",
+    "plot_convergence",
+    "plot_model_overlay",
+    "plot_order",
+    "plot_reach_samples",
+    "plot_region_3d",
+    "plot_region_slices",
+    "plot_robot",
+    "plot_robots",
+    "plot_support_map",
+    "pyplot",
+    "save_figure",
+    "save_figure_as",
+    "set_equal_aspect",
+    "write_region_html",
+]
 
 
 def pyplot() -> Any:
@@ -48,6 +64,35 @@ def set_equal_aspect(ax: Axes3D, points: np.ndarray, margin: float = 0.05) -> No
     ax.set_ylim(centre[1] - half, centre[1] + half)
     ax.set_zlim(centre[2] - half, centre[2] + half)
     ax.set_box_aspect((1.0, 1.0, 1.0))
+
+
+def save_figure(fig: Any, out: Path, stem: str) -> list[str]:
+    """Write ``fig`` as ``stem``.png and ``stem``.pdf in the folder ``out`` (each whole or absent) and close it.
+
+    Returns
+    -------
+    list of str
+        The file names written.
+    """
+    # the tight bounding box is measured once (it costs a full draw) and used for both formats
+    bbox = fig.get_tightbbox(fig.canvas.get_renderer()).padded(0.1)
+    names = []
+    for ext in ("png", "pdf"):
+        path = atomic_write(Path(out) / f"{stem}.{ext}",
+                            lambda tmp, ext=ext: fig.savefig(tmp, dpi=150, bbox_inches=bbox, format=ext))
+        names.append(path.name)
+    pyplot().close(fig)
+    return names
+
+
+def save_figure_as(fig: Any, path: Path) -> Path:
+    """Write ``fig`` to ``path`` in the format its suffix names (.png, .pdf, .svg), whole or absent, and close
+    it."""
+    try:
+        return atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=150, bbox_inches="tight",
+                                                          format=Path(path).suffix[1:].lower()))
+    finally:
+        pyplot().close(fig)
 
 
 def _frame_arrows(ax: Axes3D, origin: np.ndarray, rot: np.ndarray, size: float) -> None:
@@ -377,8 +422,6 @@ def write_region_html(path: Any, meshes: dict[str, Any], points: dict[str, np.nd
     """A self-contained interactive view (plotly, its script embedded: it opens with no network) of workspace
     boundaries (``trimesh.Trimesh`` [m]), point clouds (K, 3) [m] (every k-th point beyond ``max_points``) and
     the robot's disk centres (N+1, 3) [m]; written whole or not at all."""
-    import os
-    from pathlib import Path
 
     import plotly.graph_objects as go
 
@@ -403,7 +446,4 @@ def write_region_html(path: Any, meshes: dict[str, Any], points: dict[str, np.nd
     fig = go.Figure(traces)
     fig.update_layout(title=title, scene={"aspectmode": "data", "xaxis_title": "x [m]", "yaxis_title": "y [m]",
                                           "zaxis_title": "z [m]"}, legend={"itemsizing": "constant"})
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    fig.write_html(tmp, include_plotlyjs=True, full_html=True)
-    os.replace(tmp, path)
+    atomic_write(path, lambda tmp: fig.write_html(tmp, include_plotlyjs=True, full_html=True))

@@ -10,8 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..design import Robot
-from ..plotting import pyplot, set_equal_aspect
-from ..study._output import save_figure
+from ..plotting import pyplot, save_figure, set_equal_aspect
 from ._spec import DesignStudy
 
 __all__ = ["write_design_figures"]

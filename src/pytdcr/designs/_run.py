@@ -25,10 +25,8 @@ import numpy as np
 from .. import __version__
 from ..design import Robot
 from ..io import write_robot
+from ..runtime import RunInterrupted, atomic_write, atomic_write_text, default_threads, resumable_folder, write_json
 from ..statics import check_cancelled, mark_saving
-from ..statics._batch import default_threads
-from ..study._folder import RunInterrupted, atomic_write_text, resumable_folder
-from ..study._output import write_json
 from ._evaluate import evaluate_design
 from ._figures import write_design_figures
 from ._optimize import design_batches, objective_matrix, pareto_front
@@ -340,9 +338,7 @@ def _finish(out: Path, study: DesignStudy, robot: Robot, records: dict[int, dict
     import pandas as pd
 
     table = _table(study, robot, records, generation_of)
-    tmp = out / ".designs.parquet.tmp"
-    table.to_parquet(tmp, index=False)
-    tmp.replace(out / "designs.parquet")
+    atomic_write(out / "designs.parquet", lambda tmp: table.to_parquet(tmp, index=False))
     atomic_write_text(out / "designs.csv", table.to_csv(index=False))
     timing = [{"design": k, **records[k]["timing"]} for k in sorted(records)]
     atomic_write_text(out / "timings.csv", pd.DataFrame(timing).to_csv(index=False))

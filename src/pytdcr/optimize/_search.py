@@ -31,8 +31,8 @@ from scipy.optimize import minimize as sp_minimize
 from scipy.spatial import cKDTree
 
 from ..limits import check_memory
+from ..runtime import default_threads, worker_pool
 from ..statics import TIGHT_ATOL, check_resources
-from ..statics._batch import default_threads, worker_pool
 from ._problem import INFEASIBLE_COST, ReachProblem
 from ._result import Optimum, ReachResult, SearchFailed
 

@@ -27,7 +27,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from ..optimize import ReachProblem, SearchFailed, polish_reach
-from ..statics._batch import default_threads, worker_pool
+from ..runtime import default_threads, worker_pool
 from ..validate import check_count
 
 __all__ = ["DEFAULT_DIRECTIONS", "LargestReach", "SupportFunction", "fibonacci_directions", "largest_reach",

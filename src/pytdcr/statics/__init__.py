@@ -5,15 +5,15 @@ and ask the registry (:data:`MODELS`), which checks the request against what
 the model supports.
 """
 
-from ._batch import Cancelled, CancelScope, cancellable, check_cancelled, mark_saving, saving
-from ._constants import DEFAULT_ATOL, PATH_NAMES, TIGHT_ATOL
+from ..runtime import Cancelled, CancelScope, cancellable, check_cancelled, mark_saving, saving
 from .base import Capabilities, Model, UnsupportedFeatureError
-from .cosserat import CosseratModel, CosseratOptions, CosseratShooting
-from .pcc import PCCEquations, PCCModel, SolverOptions
+from .cosserat import CosseratModel, CosseratShooting
+from .options import DEFAULT_ATOL, PATH_NAMES, TIGHT_ATOL, CosseratOptions, SolverOptions, SSCROptions
+from .pcc import PCCEquations, PCCModel
 from .pcc2 import PCC2Model
 from .registry import MODELS, check_resources, configure, get_model, options_record, resolve
-from .solve import solve, solve_batch, tip_gradient, warmup
-from .sscr import SSCREquations, SSCRModel, SSCROptions
+from .solving import solve, solve_batch, tip_gradient, warmup
+from .sscr import SSCREquations, SSCRModel
 
 __all__ = ["DEFAULT_ATOL", "MODELS", "PATH_NAMES", "TIGHT_ATOL", "CancelScope", "Cancelled", "Capabilities",
            "CosseratModel", "CosseratOptions", "CosseratShooting", "Model", "PCC2Model", "PCCEquations", "PCCModel",

@@ -7,7 +7,7 @@ straight routing) and ends at its anchor disk. Disk weights and point
 wrenches act at the disks, the backbone's weight along it, the tip wrench at
 the tip: the loads, the routing and the packing are those of the PCC model
 (:class:`~pytdcr.statics.model.StaticModel`); only the backbone's mechanics
-differ. See :mod:`pytdcr.statics._cosserat_kernels` for the equations.
+differ. See :mod:`pytdcr.statics.kernels.cosserat` for the equations.
 
 The boundary-value problem has three unknowns, the total moment at the base
 (the total force there is known), found by SciPy's MINPACK hybrid root finder
@@ -25,7 +25,7 @@ import math
 import time
 from dataclasses import dataclass, replace
 from functools import cached_property
-from typing import Literal, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from scipy.optimize import root
@@ -35,50 +35,16 @@ from ..design import Robot
 from ..limits import Resources
 from ..loads import Loads
 from ..results import BatchSolution, StaticSolution
-from . import _cosserat_kernels as CK
-from ._batch import check_cancelled, run_in_chunks
-from ._constants import DEFAULT_ATOL, PATH_DIRECT, PATH_FALLBACK, PATH_LOADING, PATH_NAMES, PATH_SELF_CONTACT, PATH_SNAP
-from ._kernels import Packed
-from ._options import check_common_options
+from ..runtime import check_cancelled, run_in_chunks
 from .base import Capabilities
+from .kernels import cosserat as CK
+from .kernels.pcc import Packed
+from .options import PATH_DIRECT, PATH_FALLBACK, PATH_LOADING, PATH_NAMES, PATH_SELF_CONTACT, PATH_SNAP, CosseratOptions
 from .pcc import PCCEquations
 
 __all__ = ["COSSERAT", "CosseratModel", "CosseratOptions", "CosseratShooting"]
 
 _MIN_DLAM = 1.0 / 1024.0
-
-
-@dataclass(frozen=True)
-class CosseratOptions:
-    """Options of the Cosserat model and its solver.
-
-    Parameters
-    ----------
-    atol : float
-        Converged when max |tip moment residual| <= atol [N m].
-    max_eval : int
-        Shooting integrations allowed per root solve.
-    steps_per_subsegment : int
-        Classical Runge-Kutta steps between neighbouring disks.
-    shear_extension : bool
-        Model shear (GA) and extension (EA) of the backbone; default inextensible.
-    load_stepping : {'always', 'auto', 'never'}
-        'always' (default) follows the loading path from the unloaded robot, as
-        the PCC solver does; 'auto' solves at full load first; 'never' only that.
-    """
-
-    atol: float = DEFAULT_ATOL
-    max_eval: int = 200
-    steps_per_subsegment: int = 4
-    shear_extension: bool = False
-    load_stepping: Literal["always", "auto", "never"] = "always"
-
-    def __post_init__(self) -> None:
-        check_common_options(self.atol, self.load_stepping)
-        if self.max_eval < 4:
-            raise ValueError(f"max_eval must be >= 4, got {self.max_eval}")
-        if not 1 <= self.steps_per_subsegment <= 1000:
-            raise ValueError(f"steps_per_subsegment must be in [1, 1000], got {self.steps_per_subsegment}")
 
 
 class Shot(NamedTuple):
@@ -98,7 +64,7 @@ class CosseratShooting:
     Attributes
     ----------
     robot : Robot
-    packed : pytdcr.statics._kernels.Packed
+    packed : pytdcr.statics.kernels.pcc.Packed
         The loads and routing, packed exactly as for the PCC model.
     stiff : ndarray, shape (4,)
         EI, GJ [N m^2], GA, EA [N].

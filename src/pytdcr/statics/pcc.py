@@ -4,7 +4,7 @@
 equations and evaluates them (residual, exact Jacobian, tendon tensions); it
 knows nothing of how they are solved. :class:`PCCModel` is the registry's
 entry: it solves them (quasi-Newton with an exact Jacobian along the loading
-path, see :func:`pytdcr.statics._kernels.solve_one`) for one tension vector
+path, see :func:`pytdcr.statics.kernels.solver.solve_one`) for one tension vector
 or a batch, and differentiates an equilibrium's tip by the tensions.
 
 Which equilibrium? A robot under large loads can have several. By default
@@ -28,11 +28,12 @@ import numpy as np
 from ..design import ConstantFriction, ExponentialFriction, NoFriction, Robot
 from ..kinematics import tip_jacobian
 from ..loads import Loads
-from . import _kernels as K
-from ._compiled import CompiledModel, Evaluation, PackedEquations, SolverOptions
 from .base import Capabilities
+from .kernels import pcc as K
+from .options import SolverOptions
+from .solver import CompiledModel, Evaluation, PackedEquations
 
-__all__ = ["PCC", "PCCEquations", "PCCModel", "SolverOptions", "friction_params"]
+__all__ = ["PCC", "PCCEquations", "PCCModel", "friction_params"]
 
 
 def friction_params(robot: Robot, release: bool) -> np.ndarray:
@@ -56,7 +57,7 @@ class PCCEquations(PackedEquations):
     ----------
     robot : Robot
     loads : Loads
-    packed : pytdcr.statics._kernels.Packed
+    packed : pytdcr.statics.kernels.pcc.Packed
         The arrays the kernels take: ``sub`` (N, 5) per subsegment: length [m],
         EI [N m^2], GJ [N m^2], disk mass [kg], backbone piece mass [kg];
         ``holes`` (n_tendons, 2) hole (x, y) in the disk frame [m]; ``anchor``
@@ -153,6 +154,8 @@ class PCCEquations(PackedEquations):
 class PCCModel(CompiledModel):
     """The registry's entry for the paper's PCC model (see the module docstring)."""
 
+    kernels = K
+    packed_type = K.Packed
     name = "pcc"
     description = "the paper's piecewise constant curvature model (balance about each subsegment's base, MODEL.md)"
     balance = K.BALANCE_BASE

@@ -14,7 +14,7 @@ docs/models.md). The solver, the Jacobian machinery and the tip gradient are
 
 from __future__ import annotations
 
-from . import _kernels as K
+from .kernels import pcc as K
 from .pcc import PCCModel
 
 __all__ = ["PCC2", "PCC2Model"]

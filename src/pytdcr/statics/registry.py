@@ -1,7 +1,10 @@
 """The registry of static models: names to models, and the one place a request is checked.
 
 Adding a model: one module that defines a class satisfying
-:class:`~pytdcr.statics.base.Model`, one line in :data:`MODELS`, and its tests.
+:class:`~pytdcr.statics.base.Model` (for a model the shared compiled solver
+solves, a :class:`~pytdcr.statics.solver.CompiledModel` that names its kernel
+module under :mod:`pytdcr.statics.kernels`), one line in :data:`MODELS`, and
+its tests. :func:`register` makes the kernels known to the compiled solver.
 Everything else (``solve``, ``solve_batch``, the comparison, the workspace,
 the optimiser, ``--model`` on the command line) finds it here.
 """
@@ -16,14 +19,29 @@ from ..limits import Resources, check_memory, human_seconds
 from ..loads import Loads
 from .base import Model, UnsupportedFeatureError
 from .cosserat import COSSERAT
+from .kernels.solver import register_kernels
 from .pcc import PCC
 from .pcc2 import PCC2
 from .sscr import SSCR
 
-__all__ = ["MODELS", "check_resources", "configure", "get_model", "options_record", "resolve"]
+__all__ = ["MODELS", "check_resources", "configure", "get_model", "options_record", "register", "resolve"]
 
-#: every registered model by name
-MODELS: dict[str, Model] = {"pcc": PCC, "pcc2": PCC2, "sscr": SSCR, "cosserat": COSSERAT}
+
+def register(*models: Model) -> dict[str, Model]:
+    """``models`` by name; each compiled model's kernel module is registered with the shared compiled solver
+    (:func:`pytdcr.statics.kernels.solver.register_kernels`), keyed by its packed-equation type."""
+    out: dict[str, Model] = {}
+    for m in models:
+        if m.name in out:
+            raise ValueError(f"two models named {m.name!r}")
+        if getattr(m, "kernels", None) is not None:
+            register_kernels(m.packed_type, m.kernels)
+        out[m.name] = m
+    return out
+
+
+#: every registered model by name (the one registry: adding a model is one entry here)
+MODELS: dict[str, Model] = register(PCC, PCC2, SSCR, COSSERAT)
 
 
 def get_model(model: str | Model) -> Model:

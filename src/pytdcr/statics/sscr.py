@@ -12,63 +12,35 @@ Solved by multiple shooting: one unknown base wrench per subsegment (6N
 unknowns), the disks' balances as the residual, the exact Jacobian of the
 discrete scheme (forward mode through every Runge-Kutta step), and the PCC
 solver's loading path from the unloaded robot. Equations and Jacobian:
-:mod:`pytdcr.statics._sscr_kernels`.
+:mod:`pytdcr.statics.kernels.sscr`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 
 from ..design import Robot
 from ..loads import Loads
-from . import _sscr_kernels as SK
-from ._compiled import CompiledModel, Evaluation, PackedEquations, SolverOptions
 from .base import Capabilities
+from .kernels import sscr as SK
+from .options import SSCROptions
 from .pcc import PCCEquations
+from .solver import CompiledModel, Evaluation, PackedEquations
 
 __all__ = ["SSCR", "SSCREquations", "SSCRModel", "SSCROptions"]
 
 
-@dataclass(frozen=True)
-class SSCROptions(SolverOptions):
-    """Options of the subsegment Cosserat rod: the solver's (see :class:`SolverOptions`) and the rod's.
-
-    Defaults differ from the PCC solver's where this model needs it: 12 Newton
-    iterations per load step (its base-wrench unknowns make each step more
-    nonlinear), and pseudo-arclength continuation through folds.
-
-    Parameters
-    ----------
-    steps_per_subsegment : int
-        Classical Runge-Kutta steps between neighbouring disks.
-    shear_extension : bool
-        The rod shears (GA) and stretches (EA); default inextensible and unshearable.
-    """
-
-    step_iter: int = 12
-    fold: Literal["relax", "arclength"] = "arclength"
-    steps_per_subsegment: int = 4
-    shear_extension: bool = False
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        n = self.steps_per_subsegment
-        if isinstance(n, bool) or int(n) != n or not 1 <= n <= 1000:
-            raise ValueError(f"steps_per_subsegment must be an integer in [1, 1000], got {n!r}")
-
-
 @dataclass(frozen=True, eq=False)
 class SSCREquations(PackedEquations):
-    """The 6N disk balances of ``robot`` under ``loads`` (see :mod:`pytdcr.statics._sscr_kernels`).
+    """The 6N disk balances of ``robot`` under ``loads`` (see :mod:`pytdcr.statics.kernels.sscr`).
 
     Attributes
     ----------
     robot : Robot
     loads : Loads
-    packed : pytdcr.statics._sscr_kernels.SSCRPacked
+    packed : pytdcr.statics.kernels.sscr.SSCRPacked
         The PCC model's packed loads and routing, plus the rod's shear and
         axial stiffness, mass per length, extensibility and integration steps.
     """
@@ -132,6 +104,8 @@ class SSCREquations(PackedEquations):
 class SSCRModel(CompiledModel):
     """The registry's entry for the subsegment Cosserat rod (see the module docstring)."""
 
+    kernels = SK
+    packed_type = SK.SSCRPacked
     checks_self_contact = True
     name = "sscr"
     description = ("subsegment Cosserat rod: a rod between each pair of disks, tendons as chords, friction "

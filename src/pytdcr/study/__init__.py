@@ -2,21 +2,19 @@
 
 Every run writes the exact inputs (robot, loads, bounds, seeds, solver
 options) beside its results, so it can be repeated exactly. Every run's
-folder follows one rule (:func:`output_folder`): a manifest with the status,
-a lock while it writes, files written atomically, a previous run replaced as
-a whole. Importing this
+folder follows one rule (:func:`pytdcr.runtime.output_folder`): a manifest with
+the status, a lock while it writes, files written atomically, a previous run
+replaced as a whole. Importing this
 package changes no global state (the command line alone picks a matplotlib
 backend).
 """
 
 from ._accuracy import run_accuracy
-from ._folder import MANIFEST, FolderError, RunInterrupted, check_output_folder, output_folder
 from ._output import inputs_record
 from ._reproduce import ReproduceSettings, run_reproduce
 from ._runs import SampleRun, run_compare, run_optimize, run_sample, sample_into, write_optimize
 from ._workspace import WorkspaceCase, WorkspaceRun, run_workspace, run_workspace_compare
 
-__all__ = ["MANIFEST", "FolderError", "ReproduceSettings", "RunInterrupted", "SampleRun", "WorkspaceCase",
-           "WorkspaceRun", "check_output_folder", "inputs_record", "output_folder", "run_accuracy", "run_compare",
-           "run_optimize", "run_reproduce", "run_sample", "run_workspace", "run_workspace_compare", "sample_into",
-           "write_optimize"]
+__all__ = ["ReproduceSettings", "SampleRun", "WorkspaceCase", "WorkspaceRun", "inputs_record", "run_accuracy",
+           "run_compare", "run_optimize", "run_reproduce", "run_sample", "run_workspace", "run_workspace_compare",
+           "sample_into", "write_optimize"]

@@ -12,10 +12,10 @@ from ..accuracy import AccuracyStudy, LoadGroup, OrderStudy, default_groups, mod
 from ..bounds import TensionBounds
 from ..design import Robot
 from ..loads import Loads
-from ..plotting import plot_order
+from ..plotting import plot_order, save_figure
+from ..runtime import atomic_write_text, output_folder, write_csv, write_json
 from ..statics import saving
-from ._folder import atomic_write_text, output_folder
-from ._output import inputs_record, save_figure, write_csv, write_json
+from ._output import inputs_record
 
 __all__ = ["accuracy_markdown", "run_accuracy"]
 

@@ -1,27 +1,20 @@
-"""What every run writes: its inputs, figures in two formats, strict JSON, Markdown tables."""
+"""What every run records: its inputs, the load arrows of its figures, Markdown tables."""
 
 from __future__ import annotations
 
-import csv
-import io
-import json
-import os
 import platform
-from collections.abc import Iterable
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .. import __version__
+from .._version import __version__
 from ..design import Robot
-from ..io import robot_to_dict, to_jsonable
+from ..io import robot_to_dict
 from ..loads import Loads
-from ..plotting import pyplot
 from ..results import StaticSolution
-from ._folder import atomic_write_text
+from ..runtime import to_jsonable
 
-__all__ = ["inputs_record", "load_arrows", "markdown_table", "save_figure", "write_csv", "write_json"]
+__all__ = ["inputs_record", "load_arrows", "markdown_table"]
 
 
 def inputs_record(robot: Robot, loads: Loads, **extra: Any) -> dict[str, Any]:
@@ -34,36 +27,6 @@ def inputs_record(robot: Robot, loads: Loads, **extra: Any) -> dict[str, Any]:
                   "point_loads": [{"disk": p.disk, "force": p.force, "moment": p.moment} for p in loads.point_loads]},
         **extra,
     })
-
-
-def save_figure(fig: Any, out: Path, stem: str) -> list[str]:
-    """Write ``fig`` as ``stem``.png and ``stem``.pdf in ``out`` (each whole or absent), close it; returns the
-    file names."""
-    # the tight bounding box is measured once (it costs a full draw) and used for both formats
-    bbox = fig.get_tightbbox(fig.canvas.get_renderer()).padded(0.1)
-    names = []
-    for ext in ("png", "pdf"):
-        path = out / f"{stem}.{ext}"
-        tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-        fig.savefig(tmp, dpi=150, bbox_inches=bbox, format=ext)
-        os.replace(tmp, path)
-        names.append(path.name)
-    pyplot().close(fig)
-    return names
-
-
-def write_json(path: Path, data: Any) -> None:
-    """Strict JSON (non-finite numbers become null), indented, written atomically."""
-    atomic_write_text(path, json.dumps(to_jsonable(data), indent=2, allow_nan=False))
-
-
-def write_csv(path: Path, header: list[str], rows: Iterable[Iterable[Any]]) -> None:
-    """A CSV file, written atomically."""
-    buf = io.StringIO()
-    w = csv.writer(buf)
-    w.writerow(header)
-    w.writerows(rows)
-    atomic_write_text(path, buf.getvalue())
 
 
 def load_arrows(sol: StaticSolution, loads: Loads, robot: Robot) -> list[tuple]:

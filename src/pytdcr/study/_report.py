@@ -11,7 +11,7 @@ from ..bounds import TensionBounds
 from ..design import Robot
 from ..optimize import ReachResult
 from ..paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT, PAYLOAD_MASS
-from ..statics._batch import default_threads
+from ..runtime import default_threads
 
 if TYPE_CHECKING:
     from ._reproduce import ReproduceSettings

@@ -16,11 +16,10 @@ from ..design import Robot
 from ..loads import Loads
 from ..optimize import MemeticGA, ReachProblem, ReachResult, Termination, maximize_reach, polish_reach
 from ..paper import DEFAULT_BOUNDS, PAYLOAD_MASS, paper_bounds, paper_loads, payload_loads
-from ..plotting import plot_robot
+from ..plotting import plot_robot, save_figure
+from ..runtime import atomic_write_text, default_threads, output_folder, saving, worker_pool, write_json
 from ..statics import options_record, solve
-from ..statics._batch import default_threads, saving, worker_pool
-from ._folder import atomic_write_text, output_folder
-from ._output import inputs_record, load_arrows, save_figure, write_json
+from ._output import inputs_record, load_arrows
 from ._report import reproduce_report
 from ._runs import sample_into, write_optimize
 from ._survival import model_verdicts, verdict_text

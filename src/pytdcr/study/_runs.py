@@ -14,11 +14,11 @@ from ..compare import ModelComparison, compare_models
 from ..design import Robot
 from ..loads import Loads
 from ..optimize import MemeticGA, ReachProblem, ReachResult, Termination, maximize_reach
-from ..plotting import plot_convergence, plot_model_overlay, plot_reach_samples, plot_robot, plot_robots
+from ..plotting import plot_convergence, plot_model_overlay, plot_reach_samples, plot_robot, plot_robots, save_figure
+from ..runtime import atomic_write_text, output_folder, write_csv, write_json
 from ..statics import TIGHT_ATOL, Model, options_record, resolve, saving, solve
 from ..workspace import SamplingInterrupted, WorkspaceSamples, sample_workspace
-from ._folder import atomic_write_text, output_folder
-from ._output import inputs_record, load_arrows, markdown_table, save_figure, write_csv, write_json
+from ._output import inputs_record, load_arrows, markdown_table
 
 __all__ = ["SampleRun", "run_compare", "run_optimize", "run_sample", "sample_into", "write_optimize"]
 

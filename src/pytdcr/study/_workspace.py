@@ -14,7 +14,7 @@ from ..bounds import TensionBounds
 from ..design import Robot
 from ..loads import Loads
 from ..optimize import ReachProblem
-from ..plotting import plot_region_3d, plot_region_slices, plot_support_map, write_region_html
+from ..plotting import plot_region_3d, plot_region_slices, plot_support_map, save_figure, write_region_html
 from ..region import (
     MIN_MESH_POINTS,
     SOURCES,
@@ -29,9 +29,9 @@ from ..region import (
     support_function,
     workspace_region,
 )
+from ..runtime import atomic_write, atomic_write_text, output_folder, write_csv, write_json
 from ..statics import Model, options_record, resolve, saving, solve
-from ._folder import atomic_write_text, output_folder
-from ._output import inputs_record, save_figure, write_csv, write_json
+from ._output import inputs_record
 
 __all__ = ["WorkspaceCase", "WorkspaceRun", "run_workspace", "run_workspace_compare"]
 
@@ -161,12 +161,13 @@ def _case(name: str, robot: Robot, loads: Loads, bounds: TensionBounds, n: int, 
 
 def _save_samples(out: Path, s: RegionSamples) -> None:
     """``samples.npz`` in ``out``, written aside and renamed (a reader never sees half of it)."""
-    tmp = out / ".samples.npz.tmp"
-    with open(tmp, "wb") as f:
-        np.savez_compressed(f, tensions=s.tensions, source=s.source, tip=s.tip, stage=s.stage,
-                            converged=s.converged, stable=s.stable, below_base=s.below_base,
-                            disks_touch=s.disks_touch, sources=np.array(SOURCES))
-    tmp.replace(out / "samples.npz")
+    def write(tmp: Path) -> None:
+        with open(tmp, "wb") as f:
+            np.savez_compressed(f, tensions=s.tensions, source=s.source, tip=s.tip, stage=s.stage,
+                                converged=s.converged, stable=s.stable, below_base=s.below_base,
+                                disks_touch=s.disks_touch, sources=np.array(SOURCES))
+
+    atomic_write(out / "samples.npz", write)
 
 
 def _checkpoint(out: Path, run: Any, before: str = "", where: str = "") -> Callable[[RegionSamples], None]:
@@ -202,9 +203,7 @@ def _write_case(out: Path, case: WorkspaceCase, robot: Robot, settings: dict[str
     for name, reg in (("fsw.ply", wr.fsw_region), ("fsw_realisable.ply", wr.realisable_region)):
         if not meshed[name]:
             continue
-        tmp = out / f".{name}.tmp"
-        reg.mesh().export(tmp, file_type="ply")
-        tmp.replace(out / name)
+        atomic_write(out / name, lambda tmp, reg=reg: reg.mesh().export(tmp, file_type="ply"))
         files.append(name)
     _save_samples(out, s)
     files.append("samples.npz")

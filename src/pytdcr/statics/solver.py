@@ -1,4 +1,5 @@
-"""What the models solved by the shared compiled solver (``pcc``, ``pcc2``, ``sscr``) have in common.
+"""The Python side of the shared compiled solver (:mod:`pytdcr.statics.kernels.solver`): what the models it
+solves (``pcc``, ``pcc2``, ``sscr``) have in common.
 
 A model here provides its packed equations (:class:`Equations`); the base class
 :class:`CompiledModel` solves them, one tension vector or a batch (threads over
@@ -9,8 +10,8 @@ differentiates the tip by the tensions (implicit function theorem).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
-from typing import Any, Literal, NamedTuple, Protocol
+from dataclasses import replace
+from typing import Any, NamedTuple, Protocol
 
 import numpy as np
 
@@ -19,15 +20,13 @@ from ..design import Robot
 from ..limits import Resources
 from ..loads import Loads
 from ..results import BatchSolution, StaticSolution
-from . import _solver_kernels as SV
-from ._batch import MAX_CHUNK, check_cancelled, run_in_chunks
-from ._constants import DEFAULT_ATOL, LOAD_STEPPING, PATH_NAMES, PATH_SELF_CONTACT
-from ._options import check_common_options
+from ..runtime import MAX_CHUNK, check_cancelled, run_in_chunks
+from .kernels import solver as SV
+from .options import FOLDS, LOAD_STEPPING, PATH_NAMES, PATH_SELF_CONTACT, SolverOptions
 from .stability import Stability, conjugate_stiffness, stability_of
 
-__all__ = ["CompiledModel", "Equations", "Evaluation", "PackedEquations", "SolverOptions"]
+__all__ = ["CompiledModel", "Equations", "Evaluation", "PackedEquations", "kernel_settings"]
 
-_FOLDS = {"relax": SV.FOLD_RELAX, "arclength": SV.FOLD_ARCLENGTH}
 
 
 class Evaluation(NamedTuple):
@@ -95,56 +94,14 @@ class PackedEquations:
         return arr
 
 
-@dataclass(frozen=True)
-class SolverOptions:
-    """Options of the compiled solver (the ``pcc`` and ``pcc2`` models).
 
-    Parameters
-    ----------
-    atol : float
-        Converged when max |residual| <= atol [N m].
-    max_iter : int
-        Newton iterations per attempt (per load step when stepping).
-    max_dtheta : float
-        Largest change of bend angle or twist of one subsegment per step [rad].
-    load_stepping : {'always', 'auto', 'never'}
-        'always' (default) follows the loading path from the unloaded robot;
-        'auto' tries Newton at full load first and ramps only if it fails;
-        'never' is Newton alone.
-    step_iter : int
-        Newton iterations allowed per load step before the step is halved.
-    fold : {'relax', 'arclength'}
-        Where the loading path meets a fold: 'relax' at full load from the
-        last equilibrium (pseudo-transient continuation: the snap-through),
-        or 'arclength': follow the equilibrium curve through its turning
-        points (pseudo-arclength continuation) to full load.
-    """
-
-    atol: float = DEFAULT_ATOL
-    max_iter: int = 50
-    max_dtheta: float = 0.5
-    load_stepping: Literal["always", "auto", "never"] = "always"
-    step_iter: int = 8
-    fold: Literal["relax", "arclength"] = "relax"
-
-    def __post_init__(self) -> None:
-        check_common_options(self.atol, self.load_stepping)
-        if isinstance(self.max_iter, bool) or int(self.max_iter) != self.max_iter or self.max_iter < 1:
-            raise ValueError(f"max_iter must be an integer >= 1, got {self.max_iter!r}")
-        if not (np.isfinite(self.max_dtheta) and self.max_dtheta > 0):
-            raise ValueError(f"max_dtheta must be finite and > 0, got {self.max_dtheta}")
-        if isinstance(self.step_iter, bool) or int(self.step_iter) != self.step_iter or self.step_iter < 1:
-            raise ValueError(f"step_iter must be an integer >= 1, got {self.step_iter!r}")
-        if self.fold not in _FOLDS:
-            raise ValueError(f"fold must be one of {sorted(_FOLDS)}, got {self.fold!r}")
-
-    def settings(self, warm: bool = False) -> SV.Settings:
-        """The kernel's settings; a warm start is followed directly first."""
-        mode = LOAD_STEPPING[self.load_stepping]
-        if warm and mode == LOAD_STEPPING["always"]:
-            mode = LOAD_STEPPING["auto"]
-        return SV.Settings(float(self.atol), int(self.max_iter), float(self.max_dtheta), mode, int(self.step_iter),
-                           _FOLDS[self.fold])
+def kernel_settings(options: SolverOptions, warm: bool = False) -> SV.Settings:
+    """The compiled solver's settings from ``options``; a warm start is followed directly first."""
+    mode = LOAD_STEPPING[options.load_stepping]
+    if warm and mode == LOAD_STEPPING["always"]:
+        mode = LOAD_STEPPING["auto"]
+    return SV.Settings(float(options.atol), int(options.max_iter), float(options.max_dtheta), mode,
+                       int(options.step_iter), FOLDS[options.fold])
 
 
 def _start_points(eq: Equations, q0: np.ndarray | None, nb: int) -> np.ndarray:
@@ -209,9 +166,15 @@ def _tip_derivative(eq: Equations, q: np.ndarray) -> np.ndarray:
 class CompiledModel:
     """Solving, batching and differentiating for a model whose equations the compiled solver takes.
 
-    Subclasses set the registry attributes and implement :meth:`equations`.
+    Subclasses set the registry attributes, name their compiled kernel module (``kernels``, whose ``Packed``-type
+    named tuple the equations carry as ``packed``: :data:`packed_type`) and implement :meth:`equations`. The
+    registry registers the kernel module with the compiled solver (:func:`pytdcr.statics.registry.register`).
     """
 
+    #: the kernel module of :mod:`pytdcr.statics.kernels` that evaluates this model's packed equations
+    kernels: Any
+    #: the named-tuple type of the packed equations (the solver dispatches on it when compiling)
+    packed_type: type
     name: str
     description: str
     options_type: type
@@ -253,7 +216,7 @@ class CompiledModel:
         eq = self.equations(robot, loads, options)
         Q0 = _start_points(eq, q0, 1)
         t0 = time.perf_counter()
-        out = _solve_rows(eq, Q0, eq.packed.tension[None, :], options.settings(q0 is not None), 1)
+        out = _solve_rows(eq, Q0, eq.packed.tension[None, :], kernel_settings(options, q0 is not None), 1)
         seconds = time.perf_counter() - t0
         sol = self.solution(eq, out.q[0], bool(out.converged[0]), float(out.residual[0]),
                             int(out.iterations[0]), PATH_NAMES[out.path[0]], seconds, options.atol,
@@ -293,7 +256,7 @@ class CompiledModel:
         Q0 = _start_points(eq, q0, nb)
         t0 = time.perf_counter()
         per_solve = self.resources(robot, options).seconds
-        out = _solve_rows(eq, Q0, tensions, options.settings(q0 is not None), threads,
+        out = _solve_rows(eq, Q0, tensions, kernel_settings(options, q0 is not None), threads,
                           max(1, min(MAX_CHUNK, int(CHUNK_SECONDS / max(per_solve, 1e-9)))))
         seconds = time.perf_counter() - t0
         ok = out.converged & np.all(np.isfinite(out.q), axis=1)

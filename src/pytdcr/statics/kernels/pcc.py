@@ -1,6 +1,6 @@
 """Compiled kernels of the PCC kineto-static model (MODEL.md).
 
-Layout of the packed model (built by :mod:`pytdcr.statics.model`):
+Layout of the packed model (built by :class:`pytdcr.statics.pcc.PCCEquations`):
 
 - ``sub``   (N, 5)  per subsegment i: l_i [m], EI [N m^2], GJ [N m^2],
                     disk mass [kg], backbone mass of the piece [kg]
@@ -31,7 +31,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ..kinematics import frames, subsegment
+from ...kinematics import frames, subsegment
 
 # fast-math that keeps NaN/Inf semantics (non-convergence must stay detectable)
 _FM = {"contract", "reassoc", "arcp", "nsz"}

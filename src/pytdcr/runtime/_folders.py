@@ -38,10 +38,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .. import __version__
-from ..io import to_jsonable
-from ..statics import mark_saving
+from .._version import __version__
 from ..validate import escape_controls, show, show_path
+from ._cancel import mark_saving
+from ._files import atomic_write_text, to_jsonable
 
 __all__ = [
     "MANIFEST",
@@ -49,7 +49,6 @@ __all__ = [
     "OutputRun",
     "RunInterrupted",
     "StudyChanged",
-    "atomic_write_text",
     "check_output_folder",
     "output_folder",
     "resumable_folder",
@@ -70,12 +69,6 @@ class RunInterrupted(KeyboardInterrupt):
         super().__init__(message)
         self.message = message
 
-
-def atomic_write_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file and a rename: the file is whole or absent."""
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)
 
 
 def _lock_path(path: Path) -> Path:

@@ -20,9 +20,7 @@ import numpy as np
 from numba import njit
 from numba.extending import overload
 
-from . import _kernels as PK
-from . import _sscr_kernels as SK
-from ._constants import PATH_DIRECT, PATH_FALLBACK, PATH_LOADING, PATH_SNAP
+from ..options import FOLD_ARCLENGTH, FOLD_RELAX, PATH_DIRECT, PATH_FALLBACK, PATH_LOADING, PATH_SNAP
 
 __all__ = ["FOLD_ARCLENGTH", "FOLD_RELAX", "Outcome", "Settings", "arclength", "model_angle", "model_evaluate",
            "model_with_tension", "model_work", "newton", "relax", "solve_one", "solve_range"]
@@ -34,10 +32,6 @@ _STEP_TARGET = 0.05  # [rad] bend/twist change of a subsegment that a load step 
 _MAX_STEP_CHANGE = 0.1  # [rad] largest bend/twist change of a subsegment in one load step (else: a branch jump)
 _ARC_STEPS = 300  # pseudo-arclength steps allowed through a fold
 
-#: at a fold, relax at full load from the last equilibrium (pseudo-transient continuation): the snap-through
-FOLD_RELAX = 0
-#: at a fold, follow the equilibrium curve through its turning points (pseudo-arclength) to full load
-FOLD_ARCLENGTH = 1
 
 
 class Settings(NamedTuple):
@@ -69,12 +63,20 @@ class Outcome(NamedTuple):
 
 
 # ------------------------------------------------------------------ dispatch on the packed model's type
-_IMPLS = {PK.Packed: PK, SK.SSCRPacked: SK}
+#: packed-model type -> the kernel module that implements it; filled by the registry
+#: (:func:`pytdcr.statics.registry.register`) from each compiled model's ``kernels``
+KERNELS: dict = {}
+
+
+def register_kernels(packed_type, module) -> None:
+    """Let the solver solve models packed as ``packed_type`` with ``module``'s ``evaluate``, ``make_model_work``,
+    ``largest_angle`` and ``with_tension``."""
+    KERNELS[packed_type] = module
 
 
 def _module_for(model):
     cls = getattr(model, "instance_class", None)
-    return _IMPLS.get(cls)
+    return KERNELS.get(cls)
 
 
 def model_evaluate(q, lam, model, want_jac, r, J, work):  # pragma: no cover - compiled code only

@@ -4,7 +4,7 @@ The backbone between neighbouring disks is a Cosserat rod carrying only its
 own weight; the disks are rigid bodies on it. Each disk receives the tendon
 forces through its holes along the actual chords to the neighbouring disks
 (the PCC model's pull rule, anchor and friction laws: the tendon kernel of
-:mod:`pytdcr.statics._kernels` is reused on the relative transforms of the
+:mod:`pytdcr.statics.kernels.pcc` is reused on the relative transforms of the
 disks), its weight and any point wrench.
 
 Unknowns ``x`` (6N,): per subsegment i (from disk i-1 to disk i), the internal
@@ -34,7 +34,7 @@ each subsegment's state-transition matrix; these are chained along the robot;
 the tendon loads' derivatives by the poses of the three disks they touch come
 from the PCC tendon kernel's tangent lanes.
 
-Layout of the packed model: as :class:`pytdcr.statics._kernels.Packed` (``sub``,
+Layout of the packed model: as :class:`pytdcr.statics.kernels.pcc.Packed` (``sub``,
 ``holes``, ``anchor``, ``fric``, ``tension``, ``grav``, ``pforce``,
 ``pmoment``) plus ``rod`` (5,): GA [N], EA [N], mass per length [kg/m], shear
 and extension (1) or not (0), Runge-Kutta steps per subsegment.
@@ -47,7 +47,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ._kernels import tendon_unit_load_jvp
+from .pcc import tendon_unit_load_jvp
 
 __all__ = ["SSCRPacked", "SSCRWork", "evaluate", "largest_angle", "make_model_work", "record_shape",
            "with_tension"]

@@ -14,7 +14,7 @@ import numpy as np
 from ..design import Robot
 from ..loads import Loads, check_tensions
 from ..results import BatchSolution, StaticSolution
-from ._batch import default_threads
+from ..runtime import default_threads
 from .base import Model
 from .registry import MODELS, check_resources, resolve
 

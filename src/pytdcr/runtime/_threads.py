@@ -1,15 +1,10 @@
-"""Running a batch of independent solves in chunks over threads.
+"""Running a batch of independent solves in chunks over threads, and BLAS kept on one thread meanwhile.
 
-The compiled solvers release the GIL, so Python threads run them on all cores.
-Each case is solved by the same compiled code whichever thread takes it, and
-the chunks are disjoint: a batch's results do not depend on the number of
-threads or on the order the chunks finish in.
-
-Work can be cancelled: inside :func:`cancellable`, cancelling the scope makes every
-chunk not yet started, in this thread or in threads started through
-:func:`submit_in_context`, raise :class:`Cancelled` (a KeyboardInterrupt).
-Chunks are small (at most 16 cases), so the work stops within a fraction of a
-second; a command line's Ctrl-C uses this to stop worker threads.
+The compiled solvers release the GIL, so Python threads run them on all cores. Each case is solved by the same
+compiled code whichever thread takes it, and the chunks are disjoint: a batch's results do not depend on the
+number of threads or on the order the chunks finish in. Chunks are small (at most :data:`MAX_CHUNK` cases) and
+each checks for cancellation (:mod:`pytdcr.runtime._cancel`) before it starts, so the work stops within a
+fraction of a second.
 """
 
 from __future__ import annotations
@@ -25,85 +20,13 @@ from typing import Any
 
 from threadpoolctl import ThreadpoolController
 
-__all__ = ["CancelScope", "Cancelled", "cancellable", "check_cancelled", "default_threads", "mark_saving",
-           "run_in_chunks", "saving", "single_threaded_blas", "submit_in_context", "worker_pool"]
+from ._cancel import cancellable, check_cancelled
+
+__all__ = ["MAX_CHUNK", "default_threads", "run_in_chunks", "single_threaded_blas", "submit_in_context",
+           "worker_pool"]
 
 #: the largest chunk of cases run between two checks for cancellation
 MAX_CHUNK = 16
-
-
-class CancelScope:
-    """Work that can be cancelled: ``cancel()`` stops it at its next chunk of solves.
-
-    Scopes nest: work in an inner scope stops when any enclosing one is cancelled. ``saving`` says that the
-    scope's work has results and is writing them (and should be waited for, not abandoned); it is set on the
-    scope and every enclosing one.
-    """
-
-    def __init__(self, parent: CancelScope | None = None, shield: bool = False) -> None:
-        self.parent = parent
-        self.shield = shield
-        self.cancelled = threading.Event()
-        self.saving = threading.Event()
-
-    def cancel(self) -> None:
-        """Stop the scope's work at its next chunk (from any thread)."""
-        self.cancelled.set()
-
-    def is_cancelled(self) -> bool:
-        """True once this scope or an enclosing one is cancelled."""
-        scope: CancelScope | None = self
-        while scope is not None:
-            if scope.cancelled.is_set():
-                return True
-            scope = None if scope.shield else scope.parent
-        return False
-
-
-_scope: contextvars.ContextVar[CancelScope | None] = contextvars.ContextVar("pytdcr_cancel", default=None)
-
-
-class Cancelled(KeyboardInterrupt):
-    """Work stopped because the run it belongs to was interrupted (see :func:`cancellable`)."""
-
-
-@contextmanager
-def cancellable() -> Iterator[CancelScope]:
-    """A scope whose work stops, at the next chunk of solves, once it (or an enclosing scope) is cancelled."""
-    scope = CancelScope(_scope.get())
-    token = _scope.set(scope)
-    try:
-        yield scope
-    finally:
-        _scope.reset(token)
-
-
-def check_cancelled() -> None:
-    """Raise :class:`Cancelled` if the enclosing :func:`cancellable` scope has been cancelled."""
-    scope = _scope.get()
-    if scope is not None and scope.is_cancelled():
-        raise Cancelled("cancelled: the run was interrupted")
-
-
-@contextmanager
-def saving() -> Iterator[None]:
-    """Writing results: the work inside is not cancelled by the enclosing scopes (a Ctrl-C then waits for it,
-    a second one leaves at once), and they are told so (:func:`mark_saving`)."""
-    mark_saving()
-    scope = CancelScope(_scope.get(), shield=True)
-    token = _scope.set(scope)
-    try:
-        yield
-    finally:
-        _scope.reset(token)
-
-
-def mark_saving() -> None:
-    """Say that the work has results and is writing them (no-op outside a scope)."""
-    scope = _scope.get()
-    while scope is not None:
-        scope.saving.set()
-        scope = scope.parent
 
 
 def submit_in_context(pool: ThreadPoolExecutor, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Future:

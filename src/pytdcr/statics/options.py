@@ -1,0 +1,169 @@
+"""The options of every model and the constants every solver shares, defined once.
+
+- :class:`SolverOptions`: the compiled solver of the PCC family (``pcc``, ``pcc2``); :class:`SSCROptions` adds
+  the subsegment Cosserat rod's; :class:`CosseratOptions`: the smeared Cosserat rod's shooting solver.
+- How an equilibrium was reached (the ``PATH_*`` codes, :data:`PATH_NAMES`), the load-stepping modes and
+  what the solver does at a fold (``FOLD_*``); the compiled kernels read these codes as globals (frozen at
+  compile time).
+- The default tolerances and the range every solver accepts (:func:`check_common_options`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+__all__ = ["DEFAULT_ATOL", "FOLDS", "FOLD_ARCLENGTH", "FOLD_RELAX", "LOAD_STEPPING", "MAX_ATOL", "MIN_ATOL",
+           "PATH_DIRECT", "PATH_FALLBACK", "PATH_LOADING", "PATH_NAMES", "PATH_SELF_CONTACT", "PATH_SNAP",
+           "TIGHT_ATOL", "CosseratOptions", "SSCROptions", "SolverOptions", "check_common_options"]
+
+#: Newton from the start point at full load
+PATH_DIRECT = 0
+#: continuation along the loading path from the unloaded robot
+PATH_LOADING = 1
+#: the loading path, relaxed through a fold (snap-through)
+PATH_SNAP = 2
+#: the loading path failed; another equilibrium at full load
+PATH_FALLBACK = 3
+#: ``StaticSolution.path`` by path code
+PATH_NAMES = ("direct", "loading", "snap", "fallback")
+#: ``path`` of an equilibrium refused because the backbone passes through itself (:mod:`pytdcr.contact`)
+PATH_SELF_CONTACT = "self-contact"
+
+#: load-stepping modes by name, as the kernels take them
+LOAD_STEPPING = {"never": 0, "auto": 1, "always": 2}
+
+#: default convergence tolerance on max |residual| [N m] (MODEL.md)
+DEFAULT_ATOL = 1e-9
+#: tolerance of the solves a gradient search differentiates, and of the figures of an optimum [N m]
+TIGHT_ATOL = 1e-12
+
+#: at a fold, relax at full load from the last equilibrium (pseudo-transient continuation): the snap-through
+FOLD_RELAX = 0
+#: at a fold, follow the equilibrium curve through its turning points (pseudo-arclength) to full load
+FOLD_ARCLENGTH = 1
+#: fold handling by name, as the kernels take it
+FOLDS = {"relax": FOLD_RELAX, "arclength": FOLD_ARCLENGTH}
+
+#: the loosest convergence tolerance accepted [N m]: a looser one passes poses visibly out of balance
+MAX_ATOL = 1e-4
+#: the tightest [N m]: below it the rounding of the moment balance itself decides convergence
+MIN_ATOL = 1e-14
+
+
+def check_common_options(atol: float, load_stepping: str) -> None:
+    """Validate the options every solver shares; ValueError naming the field and its range."""
+    if isinstance(atol, bool) or not isinstance(atol, (int, float, np.floating)):
+        raise TypeError(f"atol must be a real number, got {type(atol).__name__}")
+    if not (np.isfinite(atol) and MIN_ATOL <= atol <= MAX_ATOL):
+        raise ValueError(f"atol must be in [{MIN_ATOL:g}, {MAX_ATOL:g}] N m (a looser tolerance passes poses "
+                         f"visibly out of balance; a tighter one is below the rounding of the balance), got {atol:g}")
+    if load_stepping not in LOAD_STEPPING:
+        raise ValueError(f"load_stepping must be one of {sorted(LOAD_STEPPING)}, got {load_stepping!r}")
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Options of the compiled solver (the ``pcc`` and ``pcc2`` models).
+
+    Parameters
+    ----------
+    atol : float
+        Converged when max |residual| <= atol [N m].
+    max_iter : int
+        Newton iterations per attempt (per load step when stepping).
+    max_dtheta : float
+        Largest change of bend angle or twist of one subsegment per step [rad].
+    load_stepping : {'always', 'auto', 'never'}
+        'always' (default) follows the loading path from the unloaded robot;
+        'auto' tries Newton at full load first and ramps only if it fails;
+        'never' is Newton alone.
+    step_iter : int
+        Newton iterations allowed per load step before the step is halved.
+    fold : {'relax', 'arclength'}
+        Where the loading path meets a fold: 'relax' at full load from the
+        last equilibrium (pseudo-transient continuation: the snap-through),
+        or 'arclength': follow the equilibrium curve through its turning
+        points (pseudo-arclength continuation) to full load.
+    """
+
+    atol: float = DEFAULT_ATOL
+    max_iter: int = 50
+    max_dtheta: float = 0.5
+    load_stepping: Literal["always", "auto", "never"] = "always"
+    step_iter: int = 8
+    fold: Literal["relax", "arclength"] = "relax"
+
+    def __post_init__(self) -> None:
+        check_common_options(self.atol, self.load_stepping)
+        if isinstance(self.max_iter, bool) or int(self.max_iter) != self.max_iter or self.max_iter < 1:
+            raise ValueError(f"max_iter must be an integer >= 1, got {self.max_iter!r}")
+        if not (np.isfinite(self.max_dtheta) and self.max_dtheta > 0):
+            raise ValueError(f"max_dtheta must be finite and > 0, got {self.max_dtheta}")
+        if isinstance(self.step_iter, bool) or int(self.step_iter) != self.step_iter or self.step_iter < 1:
+            raise ValueError(f"step_iter must be an integer >= 1, got {self.step_iter!r}")
+        if self.fold not in FOLDS:
+            raise ValueError(f"fold must be one of {sorted(FOLDS)}, got {self.fold!r}")
+
+
+@dataclass(frozen=True)
+class SSCROptions(SolverOptions):
+    """Options of the subsegment Cosserat rod: the solver's (see :class:`SolverOptions`) and the rod's.
+
+    Defaults differ from the PCC solver's where this model needs it: 12 Newton
+    iterations per load step (its base-wrench unknowns make each step more
+    nonlinear), and pseudo-arclength continuation through folds.
+
+    Parameters
+    ----------
+    steps_per_subsegment : int
+        Classical Runge-Kutta steps between neighbouring disks.
+    shear_extension : bool
+        The rod shears (GA) and stretches (EA); default inextensible and unshearable.
+    """
+
+    step_iter: int = 12
+    fold: Literal["relax", "arclength"] = "arclength"
+    steps_per_subsegment: int = 4
+    shear_extension: bool = False
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        n = self.steps_per_subsegment
+        if isinstance(n, bool) or int(n) != n or not 1 <= n <= 1000:
+            raise ValueError(f"steps_per_subsegment must be an integer in [1, 1000], got {n!r}")
+
+
+@dataclass(frozen=True)
+class CosseratOptions:
+    """Options of the Cosserat model and its solver.
+
+    Parameters
+    ----------
+    atol : float
+        Converged when max |tip moment residual| <= atol [N m].
+    max_eval : int
+        Shooting integrations allowed per root solve.
+    steps_per_subsegment : int
+        Classical Runge-Kutta steps between neighbouring disks.
+    shear_extension : bool
+        Model shear (GA) and extension (EA) of the backbone; default inextensible.
+    load_stepping : {'always', 'auto', 'never'}
+        'always' (default) follows the loading path from the unloaded robot, as
+        the PCC solver does; 'auto' solves at full load first; 'never' only that.
+    """
+
+    atol: float = DEFAULT_ATOL
+    max_eval: int = 200
+    steps_per_subsegment: int = 4
+    shear_extension: bool = False
+    load_stepping: Literal["always", "auto", "never"] = "always"
+
+    def __post_init__(self) -> None:
+        check_common_options(self.atol, self.load_stepping)
+        if self.max_eval < 4:
+            raise ValueError(f"max_eval must be >= 4, got {self.max_eval}")
+        if not 1 <= self.steps_per_subsegment <= 1000:
+            raise ValueError(f"steps_per_subsegment must be in [1, 1000], got {self.steps_per_subsegment}")
