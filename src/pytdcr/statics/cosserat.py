@@ -110,9 +110,9 @@ class CosseratShooting:
         else:
             out = (np.empty((1, 3)), np.empty((1, 3, 3)), np.empty((1, 3)))
         res = np.empty(6)
-        CK.shoot(np.ascontiguousarray(m0, dtype=float), float(load_factor), p.sub[:, 0], self.stiff, self.mpl,
-                 p.sub[:, 3], self.holes, p.anchor, p.tension, p.grav, p.pforce, p.pmoment,
-                 self.shear_extension, self.nsub, record, *out, res)
+        rod = CK.Rod(p.sub[:, 0], self.stiff, float(self.mpl), p.sub[:, 3], self.holes, p.anchor, p.tension, p.grav,
+                     p.pforce, p.pmoment, bool(self.shear_extension), int(self.nsub))
+        CK.shoot(np.ascontiguousarray(m0, dtype=float), float(load_factor), rod, record, *out, res)
         return Shot(res[:3].copy(), res[3:].copy(), *(out if record else (None, None, None)))
 
     def residual(self, m0: np.ndarray, load_factor: float = 1.0) -> np.ndarray:

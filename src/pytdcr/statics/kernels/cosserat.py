@@ -31,10 +31,30 @@ State ``y`` (18,): p (3), R row-major (9), M (3), N (3); base frame.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
-__all__ = ["constitutive", "rhs", "shoot"]
+__all__ = ["Rod", "constitutive", "rhs", "shoot"]
+
+
+class Rod(NamedTuple):
+    """The packed rod and its loads, as :func:`shoot` takes them (the PCC kernels' ``Packed`` plays this part
+    for the PCC family)."""
+
+    lengths: np.ndarray  # (N,) subsegment lengths [m]
+    stiff: np.ndarray  # (4,) EI, GJ [N m^2], GA, EA [N]
+    mpl: float  # backbone mass per length [kg/m]
+    dmass: np.ndarray  # (N,) disk masses [kg]
+    holes: np.ndarray  # (nt, 3) tendon holes in the body frame [m]
+    anchor: np.ndarray  # (nt,) 1-based anchor disk
+    tension: np.ndarray  # (nt,) actuator tensions [N]
+    grav: np.ndarray  # (3,) gravity, base frame [m/s^2]
+    pforce: np.ndarray  # (N, 3) point force on each disk, base frame [N]
+    pmoment: np.ndarray  # (N, 3) point moment on each disk, base frame [N m]
+    ext: bool  # shear and extension on
+    nsub: int  # RK4 steps per subsegment
 
 _NEWTON_TOL = 1e-13
 _NEWTON_MAX = 30
@@ -226,23 +246,20 @@ def _reorthonormalize(y):
 
 
 @njit(cache=True, nogil=True)
-def shoot(m0, lam, lengths, stiff, mpl, dmass, holes, anchor, tension, grav, pforce, pmoment, ext, nsub,
-          record, pos, rot, curve, res):
+def shoot(m0, lam, rod, record, pos, rot, curve, res):
     """Integrate from the base with M(0) = ``m0`` and every load scaled by ``lam``.
 
     Parameters
     ----------
     m0 : (3,) total moment at the base, base frame [N m].
-    lengths : (N,) subsegment lengths [m]; ``stiff`` (4,) EI, GJ, GA, EA.
-    mpl : backbone mass per length [kg/m]; ``dmass`` (N,) disk masses [kg].
-    holes : (nt, 3); ``anchor`` (nt,) 1-based anchor disk; ``tension`` (nt,) [N].
-    grav : (3,) [m/s^2]; ``pforce``, ``pmoment`` (N, 3) point wrench on each disk (base frame).
-    ext : shear and extension on; ``nsub`` RK4 steps per subsegment.
+    rod : :class:`Rod`, the rod and its loads.
     record : fill ``pos`` (N+1, 3), ``rot`` (N+1, 3, 3) at the disks and ``curve`` (N nsub + 1, 3).
     res : (6,) receives M just past the tip [N m] (the shooting residual), then the tip position [m].
 
     Returns True if the integration could be carried out (NaN residual otherwise).
     """
+    lengths, stiff, mpl, dmass, holes, anchor = rod.lengths, rod.stiff, rod.mpl, rod.dmass, rod.holes, rod.anchor
+    tension, grav, pforce, pmoment, ext, nsub = rod.tension, rod.grav, rod.pforce, rod.pmoment, rod.ext, rod.nsub
     n = lengths.shape[0]
     nt = holes.shape[0]
     y = np.zeros(18)
