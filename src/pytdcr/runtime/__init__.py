@@ -12,7 +12,16 @@ output-folder rule.
 """
 
 from ._cancel import Cancelled, CancelScope, cancellable, check_cancelled, current_scope, mark_saving, saving
-from ._files import atomic_write, atomic_write_text, dump_json, to_jsonable, write_csv, write_json
+from ._files import (
+    FileRefused,
+    atomic_write,
+    atomic_write_text,
+    dump_json,
+    to_jsonable,
+    writable_file,
+    write_csv,
+    write_json,
+)
 from ._folders import (
     MANIFEST,
     FolderError,
@@ -25,9 +34,34 @@ from ._folders import (
 )
 from ._threads import MAX_CHUNK, default_threads, run_in_chunks, single_threaded_blas, submit_in_context, worker_pool
 
-__all__ = ["MANIFEST", "MAX_CHUNK", "CancelScope", "Cancelled", "FolderError", "OutputRun", "RunInterrupted",
-           "StudyChanged", "atomic_write", "atomic_write_text", "cancellable", "check_cancelled", "check_output_folder",
-           "current_scope",
-           "default_threads", "dump_json", "mark_saving", "output_folder", "resumable_folder", "run_in_chunks",
-           "saving", "single_threaded_blas", "submit_in_context", "to_jsonable", "worker_pool", "write_csv",
-           "write_json"]
+__all__ = [
+    "MANIFEST",
+    "MAX_CHUNK",
+    "CancelScope",
+    "Cancelled",
+    "FileRefused",
+    "FolderError",
+    "OutputRun",
+    "RunInterrupted",
+    "StudyChanged",
+    "atomic_write",
+    "atomic_write_text",
+    "cancellable",
+    "check_cancelled",
+    "check_output_folder",
+    "current_scope",
+    "default_threads",
+    "dump_json",
+    "mark_saving",
+    "output_folder",
+    "resumable_folder",
+    "run_in_chunks",
+    "saving",
+    "single_threaded_blas",
+    "submit_in_context",
+    "to_jsonable",
+    "worker_pool",
+    "writable_file",
+    "write_csv",
+    "write_json",
+]

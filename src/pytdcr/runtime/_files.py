@@ -1,7 +1,11 @@
-"""Atomic file writes: every file pytdcr writes is whole or absent, never half-written.
+"""Atomic file writes: every file pytdcr writes is whole or absent, never half-written, and never anything but a
+regular file.
 
 A file is written to a temporary name beside its target (``.NAME.tmp-PID``) and renamed over it; a failure
-removes the temporary file. JSON is strict (non-finite numbers become null) and NumPy values are converted.
+removes the temporary file. A symbolic link is followed to its target, which is written (the link stays); a
+path that names anything but a regular file or nothing (a folder, a device such as ``/dev/null``, a FIFO, a
+socket) is refused before anything is written (:class:`FileRefused`, a ValueError: the command line's exit 2).
+JSON is strict (non-finite numbers become null) and NumPy values are converted.
 """
 
 from __future__ import annotations
@@ -10,13 +14,57 @@ import csv
 import io
 import json
 import os
+import stat
 from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["atomic_write", "atomic_write_text", "dump_json", "to_jsonable", "write_csv", "write_json"]
+from ..validate import show_path
+
+__all__ = ["FileRefused", "atomic_write", "atomic_write_text", "dump_json", "to_jsonable", "writable_file",
+           "write_csv", "write_json"]
+
+#: what a path that is not a regular file names, by its file type
+_KINDS = {stat.S_IFDIR: "a folder", stat.S_IFCHR: "a character device", stat.S_IFBLK: "a block device",
+          stat.S_IFIFO: "a FIFO (named pipe)", stat.S_IFSOCK: "a socket"}
+
+
+class FileRefused(ValueError):
+    """A path that pytdcr will not write a file to (a folder, a device, a FIFO, a socket, a missing folder)."""
+
+
+def writable_file(path: str | Path, what: str = "") -> Path:
+    """The regular file (existing or new) that writing ``path`` replaces: symbolic links followed to their target.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file a user or a run names.
+    what : str
+        How messages name it (``--plot``, ``--out``); default: the path alone.
+
+    Raises
+    ------
+    FileRefused
+        When ``path`` (after following links) names anything but a regular file or nothing, or when its folder
+        does not exist.
+    """
+    given = Path(path).expanduser()
+    real = Path(os.path.realpath(given))
+    label = f"{what} {show_path(given)}" if what else show_path(given)
+    try:
+        mode = os.stat(real).st_mode
+    except FileNotFoundError:
+        mode = None
+    if mode is not None and not stat.S_ISREG(mode):
+        kind = _KINDS.get(stat.S_IFMT(mode), "not a regular file")
+        via = f" (a link to {show_path(real)})" if real != Path(os.path.abspath(given)) else ""
+        raise FileRefused(f"{label}: is {kind}{via}; give the name of a regular file or of a new one")
+    if not real.parent.is_dir():
+        raise FileRefused(f"{label}: its folder {show_path(real.parent)} does not exist")
+    return real
 
 
 def atomic_write(path: str | Path, write: Callable[[Path], None]) -> Path:
@@ -32,16 +80,25 @@ def atomic_write(path: str | Path, write: Callable[[Path], None]) -> Path:
     Returns
     -------
     Path
-        ``path``, whole: a reader never sees part of it; if ``write`` raises, ``path`` is left as it was.
+        ``path`` as given; the file written (``path``, or the target of the link that ``path`` is) is whole: a
+        reader never sees part of it, and if ``write`` raises it is left as it was. An existing file keeps its
+        permissions.
+
+    Raises
+    ------
+    FileRefused
+        When ``path`` names anything but a regular file or nothing (:func:`writable_file`).
     """
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    real = writable_file(path)
+    tmp = real.with_name(f".{real.name}.tmp-{os.getpid()}")
     try:
         write(tmp)
-        os.replace(tmp, path)
+        if real.exists():
+            os.chmod(tmp, stat.S_IMODE(real.stat().st_mode))
+        os.replace(tmp, real)
     finally:
         tmp.unlink(missing_ok=True)
-    return path
+    return Path(path)
 
 
 def atomic_write_text(path: str | Path, text: str) -> Path:

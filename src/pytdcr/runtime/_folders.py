@@ -11,8 +11,12 @@
   when it ends; the folder never mixes two runs. One exception keeps work: an
   interrupted run never replaces a complete one; it is saved beside it, in
   ``NAME.interrupted``.
-- A folder that holds anything but a tdcr run (a file its manifest does not
-  list, or a manifest that is not a tdcr run's) is refused, never replaced.
+- A folder that holds anything but a tdcr run, at any depth (a file or folder its manifest does not list, or a
+  manifest that is not a tdcr run's), is refused, never replaced: a manifest lists every file a run wrote,
+  sub-folders included.
+- A design study's folder (resumable: its manifest has a ``digest``) is refused by every other command.
+- A folder inside the folder of a live run (or inside its staging folder) is refused: that run's swap would
+  delete it.
 
 Each run's folder holds ``manifest.json``: the command, its inputs and seed,
 the versions, the start and end, and ``status`` (``complete`` or
@@ -27,6 +31,7 @@ import fcntl
 import json
 import os
 import platform
+import re
 import shutil
 import socket
 import stat
@@ -203,18 +208,78 @@ def _read_manifest(path: Path) -> dict[str, Any] | None:
     return data
 
 
+def _walk(path: Path) -> list[tuple[str, Path]]:
+    """Every entry under ``path`` (relative POSIX path, path), folders before what they hold; links not followed."""
+    out = []
+    for p in sorted(path.iterdir()):
+        out.append((p.name, p))
+        if p.is_dir() and not p.is_symlink():
+            out += [(f"{p.name}/{rel}", q) for rel, q in _walk(p)]
+    return out
+
+
+def run_files(path: Path) -> list[str]:
+    """The files a run wrote in ``path``, at every depth, as relative POSIX paths (its temporary files, whose
+    names start with a dot, and the manifest aside)."""
+    return sorted(rel for rel, p in _walk(path) if not p.is_dir() or p.is_symlink()
+                  if not any(part.startswith(".") for part in rel.split("/")) and rel != MANIFEST)
+
+
 def _foreign(path: Path) -> list[str]:
-    """Entries of ``path`` that are not part of the tdcr run its manifest describes (all of them if none)."""
-    names = sorted(p.name for p in path.iterdir())
+    """Entries of ``path``, at any depth, that are not part of the tdcr run its manifest describes (all of them if
+    none): a file its manifest does not list, or anything but a file or folder. Folders are the run's when
+    every entry they hold is; what a resumable run owns whole (its manifest's ``owned`` names) is not looked
+    into."""
     manifest = _read_manifest(path)
     if manifest is None:
-        return names
-    listed = {MANIFEST, *map(str, manifest["files"])}
-    return [n for n in names if n not in listed]
+        return sorted(p.name for p in path.iterdir())
+    files = {MANIFEST, *map(str, manifest["files"])}
+    names = {f for f in manifest.get("owned", []) if isinstance(f, str)}
+    inside = tuple(f"{f}/" for f in names)
+    out = []
+    for rel, p in _walk(path):
+        if rel in names or rel.startswith(inside):
+            continue
+        if p.is_dir() and not p.is_symlink():
+            continue
+        if rel not in files:
+            out.append(rel)
+    return out
 
 
-def _check_target(path: Path) -> None:
+def _live_lock(folder: Path) -> dict[str, Any] | None:
+    """The lock record of the live run writing ``folder``, or None (no lock, or its process is gone)."""
+    try:
+        fd = os.open(_lock_path(folder), os.O_RDONLY)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return None
+    except BlockingIOError:
+        return _holder(fd) or {"command": "another run"}
+    finally:
+        os.close(fd)
+
+
+def _check_not_inside_a_live_run(path: Path) -> None:
+    """Refuse a folder inside a live run's folder or staging folder (its swap would delete it)."""
+    for ancestor in path.parents:
+        name = ancestor.name
+        m = re.fullmatch(r"\.(.+)\.(?:partial|old)-\d+", name)
+        owner = ancestor.with_name(m.group(1)) if m else ancestor
+        rec = _live_lock(owner)
+        if rec is not None:
+            who = show(str(rec.get("command", "another run")))[1:-1]
+            raise FolderError(f"--out {show_path(path)}: is inside {show_path(owner)}, the folder of a live run "
+                              f"(process {rec.get('pid', '?')}, tdcr {who}), which replaces its folder as a whole "
+                              "when it ends; give a folder outside it")
+
+
+def _check_target(path: Path, resumable: bool = False) -> None:
     shown = show_path(path)
+    _check_not_inside_a_live_run(path)
     cwd = Path(os.path.realpath(Path.cwd()))
     if path == cwd or path in cwd.parents:
         raise FolderError(f"--out {shown}: is the current folder or holds it; a run replaces its folder as a "
@@ -225,6 +290,10 @@ def _check_target(path: Path) -> None:
         if os.path.ismount(path):
             raise FolderError(f"--out {shown}: is a mount point; a run is written beside its folder and swapped "
                               "in, so give a folder inside it")
+        manifest = _read_manifest(path)
+        if manifest is not None and manifest.get("digest") is not None and not resumable:
+            raise FolderError(f"--out {shown}: holds a design study (tdcr {show(str(manifest.get('command')))[1:-1]},"
+                              " resumable); other runs never replace it: give another folder")
         other = _foreign(path)
         if other:
             raise FolderError(f"--out {shown}: holds files that are not part of a tdcr run ({show(other[0])}"
@@ -268,8 +337,7 @@ def _finish(run: OutputRun, status: str) -> Path:
     """Write the manifest and swap the run in; returns where it went (an interrupted run never replaces a
     complete one: it goes to ``NAME.interrupted`` beside it)."""
     mark_saving()
-    run.manifest.update(status=status, finished=time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-                        files=sorted(p.name for p in run.staging.iterdir() if not p.name.startswith(".")))
+    run.manifest.update(status=status, finished=time.strftime("%Y-%m-%dT%H:%M:%S%z"), files=run_files(run.staging))
     if status == "interrupted" and run.interrupted_note:
         run.manifest["interrupted"] = run.interrupted_note
     atomic_write_text(run.staging / MANIFEST, json.dumps(to_jsonable(run.manifest), indent=2, allow_nan=False))
@@ -339,7 +407,7 @@ def resumable_folder(path: str | Path, command: str, inputs: dict[str, Any], dig
     and sub-folders the run may write) from the start, so a run killed outright is still recognised as one.
     """
     path = _target(path)
-    _check_target(path)
+    _check_target(path, resumable=True)
     path.parent.mkdir(parents=True, exist_ok=True)
     lock = _take_lock(path, command)
     try:
@@ -365,9 +433,12 @@ def resumable_folder(path: str | Path, command: str, inputs: dict[str, Any], dig
 
         def close(status: str) -> None:
             mark_saving()
-            here = {p.name for p in path.iterdir() if not p.name.startswith(".") and p.name != MANIFEST}
-            manifest.update(status=status, finished=time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-                            files=sorted(here | (set(layout) if status == "running" else set())))
+            # names the run owns whole: while it runs, every name of its layout (it may be killed outright at any
+            # moment); once closed, its sub-folders (one file per design: written and resumed by it alone)
+            owned = sorted(layout) if status == "running" else sorted(f for f in layout if (path / f).is_dir())
+            inside = tuple(f"{d}/" for d in owned)
+            here = [f for f in run_files(path) if not f.startswith(inside) and f not in owned]
+            manifest.update(status=status, finished=time.strftime("%Y-%m-%dT%H:%M:%S%z"), owned=owned, files=here)
             if status == "interrupted" and run.interrupted_note:
                 manifest["interrupted"] = run.interrupted_note
             atomic_write_text(path / MANIFEST, json.dumps(to_jsonable(manifest), indent=2, allow_nan=False))
