@@ -186,7 +186,7 @@ def test_a_folder_inside_a_live_run_is_refused(tmp_path):
         assert proc.stdout.readline().strip() == "locked"
         staging = next(p for p in tmp_path.iterdir() if p.name.startswith(".outer.partial-"))
         for inner in (outer / "inner", outer / "a" / "b", staging / "inner"):
-            with pytest.raises(FolderError, match="inside .*the folder of a live run"), output_folder(inner, "c"):
+            with pytest.raises(FolderError, match=r"inside .*the folder of a live run"), output_folder(inner, "c"):
                 pass
         with output_folder(tmp_path / "beside", "c") as run:  # a folder beside it is fine
             (run.staging / "x").write_text("1")
