@@ -145,14 +145,41 @@ def robot_from_dict(data: dict[str, Any], source: str = "robot") -> Robot:
         raise RobotFileError(f"{source}: {format_validation_error(err)}") from None
 
 
+#: the deepest nesting of tables and arrays a file may have (robot, study and bounds files need 3 or 4)
+MAX_NESTING = 32
+
+
+def _nesting(data: Any) -> int:
+    """How deeply tables and arrays nest in ``data`` (0 for a scalar), counted without recursion."""
+    deepest, stack = 0, [(data, 0)]
+    while stack:
+        obj, depth = stack.pop()
+        if isinstance(obj, dict):
+            stack += [(v, depth + 1) for v in obj.values()]
+        elif isinstance(obj, list):
+            stack += [(v, depth + 1) for v in obj]
+        else:
+            continue
+        deepest = max(deepest, depth + 1)
+        if deepest > MAX_NESTING:
+            break
+    return deepest
+
+
 def read_toml(path: str | Path, what: str) -> dict[str, Any]:
-    """A small TOML file as a dict; ValueError naming the file if it cannot be read, is too large, binary or not
-    TOML."""
+    """A small TOML file as a dict; ValueError naming the file if it cannot be read, is too large, binary, not
+    TOML, or nests tables and arrays deeper than :data:`MAX_NESTING`."""
     text = read_text_file(path, what)
     try:
-        return tomllib.loads(text)
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         raise ValueError(f"{what} {show_path(path)}: not valid TOML ({err})") from None
+    except RecursionError:
+        data = None
+    if data is None or _nesting(data) > MAX_NESTING:
+        raise ValueError(f"{what} {show_path(path)}: tables and arrays nest deeper than {MAX_NESTING} levels; no "
+                         "pytdcr file needs more than 4")
+    return data
 
 
 def read_robot(path: str | Path) -> Robot:
