@@ -41,3 +41,24 @@ def test_nesting_within_the_limit_reaches_the_usual_checks(tmp_path, capsys):
     assert main(["sample", "--n", "2", "--bounds-file", str(bounds), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert "deeper than" not in err and "--bounds-file" in err
+
+
+@pytest.mark.parametrize(("value", "shown"), [(10000.000001, "10000.000001"), (10000.0000000001, "10000.0000000001"),
+                                              (10000.5, "10000.5"), (-1e-300, "-1e-300")])
+def test_a_value_just_past_a_limit_is_never_shown_as_the_limit(value, shown, capsys):
+    import numpy as np
+
+    from pytdcr.loads import check_tensions
+
+    with pytest.raises(ValueError, match=rf"got {shown}$"):
+        check_tensions(np.array([value, 0, 0, 0, 0, 0, 0, 0]), 8)
+    assert main(["solve", "--tensions", f"{value!r},0,0,0,0,0,0,0"]) == 2
+    assert capsys.readouterr().err.rstrip().endswith(f"got {shown}")
+
+
+@pytest.mark.parametrize("atol", [1.00000001e-4, 9.9999999e-15])
+def test_a_tolerance_just_past_its_range_is_shown_with_its_digits(atol):
+    from pytdcr import SolverOptions
+
+    with pytest.raises(ValueError, match=rf"got {atol!r}$"):
+        SolverOptions(atol=atol)

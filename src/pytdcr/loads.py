@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .validate import as_real_array, show
+from .validate import as_real_array, show, show_number
 
 __all__ = ["MAX_TENSION", "Loads", "PointLoad", "check_tensions", "check_vector"]
 
@@ -66,7 +66,7 @@ def check_tensions(value: ArrayLike, n_tendons: int | None = None, name: str = "
             idx = tuple(int(i) for i in np.argwhere(bad)[0])
             where = ", ".join(str(i) for i in idx)
             which = f"tendon {idx[-1] + 1}" if arr.ndim == 1 else f"case {idx[0] + 1}, tendon {idx[1] + 1}"
-            raise ValueError(f"{name}[{where}] ({which}) {rule}, got {arr[idx]:g}")
+            raise ValueError(f"{name}[{where}] ({which}) {rule}, got {show_number(arr[idx], 0.0, MAX_TENSION)}")
     return arr
 
 

@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike
 from pydantic import AfterValidator, BeforeValidator, Strict
 
 __all__ = ["MAX_TEXT_FILE_BYTES", "Count", "Real", "as_real_array", "check_count", "escape_controls", "in_range",
-           "is_integer", "parse_numbers", "read_text_file", "show", "show_path"]
+           "is_integer", "parse_numbers", "read_text_file", "show", "show_number", "show_path"]
 
 #: the largest robot, bounds, loads or cases file read [bytes]
 MAX_TEXT_FILE_BYTES = 1_000_000
@@ -57,6 +57,16 @@ def show_path(path: Any) -> str:
 
 def _fmt(x: float) -> str:
     return f"{x:g}"
+
+
+def show_number(x: float, *limits: float) -> str:
+    """A number for a message: short (``%g``), but with every digit it needs to differ from each of ``limits``
+    (a value just above a limit is never shown as the limit: 10000.000001, not 10000)."""
+    x = float(x)
+    text = f"{x:g}"
+    if any(x != float(lim) and text == f"{float(lim):g}" for lim in limits):
+        return repr(x)
+    return text
 
 
 def in_range(lo: float | None, hi: float | None, unit: str, reason: str = "", *, lo_open: bool = False,

@@ -15,6 +15,8 @@ from typing import Literal
 
 import numpy as np
 
+from ..validate import show_number
+
 __all__ = ["DEFAULT_ATOL", "FOLDS", "FOLD_ARCLENGTH", "FOLD_RELAX", "LOAD_STEPPING", "MAX_ATOL", "MIN_ATOL",
            "PATH_DIRECT", "PATH_FALLBACK", "PATH_LOADING", "PATH_NAMES", "PATH_SELF_CONTACT", "PATH_SNAP",
            "TIGHT_ATOL", "CosseratOptions", "SSCROptions", "SolverOptions", "check_common_options"]
@@ -59,7 +61,8 @@ def check_common_options(atol: float, load_stepping: str) -> None:
         raise TypeError(f"atol must be a real number, got {type(atol).__name__}")
     if not (np.isfinite(atol) and MIN_ATOL <= atol <= MAX_ATOL):
         raise ValueError(f"atol must be in [{MIN_ATOL:g}, {MAX_ATOL:g}] N m (a looser tolerance passes poses "
-                         f"visibly out of balance; a tighter one is below the rounding of the balance), got {atol:g}")
+                         f"visibly out of balance; a tighter one is below the rounding of the balance), got "
+                         f"{show_number(atol, MIN_ATOL, MAX_ATOL)}")
     if load_stepping not in LOAD_STEPPING:
         raise ValueError(f"load_stepping must be one of {sorted(LOAD_STEPPING)}, got {load_stepping!r}")
 
