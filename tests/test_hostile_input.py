@@ -62,3 +62,99 @@ def test_a_tolerance_just_past_its_range_is_shown_with_its_digits(atol):
 
     with pytest.raises(ValueError, match=rf"got {atol!r}$"):
         SolverOptions(atol=atol)
+
+
+# ---------------------------------------------------------------- the Python API
+def test_solutions_pickle_and_come_back_from_a_process_pool(paper):
+    import pickle
+    from concurrent.futures import ProcessPoolExecutor
+
+    import numpy as np
+
+    from pytdcr import paper_loads, solve, solve_batch
+
+    loads = paper_loads(np.array([4.0, 0, 0, 0, 2.0, 0, 0, 0]))
+    sol = solve(paper, loads)
+    back = pickle.loads(pickle.dumps(sol))
+    assert back.stable == sol.stable and back.stability == sol.stability
+    assert np.array_equal(back.disk_positions, sol.disk_positions) and np.array_equal(back.q, sol.q)
+    batch = solve_batch(paper, np.array([[1.0] * 8, [3.0, 0, 0, 0, 2.0, 0, 0, 0]]), paper_loads())
+    again = pickle.loads(pickle.dumps(batch))
+    assert np.array_equal(again.stable, batch.stable) and np.array_equal(again.tip_position, batch.tip_position)
+    with ProcessPoolExecutor(1) as pool:
+        remote = pool.submit(_solve_elsewhere, [4.0, 0, 0, 0, 2.0, 0, 0, 0]).result()
+    assert np.array_equal(remote.tip_position, sol.tip_position) and remote.stable == sol.stable
+
+
+def _solve_elsewhere(tensions):
+    import numpy as np
+
+    from pytdcr import paper_loads, paper_robot, solve
+
+    return solve(paper_robot(), paper_loads(np.array(tensions)))
+
+
+@pytest.mark.parametrize("model", ["pcc", "pcc2", "sscr", "cosserat"])
+def test_an_empty_batch_has_the_models_shapes(paper, model):
+    import numpy as np
+
+    from pytdcr import NoFriction, paper_loads, solve_batch
+
+    robot = paper if model != "cosserat" else paper.with_friction(NoFriction())
+    empty = solve_batch(robot, np.zeros((0, 8)), paper_loads(), model=model)
+    one = solve_batch(robot, np.ones((1, 8)), paper_loads(), model=model)
+    assert empty.q.shape == (0, *one.q.shape[1:]) and empty.tip_position.shape == (0, 3)
+    assert empty.converged.shape == empty.stable.shape == empty.reach.shape == (0,)
+
+
+def test_tip_gradient_refuses_a_solution_of_another_robot_load_or_model(paper, rao):
+    import numpy as np
+
+    from pytdcr import Loads, NoFriction, paper_loads, solve, tip_gradient
+
+    loads = paper_loads(np.array([4.0, 0, 0, 0, 2.0, 0, 0, 0]))
+    sol = solve(paper, loads)
+    assert tip_gradient(paper, loads, sol)[1].shape == (3, 8)
+    others = [(paper, paper_loads(np.array([4.0, 0, 0.5, 0, 2.0, 0, 0, 0])), "pcc", "not an equilibrium"),
+              (paper, Loads(loads.tensions), "pcc", "not an equilibrium"),  # the tip wrench left out
+              (paper.with_gravity(None), loads, "pcc", "not an equilibrium"),
+              (paper.with_disks(5), loads, "pcc", "not a solution of robot"),
+              (rao, Loads(np.zeros(6)), "pcc", "not an equilibrium"),
+              (paper, loads, "pcc2", "solved by model 'pcc'")]
+    for robot, other, model, words in others:
+        with pytest.raises(ValueError, match=words):
+            tip_gradient(robot, other, sol, model=model)
+    free = paper.with_friction(NoFriction())
+    rod = solve(free, Loads(loads.tensions), model="cosserat")
+    with pytest.raises(ValueError, match="not an equilibrium"):
+        tip_gradient(free, Loads(loads.tensions * 1.1), rod, model="cosserat")
+
+
+def test_validated_objects_cannot_be_changed_behind_their_checks(paper):
+    import numpy as np
+
+    from pytdcr import Loads, PointLoad, TensionBounds
+
+    loads = Loads(np.ones(8), tip_force=(0.1, 0, 0), point_loads=(PointLoad(3, force=(0, 0, 1.0)),))
+    for arr in (loads.tensions, loads.tip_force, loads.tip_moment, loads.point_loads[0].force,
+                loads.point_loads[0].moment):
+        with pytest.raises(ValueError, match="read-only"):
+            arr[0] = 5.0
+    bounds = TensionBounds.uniform(8, 0.0, 5.0)
+    with pytest.raises(ValueError, match="read-only"):
+        bounds.upper[0] = 1e9
+    for update in ({"youngs_modulus": -5.0}, {"outer_radius": 10.0}, {"no_such_field": 1}):
+        with pytest.raises(ValueError):
+            paper.backbone.model_copy(update=update)
+    with pytest.raises(ValueError):
+        paper.model_copy(update={"gravity": (0.0, 0.0, -1e6)})
+    assert paper.model_copy(update={"name": "copy"}).name == "copy"
+
+
+def test_strings_are_not_numbers_anywhere(paper):
+    from pytdcr import TensionBounds
+
+    for make in (lambda: paper.with_gravity(("0", "0", "-9.81")), lambda: TensionBounds(["0"] * 8, ["5"] * 8),
+                 lambda: TensionBounds.uniform(8, "0", "5"), lambda: TensionBounds.uniform("8", 0, 5)):
+        with pytest.raises((TypeError, ValueError)):
+            make()

@@ -8,6 +8,7 @@ import numpy as np
 
 from .design import Robot
 from .loads import check_tensions
+from .validate import as_real_array, check_count
 
 __all__ = ["TensionBounds"]
 
@@ -26,8 +27,8 @@ class TensionBounds:
     upper: np.ndarray
 
     def __post_init__(self) -> None:
-        lo = np.asarray(self.lower, dtype=float).reshape(-1)
-        hi = np.asarray(self.upper, dtype=float).reshape(-1)
+        lo = as_real_array(self.lower, "bounds: lower").reshape(-1)  # strings, bools, complex numbers refused
+        hi = as_real_array(self.upper, "bounds: upper").reshape(-1)
         if lo.shape != hi.shape:
             raise ValueError(f"bounds: lower has {lo.size} entries, upper {hi.size}")
         lo = check_tensions(lo, name="bounds: lower")
@@ -36,13 +37,18 @@ class TensionBounds:
         if np.any(bad):
             k = int(np.argmax(bad))
             raise ValueError(f"bounds: tendon {k + 1} has lower {lo[k]} > upper {hi[k]} N")
+        lo.flags.writeable = False
+        hi.flags.writeable = False
         object.__setattr__(self, "lower", lo)
         object.__setattr__(self, "upper", hi)
 
     @classmethod
     def uniform(cls, n_tendons: int, lower: float, upper: float) -> TensionBounds:
         """The same bounds [lower, upper] N for every tendon."""
-        return cls(np.full(n_tendons, float(lower)), np.full(n_tendons, float(upper)))
+        n = check_count(n_tendons, "n_tendons", lo=1)
+        lo = as_real_array(lower, "bounds: lower")
+        hi = as_real_array(upper, "bounds: upper")
+        return cls(np.full(n, lo, dtype=float), np.full(n, hi, dtype=float))
 
     @property
     def n(self) -> int:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from functools import cached_property
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -35,6 +35,12 @@ __all__ = [
 
 class _Frozen(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid", ignored_types=(cached_property,))
+
+    def model_copy(self, *, update: dict[str, Any] | None = None, deep: bool = False) -> Any:
+        """A copy; with ``update``, a new object validated like any other (pydantic's own copy skips the checks)."""
+        if not update:
+            return super().model_copy(deep=deep)
+        return type(self).model_validate({**self.model_dump(), **update})
 
 
 #: the physical ranges, each with its reason
@@ -321,7 +327,7 @@ class Robot(_Frozen):
 
     def with_gravity(self, gravity: tuple[float, float, float] | None) -> Robot:
         """Copy with another gravity vector (``None`` or zeros: no gravity)."""
-        g = (0.0, 0.0, 0.0) if gravity is None else tuple(float(x) for x in gravity)
+        g = (0.0, 0.0, 0.0) if gravity is None else gravity  # validated as the field is: strings are refused
         return Robot.model_validate({**self.model_dump(), "gravity": g})
 
     def with_friction(self, friction: NoFriction | ConstantFriction | ExponentialFriction) -> Robot:

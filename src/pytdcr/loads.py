@@ -70,6 +70,12 @@ def check_tensions(value: ArrayLike, n_tendons: int | None = None, name: str = "
     return arr
 
 
+def _frozen(arr: np.ndarray) -> np.ndarray:
+    """``arr`` (a fresh array) made read-only: a validated object cannot be changed behind its checks."""
+    arr.flags.writeable = False
+    return arr
+
+
 @dataclass(frozen=True)
 class PointLoad:
     """A force and moment on disk ``disk`` (1-based; N is the tip), in the base frame.
@@ -91,8 +97,8 @@ class PointLoad:
     def __post_init__(self) -> None:
         if isinstance(self.disk, bool) or not isinstance(self.disk, (int, np.integer)) or self.disk < 1:
             raise ValueError(f"point load disk must be an integer >= 1, got {self.disk!r}")
-        object.__setattr__(self, "force", check_vector(self.force, "point load force"))
-        object.__setattr__(self, "moment", check_vector(self.moment, "point load moment"))
+        object.__setattr__(self, "force", _frozen(check_vector(self.force, "point load force")))
+        object.__setattr__(self, "moment", _frozen(check_vector(self.moment, "point load moment")))
 
 
 @dataclass(frozen=True)
@@ -126,10 +132,9 @@ class Loads:
         t = check_tensions(self.tensions)
         if t.ndim != 1:
             raise ValueError(f"tensions must be a 1-D array (one per tendon), got shape {t.shape}")
-        t.flags.writeable = False
-        object.__setattr__(self, "tensions", t)
-        object.__setattr__(self, "tip_force", check_vector(self.tip_force, "tip_force"))
-        object.__setattr__(self, "tip_moment", check_vector(self.tip_moment, "tip_moment"))
+        object.__setattr__(self, "tensions", _frozen(t))
+        object.__setattr__(self, "tip_force", _frozen(check_vector(self.tip_force, "tip_force")))
+        object.__setattr__(self, "tip_moment", _frozen(check_vector(self.tip_moment, "tip_moment")))
         object.__setattr__(self, "point_loads", tuple(self.point_loads))
         for p in self.point_loads:
             if not isinstance(p, PointLoad):

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cached_property, partial
 from typing import Any
 
 import numpy as np
@@ -17,6 +18,24 @@ __all__ = ["BatchSolution", "NotConvergedError", "Stability", "StaticSolution"]
 
 class NotConvergedError(RuntimeError):
     """Raised when a shape is asked of a solve that did not converge."""
+
+
+def _known(value: Any) -> Any:
+    """A stability test already computed (what a pickled solution carries instead of the test itself)."""
+    return value
+
+
+def _rebuild(cls: type, fields: dict[str, Any]) -> Any:
+    return cls(**fields)
+
+
+def _reduce(obj: Any, stability: Any) -> tuple[Any, ...]:
+    """Pickle a solution: its fields, with the stability test (a closure over the model) replaced by its result,
+    computed now; so solutions come back whole from a process pool or a file."""
+    fields = {f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)}
+    if fields["_stability_fn"] is not None:
+        fields["_stability_fn"] = partial(_known, stability)
+    return (_rebuild, (type(obj), fields))
 
 
 @dataclass(frozen=True)
@@ -165,6 +184,9 @@ class StaticSolution:
         s = self.stability
         return None if s is None else s.stable
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        return _reduce(self, self.stability)
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary; shape fields are None when not converged."""
         ok = self.converged
@@ -234,6 +256,21 @@ class BatchSolution:
         if self._stability_fn is None:
             return (None,) * len(self.converged)
         return tuple(self._stability_fn())
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return _reduce(self, self.stability)
+
+    def rows(self, index: slice | np.ndarray) -> BatchSolution:
+        """The cases ``index`` selects (a slice, indices or a boolean mask), as a batch of their own."""
+        stab = self.stability if self._stability_fn is not None else None
+        pick = np.arange(len(self.converged))[index]
+        return BatchSolution(
+            tensions=self.tensions[pick], converged=self.converged[pick], residual=self.residual[pick],
+            iterations=self.iterations[pick], q=self.q[pick], tip_position=self.tip_position[pick],
+            seconds=self.seconds, path=self.path[pick], model=self.model,
+            _stability_fn=None if stab is None else partial(_known, tuple(stab[k] for k in pick)),
+            disk_positions=None if self.disk_positions is None else self.disk_positions[pick],
+            disk_rotations=None if self.disk_rotations is None else self.disk_rotations[pick])
 
     @property
     def stable(self) -> np.ndarray:

@@ -102,6 +102,10 @@ class Model(Protocol):
                     threads: int | None = None) -> BatchSolution:
         """One equilibrium per row of ``tensions`` (B, n_tendons) [N] under ``loads``' external wrenches."""
 
+    def equilibrium_residual(self, robot: Robot, loads: Loads, q: np.ndarray, options: Any) -> float:
+        """max |residual| [N m] of the model's equations for ``robot`` under ``loads`` at the unknowns ``q``
+        (ValueError when ``q`` has another shape than this robot's unknowns)."""
+
     def tip_gradient(self, robot: Robot, loads: Loads, solution: StaticSolution,
                      options: Any) -> tuple[np.ndarray, np.ndarray]:
         """Tip (3,) [m] of a converged equilibrium and its derivative by the tensions (3, n_tendons) [m/N]."""

@@ -333,6 +333,10 @@ class CosseratModel:
         seconds = time.perf_counter() - t0
         return BatchSolution.from_solutions(tensions, sols, seconds, self.name)
 
+    def equilibrium_residual(self, robot: Robot, loads: Loads, q: np.ndarray, options: CosseratOptions) -> float:
+        """max |tip moment residual| [N m] of ``robot`` under ``loads`` at the base moment ``q`` (3,) [N m]."""
+        return float(np.max(np.abs(CosseratShooting.build(robot, loads, options).residual(q))))
+
     def tip_gradient(self, robot: Robot, loads: Loads, solution: StaticSolution,
                      options: CosseratOptions) -> tuple[np.ndarray, np.ndarray]:
         """Tip (3,) [m] and its derivative by the tensions (3, n_tendons) [m/N], by central differences of the

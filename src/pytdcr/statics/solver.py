@@ -289,6 +289,11 @@ class CompiledModel:
                              path=paths, model=self.name, _stability_fn=stabilities, disk_positions=pos,
                              disk_rotations=rot)
 
+    def equilibrium_residual(self, robot: Robot, loads: Loads, q: np.ndarray, options: Any) -> float:
+        """max |residual| [N m] of ``robot`` under ``loads`` at the unknowns ``q`` (ValueError for a wrong shape)."""
+        eq = self.equations(robot, loads, options)
+        return float(np.max(np.abs(eq.evaluate(eq.check_q(q)).residual)))
+
     def tip_gradient(self, robot: Robot, loads: Loads, solution: StaticSolution,
                      options: Any) -> tuple[np.ndarray, np.ndarray]:
         """Tip position (3,) [m] of an equilibrium and its exact derivative by the tensions (3, n_tendons) [m/N].

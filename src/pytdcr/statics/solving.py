@@ -18,7 +18,7 @@ from ..runtime import default_threads
 from .base import Model
 from .registry import MODELS, check_resources, resolve
 
-__all__ = ["solve", "solve_batch", "tip_gradient", "warmup"]
+__all__ = ["SAME_EQUILIBRIUM", "check_solution", "solve", "solve_batch", "tip_gradient", "warmup"]
 
 
 def solve(robot: Robot, loads: Loads, *, model: str | Model = "pcc", q0: np.ndarray | None = None,
@@ -76,7 +76,10 @@ def solve_batch(robot: Robot, tensions: np.ndarray, loads: Loads | None = None, 
     check_resources(m, robot, opts, workers, T.shape[0] * per_case,
                     f"a batch of {T.shape[0]:,} '{m.name}' solves of robot '{robot.name}' ({robot.n_disks} disks, "
                     f"{workers} threads)")
-    return m.solve_batch(robot, T, base.with_tensions(np.zeros(robot.n_tendons)), q0, opts, threads)
+    unloaded = base.with_tensions(np.zeros(robot.n_tendons))
+    if T.shape[0] == 0:  # an empty batch with the model's shapes: those of one solve of the unloaded robot, no rows
+        return m.solve_batch(robot, np.zeros((1, robot.n_tendons)), unloaded, None, opts, 1).rows(slice(0, 0))
+    return m.solve_batch(robot, T, unloaded, q0, opts, threads)
 
 
 def tip_gradient(robot: Robot, loads: Loads, solution: StaticSolution, *, model: str | Model = "pcc",
@@ -91,8 +94,41 @@ def tip_gradient(robot: Robot, loads: Loads, solution: StaticSolution, *, model:
         [m/N]; exact for models whose ``capabilities.gradient`` is ``"exact"``.
     """
     m, opts = resolve(model, robot, loads, options, gradient=True)
-    solution.tip_position  # noqa: B018 - raises NotConvergedError when there is no equilibrium
+    check_solution(m, robot, loads, solution, opts)
     return m.tip_gradient(robot, loads, solution, opts)
+
+
+#: how far past its own residual a solution may be out of balance for the robot and loads it is given with
+SAME_EQUILIBRIUM = 100.0
+
+
+def check_solution(model: Model, robot: Robot, loads: Loads, solution: StaticSolution, options: Any) -> None:
+    """Refuse a solution that is not an equilibrium of ``model`` for ``robot`` under ``loads``.
+
+    Raises
+    ------
+    NotConvergedError
+        When the solution has no equilibrium.
+    ValueError
+        When it was solved by another model, for a robot with other unknowns, or (its equations re-evaluated
+        at its unknowns) for another robot or other loads: max |residual| beyond :data:`SAME_EQUILIBRIUM` times
+        its own residual and tolerance.
+    """
+    if not isinstance(solution, StaticSolution):
+        raise TypeError(f"solution must be a pytdcr.StaticSolution, got {type(solution).__name__}")
+    solution.tip_position  # noqa: B018 - raises NotConvergedError when there is no equilibrium
+    if solution.model != model.name:
+        raise ValueError(f"solution: solved by model '{solution.model}', not '{model.name}'; pass "
+                         f"model='{solution.model}' or solve again with '{model.name}'")
+    try:
+        r = model.equilibrium_residual(robot, loads, solution.q, options)
+    except ValueError as err:
+        raise ValueError(f"solution: not a solution of robot '{robot.name}' ({err})") from None
+    limit = SAME_EQUILIBRIUM * max(solution.residual, solution.atol)
+    if not r <= limit:
+        raise ValueError(f"solution: not an equilibrium of robot '{robot.name}' under these loads (max |residual| "
+                         f"{r:.3g} N m there, {solution.residual:.3g} N m when it was solved): pass the robot and "
+                         "loads it was solved with")
 
 
 def warmup() -> float:
