@@ -27,9 +27,11 @@ __all__ = [
     "PAPER_TIP_MOMENT",
     "PAYLOAD_MASS",
     "RAO_BACKBONE",
+    "STANDARD_GRAVITY",
     "paper_bounds",
     "paper_loads",
     "paper_robot",
+    "payload_gravity",
     "payload_loads",
     "rao_robot",
 ]
@@ -102,9 +104,21 @@ def paper_loads(tensions: np.ndarray | None = None, *, release: bool = False) ->
     return Loads(t, tip_force=PAPER_TIP_FORCE, tip_moment=PAPER_TIP_MOMENT, release=release)
 
 
-def payload_loads(n_tendons: int, gravity: float = 9.81, mass: float = PAYLOAD_MASS) -> Loads:
-    """A payload of ``mass`` [kg] hanging at the tip: force (0, 0, -mass g) [N], base frame."""
-    return Loads(np.zeros(n_tendons), tip_force=(0.0, 0.0, -mass * gravity))
+#: gravity of a robot that has none, for its payloads and its loaded cases [m/s^2], base frame
+STANDARD_GRAVITY = (0.0, 0.0, -9.81)
+
+
+def payload_gravity(robot: Robot) -> np.ndarray:
+    """The gravity a payload on ``robot`` hangs along (3,) [m/s^2], base frame: the robot's own, or
+    :data:`STANDARD_GRAVITY` for a robot without gravity."""
+    g = np.asarray(robot.gravity, dtype=float)
+    return g if np.any(g) else np.asarray(STANDARD_GRAVITY)
+
+
+def payload_loads(robot: Robot, mass: float = PAYLOAD_MASS) -> Loads:
+    """A payload of ``mass`` [kg] hanging at the tip of ``robot``: the force ``mass`` g [N], base frame, along the
+    robot's gravity (:func:`payload_gravity`: a robot mounted horizontally gets its payload across its axis)."""
+    return Loads(np.zeros(robot.n_tendons), tip_force=float(mass) * payload_gravity(robot))
 
 
 def paper_bounds(n_tendons: int = 8) -> TensionBounds:
@@ -121,12 +135,11 @@ def workspace_load_cases(robot: Robot, given: Loads | None = None) -> dict[str, 
     wrench); gravity with tip payloads of 0, 5, 10 and 20 g (force (0, 0, -m |g|) [N], base frame); the
     paper's tip wrench (with gravity); and ``given`` when it carries a tip wrench."""
     n = robot.n_tendons
-    g = float(np.linalg.norm(robot.gravity)) or 9.81
-    heavy = robot if np.any(np.asarray(robot.gravity)) else robot.with_gravity((0.0, 0.0, -9.81))
+    heavy = robot if np.any(np.asarray(robot.gravity)) else robot.with_gravity(STANDARD_GRAVITY)
     cases = {"no load": (robot.with_gravity((0.0, 0.0, 0.0)), Loads(np.zeros(n)))}
     for m in COMPARE_PAYLOADS:
         name = "gravity only" if m == 0 else f"payload {m * 1e3:g} g"
-        cases[name] = (heavy, payload_loads(n, g, m) if m else Loads(np.zeros(n)))
+        cases[name] = (heavy, payload_loads(heavy, m) if m else Loads(np.zeros(n)))
     cases["paper wrench"] = (heavy, Loads(np.zeros(n), tip_force=PAPER_TIP_FORCE, tip_moment=PAPER_TIP_MOMENT))
     if given is not None and (np.any(given.tip_force) or np.any(given.tip_moment) or given.point_loads):
         cases["given load"] = (robot, given.with_tensions(np.zeros(n)))

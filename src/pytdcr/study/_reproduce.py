@@ -97,9 +97,8 @@ def _jobs(robot: Robot, s: ReproduceSettings) -> dict[str, _Job]:
     nt = robot.n_tendons
     bounds = paper_bounds(nt)
     loaded = ReachProblem.create(robot, paper_loads(np.zeros(nt)), bounds)
-    g = float(np.linalg.norm(robot.gravity)) or 9.81
     jobs = {f"pop{p}": _Job(loaded, p, s.max_gen, f"GA population {p}") for p in s.pops}
-    jobs["payload"] = _Job(ReachProblem.create(robot, payload_loads(nt, g), bounds), s.pops[0], s.side_max_gen,
+    jobs["payload"] = _Job(ReachProblem.create(robot, payload_loads(robot), bounds), s.pops[0], s.side_max_gen,
                            "GA under a payload")
     for h in s.bound_uppers:
         if h != DEFAULT_BOUNDS[1] or DEFAULT_BOUNDS[0] != 0.0:
