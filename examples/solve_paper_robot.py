@@ -21,5 +21,5 @@ if not sol.converged:
     sys.exit(1)
 print("tip position [m]:", np.round(sol.tip_position, 6))
 print("tension along tendon 1 [N]:", np.round(sol.tensions[0, :10], 3))
-ax = plot_robot(sol, robot)
+ax = plot_robot(robot, sol)
 ax.figure.savefig(sys.argv[1] if len(sys.argv) > 1 else "paper_robot.png", dpi=120)

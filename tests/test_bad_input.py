@@ -19,7 +19,7 @@ from pytdcr.io import robot_to_dict
 from pytdcr.limits import MEMORY_ENV, ResourceLimitError, memory_budget
 from pytdcr.optimize import MemeticGA, ReachProblem, SearchFailed, Termination, maximize_reach
 from pytdcr.paper import paper_robot
-from pytdcr.workspace import sample_workspace
+from pytdcr.workspace import SamplingConfig, sample_workspace
 
 ZERO8 = "0,0,0,0,0,0,0,0"
 
@@ -194,7 +194,7 @@ def test_api_misuse_says_what_was_expected(paper):
         sample_workspace(paper, Loads(np.zeros(8)), (0, 20), 5)
     bounds = TensionBounds.uniform(8, 0, 20)
     with pytest.raises(ValueError, match=r"block = 0: must be an integer >= 1"):
-        sample_workspace(paper, Loads(np.zeros(8)), bounds, 5, block=0)
+        sample_workspace(paper, Loads(np.zeros(8)), bounds, 5, config=SamplingConfig(block=0))
     with pytest.raises(TypeError, match=r"n must be an integer, got 5\.0"):
         sample_workspace(paper, Loads(np.zeros(8)), bounds, 5.0)
     with pytest.raises(ValueError, match=r"tensions must have shape \(B, 8\)"):

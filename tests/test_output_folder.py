@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import subprocess
@@ -15,8 +16,8 @@ import pytest
 from pytdcr import Loads, TensionBounds
 from pytdcr.runtime import MANIFEST, FolderError, RunInterrupted, output_folder, run_in_chunks, submit_in_context
 from pytdcr.statics import Cancelled, cancellable, solve_batch
-from pytdcr.study import run_sample
-from pytdcr.workspace import SamplingInterrupted, sample_workspace
+from pytdcr.study import BoundsSpec, SampleSettings, run_sample
+from pytdcr.workspace import SamplingConfig, SamplingInterrupted, sample_workspace
 
 
 def manifest(path) -> dict:
@@ -199,10 +200,10 @@ def test_sampling_interrupted_returns_the_finished_blocks(paper, monkeypatch):
     _interrupt_third_block(monkeypatch)
     bounds = TensionBounds.uniform(8, 0.0, 5.0)
     with pytest.raises(SamplingInterrupted) as stop:
-        sample_workspace(paper, Loads(np.zeros(8)), bounds, 50, seed=1, block=10)
+        sample_workspace(paper, Loads(np.zeros(8)), bounds, 50, seed=1, config=SamplingConfig(block=10))
     part = stop.value.samples
     assert part.converged.size == 20 and stop.value.total == 50
-    whole = sample_workspace(paper, Loads(np.zeros(8)), bounds, 50, seed=1, block=10)
+    whole = sample_workspace(paper, Loads(np.zeros(8)), bounds, 50, seed=1, config=SamplingConfig(block=10))
     assert np.array_equal(part.tensions, whole.tensions[:20])
     assert np.array_equal(part.tip_position, whole.tip_position[:20])
 
@@ -212,10 +213,11 @@ def test_sampling_run_interrupted_saves_what_it_solved(paper, tmp_path, monkeypa
 
     _interrupt_third_block(monkeypatch)
     real = runs.sample_workspace
-    monkeypatch.setattr(runs, "sample_workspace", lambda *a, **kw: real(*a, block=10, **kw))
+    monkeypatch.setattr(runs, "sample_workspace",
+                        lambda *a, config, **kw: real(*a, config=dataclasses.replace(config, block=10), **kw))
     out = tmp_path / "s"
     with pytest.raises(RunInterrupted, match="saved 20 of 50 samples"):
-        run_sample(paper, Loads(np.zeros(8)), TensionBounds.uniform(8, 0.0, 5.0), 50, 1, out, n_shapes=0)
+        run_sample(SampleSettings(bounds=BoundsSpec(0.0, 5.0), n=50, seed=1, n_shapes=0), out, robot=paper)
     assert len((out / "samples.csv").read_text().splitlines()) == 21
     info = json.loads((out / "sample_run.json").read_text())
     assert info["complete"] is False and info["solved"] == 20 and info["inputs"]["seed"] == 1
@@ -254,7 +256,7 @@ def test_cancelled_scope_stops_work_in_worker_threads(paper):
 
 def test_atomic_writes_leave_no_temporary_files(tmp_path, paper):
     out = tmp_path / "s"
-    run_sample(paper, Loads(np.zeros(8)), TensionBounds.uniform(8, 0.0, 3.0), 4, 0, out, n_shapes=1)
+    run_sample(SampleSettings(bounds=BoundsSpec(0.0, 3.0), n=4, seed=0, n_shapes=1), out, robot=paper)
     names = sorted(os.listdir(out))
     assert all(not n.startswith(".") for n in names)
     assert {"samples.csv", "sample_run.json", MANIFEST, "fig3a_samples.png"} <= set(names)

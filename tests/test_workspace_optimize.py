@@ -11,7 +11,7 @@ import pytest
 from pytdcr import Loads, Robot, Segment, SolverOptions, Tendon, TensionBounds, solve, tip_gradient
 from pytdcr.optimize import MemeticGA, ReachProblem, Termination, maximize_reach, polish_reach
 from pytdcr.plotting import plot_convergence, plot_reach_samples
-from pytdcr.study import ReproduceSettings, run_optimize, run_reproduce, run_sample
+from pytdcr.study import OptimizeSettings, ReproduceSettings, SampleSettings, run_optimize, run_reproduce, run_sample
 from pytdcr.workspace import sample_workspace
 
 
@@ -148,15 +148,16 @@ def test_figures_have_the_data(tmp_path, small):
 
 def test_sample_and_optimize_runs_write_their_inputs(tmp_path, small):
     b = TensionBounds.uniform(4, 0.0, 4.0)
-    run = run_sample(small, LOAD, b, 8, 3, tmp_path / "s")
+    run = run_sample(SampleSettings(n=8, seed=3), tmp_path / "s", robot=small, loads=LOAD, bounds=b)
     rows = (tmp_path / "s" / "samples.csv").read_text().strip().splitlines()
     assert len(rows) == 9 and rows[0].startswith("sample,T1_N")
     rec = json.loads((tmp_path / "s" / "sample_run.json").read_text())
     assert rec["inputs"]["seed"] == 3 and rec["inputs"]["robot"]["name"] == "small"
     assert rec["inputs"]["loads"]["tip_force"] == [0.03, 0.0, -0.02]
     assert all((tmp_path / "s" / f).stat().st_size > 1000 for f in run.files if f.endswith(".png"))
-    res, files = run_optimize(ReachProblem.create(small, LOAD, b), MemeticGA(pop_size=8), Termination(1e-6, 2, 3),
-                              seed=0, out=tmp_path / "o")
+    opt = run_optimize(OptimizeSettings(pop=8, tol=1e-6, window=2, max_gen=3, seed=0), tmp_path / "o", robot=small,
+                       loads=LOAD, bounds=b)
+    res, files = opt.result, opt.files
     assert {"fig5_convergence.png", "fig6_optimum.pdf", "history.csv"} <= set(files)
     data = json.loads((tmp_path / "o" / "optimize.json").read_text())
     assert data["result"]["reach"] == res.reach and data["inputs"]["pop"] == 8
@@ -166,16 +167,16 @@ def test_sample_and_optimize_runs_write_their_inputs(tmp_path, small):
 @pytest.mark.slow
 def test_reproduce_writes_a_report(tmp_path, small):
     out = tmp_path / "r"
-    summary = run_reproduce(small, out, seed=0, settings=ReproduceSettings(pops=(8, 10), n_samples=10, max_gen=3,
-                                                                           bound_uppers=(5.0,), side_max_gen=2))
+    run = run_reproduce(small, out, seed=0, settings=ReproduceSettings(pops=(8, 10), n_samples=10, max_gen=3,
+                                                                       bound_uppers=(5.0,), side_max_gen=2))
     report = (out / "report.md").read_text()
     for text in ("## Fig. 5", "| population 8 |", "| population 10 |", "fourth generation", "## Fig. 6",
                  "| 5 |", "backbone length", "## The paper's optimum under better models", "| sscr |",
                  "## The feasible static workspace as a region", "| no load |", "| paper wrench |"):
         assert text in report
-    assert {"workspace_slices.png", "workspace_fsw_no_load.ply", "workspace_fsw_paper_wrench.ply"} <= set(
-        summary["files"])
-    for f in summary["files"]:
+    assert {"workspace_slices.png", "workspace_fsw_no_load.ply", "workspace_fsw_paper_wrench.ply"} <= set(run.files)
+    assert run.to_dict()["files"] == run.files and run.seconds > 0 and set(run.ga) == {8, 10}
+    for f in run.files:
         assert (out / f).stat().st_size > 0
     data = json.loads((out / "reproduce.json").read_text())
     assert data["inputs"]["seed"] == 0 and set(data["ga"]) == {"8", "10"}

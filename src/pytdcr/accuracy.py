@@ -25,10 +25,20 @@ from .design import Robot
 from .loads import Loads, check_tensions
 from .paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT, PAYLOAD_MASS
 from .results import StaticSolution
-from .statics import MODELS, Model, SSCROptions, UnsupportedFeatureError, get_model, resolve
+from .statics import (
+    MODELS,
+    Model,
+    SSCROptions,
+    UnsupportedFeatureError,
+    check_resources,
+    get_model,
+    get_models,
+    resolve,
+)
+from .validate import SettingsError
 
-__all__ = ["AccuracyStudy", "LoadGroup", "ModelAccuracy", "OrderStudy", "default_groups", "model_accuracy",
-           "order_study"]
+__all__ = ["AccuracyStudy", "LoadGroup", "ModelAccuracy", "OrderStudy", "check_accuracy_plan", "default_groups",
+           "model_accuracy", "order_study"]
 
 #: the reference model and its integration steps per subsegment
 REFERENCE = "sscr"
@@ -79,6 +89,40 @@ def reference_options(per_segment: int, steps_per_segment: int = 160) -> SSCROpt
     """The reference's options: about ``steps_per_segment`` Runge-Kutta steps over each segment (at least 4
     per subsegment)."""
     return SSCROptions(steps_per_subsegment=max(4, int(np.ceil(steps_per_segment / per_segment))))
+
+
+def check_accuracy_plan(robot: Robot, *, models: Sequence[str | Model] | None = None,
+                        disks: Sequence[int] = (5, 10, 20, 40), reference_steps: int = 160, order: bool = True) -> None:
+    """Refuse, before any work, a study that cannot run: every robot it will build (``robot`` and, for the order
+    study when ``order``, ``robot`` with each of ``disks`` per segment: two or more different counts), the
+    reference's Runge-Kutta steps on each and every model's memory.
+
+    Raises
+    ------
+    SettingsError
+        Naming ``disks`` or ``reference_steps``.
+    ResourceLimitError
+        When a solve would need more memory than the budget.
+    """
+    chosen = get_models(models if models is not None else tuple(MODELS))
+    disks = list(disks)
+    if order and (len(set(disks)) < 2 or len(set(disks)) != len(disks)):
+        raise SettingsError("disks", f": the order study needs two or more different disk counts, got {disks}")
+    per = max(s.n_disks for s in robot.segments)
+    for n in [per, *(disks if order else [])]:
+        try:
+            r = robot if n == per else robot.with_disks(n)
+        except ValueError as err:
+            raise SettingsError("disks", f": {err}") from None
+        try:
+            ref = reference_options(n, reference_steps)
+        except ValueError:
+            raise SettingsError("reference_steps", f" {reference_steps}: with {n} disks per segment that is "
+                                f"{-(-reference_steps // n)} Runge-Kutta steps per subsegment, more than 1000"
+                                ) from None
+        for m in chosen:
+            check_resources(m, r, m.default_options())
+        check_resources(get_model(REFERENCE), r, ref)
 
 
 @dataclass(frozen=True)

@@ -14,9 +14,46 @@ import numpy as np
 from .design import Robot
 from .loads import Loads, check_tensions
 from .results import StaticSolution
-from .statics import Model, get_model, resolve
+from .statics import Model, get_models, resolve
+from .validate import SettingsError
 
-__all__ = ["ModelComparison", "compare_models"]
+__all__ = ["ModelComparison", "ModelSummary", "check_models", "compare_models"]
+
+
+def check_models(models: Sequence[str | Model]) -> tuple[Model, ...]:
+    """The models of a comparison: two or more distinct registered models (names or objects), the first the
+    reference; :class:`~pytdcr.validate.SettingsError` naming ``models`` otherwise."""
+    resolved = get_models(models)
+    names = [m.name for m in resolved]
+    if len(names) < 2 or len(set(names)) != len(names):
+        raise SettingsError("models", f": give two or more distinct models, got {names}")
+    return resolved
+
+
+@dataclass(frozen=True)
+class ModelSummary:
+    """One model of a comparison, over every case.
+
+    Attributes
+    ----------
+    model : str
+    not_converged : int
+        Cases where it did not converge.
+    ms_median : float
+        Median solve time [ms].
+    difference_median_mm, difference_max_mm : float or None
+        Median and largest tip distance from the reference [mm] where both converged (None for the reference
+        itself, or where no case converged for both).
+    difference_median_pct_length : float or None
+        The median as a percentage of the backbone length.
+    """
+
+    model: str
+    not_converged: int
+    ms_median: float
+    difference_median_mm: float | None = None
+    difference_max_mm: float | None = None
+    difference_median_pct_length: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -89,21 +126,39 @@ class ModelComparison:
             rows.append(row)
         return rows
 
-    def summary(self) -> dict[str, Any]:
-        """Per model: median and maximum tip difference from the reference, failures, median solve time."""
-        out: dict[str, Any] = {"cases": len(self), "reference": self.reference, "models": list(self.models),
-                               "all_converged": int(self.all_converged.sum())}
-        for name in self.models:
-            sols = self.solutions[name]
-            out[f"{name}_not_converged"] = sum(not s.converged for s in sols)
-            out[f"{name}_ms_median"] = float(np.median([s.seconds for s in sols]) * 1e3)
+    @property
+    def n_all_converged(self) -> int:
+        """Cases where every model converged."""
+        return int(self.all_converged.sum())
+
+    def summaries(self) -> dict[str, ModelSummary]:
+        """Per model (in order, the reference first): failures, median solve time, tip difference from the
+        reference."""
+        diffs: dict[str, dict[str, float | None]] = {}
         for name in self.others:
             d = self.difference(name)
             ok = np.isfinite(d)
-            out[f"{name}_difference_median_mm"] = float(np.median(d[ok]) * 1e3) if ok.any() else None
-            out[f"{name}_difference_max_mm"] = float(np.max(d[ok]) * 1e3) if ok.any() else None
-            out[f"{name}_difference_median_pct_length"] = (float(np.median(d[ok]) / self.length * 100)
-                                                           if ok.any() else None)
+            diffs[name] = {"difference_median_mm": float(np.median(d[ok]) * 1e3) if ok.any() else None,
+                           "difference_max_mm": float(np.max(d[ok]) * 1e3) if ok.any() else None,
+                           "difference_median_pct_length": (float(np.median(d[ok]) / self.length * 100)
+                                                            if ok.any() else None)}
+        return {name: ModelSummary(name, sum(not s.converged for s in self.solutions[name]),
+                                   float(np.median([s.seconds for s in self.solutions[name]]) * 1e3),
+                                   **diffs.get(name, {}))
+                for name in self.models}
+
+    def summary(self) -> dict[str, Any]:
+        """:meth:`summaries` as one JSON-ready object with a key per model and quantity (``pcc_ms_median``,
+        ``cosserat_difference_median_mm``, ...), with the counts of cases."""
+        per = self.summaries()
+        out: dict[str, Any] = {"cases": len(self), "reference": self.reference, "models": list(self.models),
+                               "all_converged": self.n_all_converged}
+        for name in self.models:
+            out[f"{name}_not_converged"] = per[name].not_converged
+            out[f"{name}_ms_median"] = per[name].ms_median
+        for name in self.others:
+            for key in ("difference_median_mm", "difference_max_mm", "difference_median_pct_length"):
+                out[f"{name}_{key}"] = getattr(per[name], key)
         return out
 
 
@@ -130,10 +185,8 @@ def compare_models(
     (:class:`~pytdcr.statics.UnsupportedFeatureError` names the first that
     cannot take them).
     """
-    resolved = [get_model(m) for m in models]
+    resolved = check_models(models)
     names = tuple(m.name for m in resolved)
-    if len(names) < 2 or len(set(names)) != len(names):
-        raise ValueError(f"models: give two or more distinct models, got {list(names)}")
     opts = {m.name: resolve(m, robot, loads, (options or {}).get(m.name))[1] for m in resolved}
     T = check_tensions(tensions, robot.n_tendons)
     if T.ndim != 2:

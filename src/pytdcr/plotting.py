@@ -9,6 +9,7 @@ the backend is never changed here (the command line alone picks Agg).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -23,6 +24,7 @@ if TYPE_CHECKING:
     from mpl_toolkits.mplot3d.axes3d import Axes3D
 
 __all__ = [
+    "RobotStyle",
     "new_3d_axes",
     "plot_convergence",
     "plot_model_overlay",
@@ -100,57 +102,78 @@ def _frame_arrows(ax: Axes3D, origin: np.ndarray, rot: np.ndarray, size: float) 
         ax.quiver(*origin, *(rot[:, k] * size), color=colour, linewidth=1.5, arrow_length_ratio=0.25)
 
 
+@dataclass(frozen=True)
+class RobotStyle:
+    """What :func:`plot_robot` draws besides the backbone.
+
+    Attributes
+    ----------
+    disks : bool
+        The disks, as rings.
+    tendons : bool
+        The tendons, one colour each.
+    frames : bool
+        The base and tip frames (red, green, blue: x, y, z).
+    equal : bool
+        Equal scale on the three axes around what was drawn.
+    """
+
+    disks: bool = True
+    tendons: bool = True
+    frames: bool = True
+    equal: bool = True
+
+
 def plot_robot(
-    solution: StaticSolution,
     robot: Robot,
+    solution: StaticSolution,
     ax: Axes3D | None = None,
     *,
-    color: str = "k",
-    disks: bool = True,
-    tendons: bool = True,
-    frames: bool = True,
+    style: RobotStyle | None = None,
     loads: Sequence[tuple] = (),
-    label: str | None = None,
-    equal: bool = True,
-    **kwargs,
+    **kwargs: Any,
 ) -> Axes3D:
     """Draw one equilibrium shape: backbone, disks as rings, tendons, base and tip frames.
 
     Parameters
     ----------
+    robot : Robot
     solution : StaticSolution
         Must be converged (a non-converged solve has no shape and raises).
-    robot : Robot
     ax : Axes3D, optional
+    style : RobotStyle, optional
+        What to draw besides the backbone (default: everything, on equal axes).
     loads : sequence of (point, vector) or (point, vector, colour)
         Arrows to draw (e.g. the tip force) from ``point`` (3,) along ``vector`` (3,),
         both in the base frame, already scaled to metres (default colour purple).
     **kwargs
-        Passed to the backbone's ``plot`` call.
+        Passed to the backbone's ``plot`` call (default ``color="k"``, ``linewidth=2.0``; ``label`` names it in
+        a legend).
     """
+    style = style if style is not None else RobotStyle()
     if ax is None:
         ax = new_3d_axes()
     pos = solution.disk_positions  # raises if not converged
     rot = solution.disk_rotations
     curve = solution.backbone_points(robot)
-    ax.plot(curve[:, 0], curve[:, 1], curve[:, 2], color=color, linewidth=2.0, label=label, **kwargs)
+    ax.plot(curve[:, 0], curve[:, 1], curve[:, 2], **{"color": "k", "linewidth": 2.0, "label": None, **kwargs})
     holes = robot.tendon_holes
     ring_r = float(np.max(np.linalg.norm(holes, axis=1))) * 1.2 if robot.n_tendons else 0.01
     pts = [curve]
-    if disks:
+    if style.disks:
         phi = np.linspace(0.0, 2.0 * np.pi, 33)
         circle = np.stack([np.cos(phi), np.sin(phi), np.zeros_like(phi)]) * ring_r
         for i in range(pos.shape[0]):
             ring = pos[i][:, None] + rot[i] @ circle
             ax.plot(ring[0], ring[1], ring[2], color="0.45", linewidth=0.8)
             pts.append(ring.T)
-    if tendons and robot.n_tendons:
+    if style.tendons and robot.n_tendons:
         anchors = robot.anchor_disks
         cmap = pyplot().get_cmap("tab10")
         for c in range(robot.n_tendons):
             path = np.array([pos[i] + rot[i] @ holes[c] for i in range(anchors[c] + 1)])
             ax.plot(path[:, 0], path[:, 1], path[:, 2], color=cmap(c % 10), linewidth=0.9)
-    if frames:
+    if style.frames:
         size = 0.12 * robot.length
         _frame_arrows(ax, pos[0], rot[0], size)
         _frame_arrows(ax, pos[-1], rot[-1], size)
@@ -163,7 +186,7 @@ def plot_robot(
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_zlabel("z [m]")
-    if equal:
+    if style.equal:
         set_equal_aspect(ax, np.vstack(pts))
     return ax
 
@@ -178,8 +201,8 @@ def plot_robots(
     good = [s for s in solutions if s.converged]
     pts = []
     for k, s in enumerate(good):
-        plot_robot(s, robot, ax, color=cmap(k / max(1, len(good) - 1)), tendons=False, frames=False,
-                   equal=False, **kwargs)
+        plot_robot(robot, s, ax, style=RobotStyle(tendons=False, frames=False, equal=False),
+                   **{"color": cmap(k / max(1, len(good) - 1)), **kwargs})
         pts.append(s.disk_positions)
     if pts:
         set_equal_aspect(ax, np.vstack(pts))
@@ -213,8 +236,8 @@ def plot_model_overlay(
             raise ValueError(f"labels: {len(names)} given for {len(group)} solutions per case")
         for m, (sol, name) in enumerate(zip(group, names, strict=True)):
             style = styles[m % len(styles)]
-            plot_robot(sol, robot, ax, color=cmap(k % 10), disks=False, tendons=False, frames=False, equal=False,
-                       linestyle=style, label=f"case {cid} {name}" if k < 10 else None)
+            plot_robot(robot, sol, ax, style=RobotStyle(disks=False, tendons=False, frames=False, equal=False),
+                       color=cmap(k % 10), linestyle=style, label=f"case {cid} {name}" if k < 10 else None)
             pts.append(sol.backbone_points(robot))
         k += 1
     if pts:

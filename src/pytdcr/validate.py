@@ -20,11 +20,14 @@ import numpy as np
 from numpy.typing import ArrayLike
 from pydantic import AfterValidator, BeforeValidator, Strict
 
-__all__ = ["MAX_TEXT_FILE_BYTES", "Count", "Real", "as_real_array", "check_count", "escape_controls", "in_range",
-           "is_integer", "parse_numbers", "read_text_file", "show", "show_number", "show_path"]
+__all__ = ["MAX_SEED", "MAX_TEXT_FILE_BYTES", "Count", "Real", "SettingsError", "as_real_array", "check_count",
+           "escape_controls", "field_ref", "in_range", "is_integer", "parse_numbers", "read_text_file", "show",
+           "show_number", "show_path"]
 
 #: the largest robot, bounds, loads or cases file read [bytes]
 MAX_TEXT_FILE_BYTES = 1_000_000
+#: the largest random seed accepted (what ``--seed`` takes)
+MAX_SEED = 2**32 - 1
 
 #: what is never sent raw to a terminal: C0 and C1 controls, line and paragraph separators, bidirectional
 #: overrides and isolates (they reorder what a message shows)
@@ -53,6 +56,48 @@ def show(value: Any, limit: int = 60, *, tail: bool = False) -> str:
 def show_path(path: Any) -> str:
     """A file or folder path for a message: quoted, escaped, its end (the name) kept if it is long."""
     return show(str(path), 160, tail=True)
+
+
+#: how a message refers to a field by name (:func:`field_ref`): NUL, never left raw in a shown value
+_REF = re.compile("\x00([A-Za-z_][A-Za-z0-9_.]*)\x00")
+
+
+def field_ref(name: str) -> str:
+    """A reference to the setting ``name`` inside a :class:`SettingsError`'s text: it reads as the field's name
+    in Python and as its option (``--name``) on the command line."""
+    return f"\x00{name}\x00"
+
+
+class SettingsError(ValueError):
+    """A setting outside what is allowed: one line naming the field, the value and the allowed range.
+
+    ``str(err)`` begins with the field's name (``n_shapes = -1: must be ...``); other fields the text names are
+    written with :func:`field_ref`, so that :meth:`worded` can call every field by another name (the command
+    line's options).
+
+    Attributes
+    ----------
+    field : str
+        The setting at fault.
+    text : str
+        What follows its name.
+    """
+
+    def __init__(self, field: str, text: str) -> None:
+        self.field = field
+        self.text = text
+        super().__init__(self.worded())
+
+    def worded(self, names: dict[str, str] | None = None) -> str:
+        """The message with each field called by ``names[field]`` (default: its own name)."""
+        names = names or {}
+        return _REF.sub(lambda m: names.get(m.group(1), m.group(1)), field_ref(self.field) + self.text)
+
+    @classmethod
+    def about(cls, field: str, err: Exception) -> SettingsError:
+        """``err`` (whose message names ``field`` first, as this module's checks do) as a SettingsError."""
+        text = str(err)
+        return cls(field, text[len(field):] if text.startswith(field) else f": {text}")
 
 
 def _fmt(x: float) -> str:

@@ -17,7 +17,32 @@ from .results import BatchSolution
 from .statics import Model, check_resources, resolve, solve_batch
 from .validate import check_count
 
-__all__ = ["SamplingInterrupted", "WorkspaceSamples", "sample_workspace"]
+__all__ = ["SamplingConfig", "SamplingInterrupted", "WorkspaceSamples", "sample_workspace"]
+
+
+@dataclass(frozen=True)
+class SamplingConfig:
+    """How :func:`sample_workspace` runs (none of it changes the results).
+
+    Attributes
+    ----------
+    threads : int, optional
+        Threads of each batch, as for :func:`pytdcr.solve_batch` (default: all cores).
+    block : int
+        Samples solved per batch, >= 1.
+    progress : callable, optional
+        Called with the size of each block solved.
+    stability : bool
+        Test each block's stability as it is solved (else on first use of ``WorkspaceSamples.stable``).
+    """
+
+    threads: int | None = None
+    block: int = 1000
+    progress: Callable[[int], None] | None = None
+    stability: bool = False
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "block", check_count(self.block, "block"))
 
 
 @dataclass(frozen=True, eq=False)
@@ -90,24 +115,23 @@ def sample_workspace(
     seed: int = 0,
     model: str | Model = "pcc",
     options: Any = None,
-    threads: int | None = None,
-    block: int = 1000,
-    progress: Callable[[int], None] | None = None,
-    stability: bool = False,
+    config: SamplingConfig | None = None,
 ) -> WorkspaceSamples:
     """Solve ``n`` random tension vectors drawn uniformly within ``bounds``.
 
     ``loads`` supplies the external wrenches and friction direction (its
     tensions are ignored). Non-converged samples are kept and flagged.
-    ``model`` and ``options`` as for :func:`pytdcr.solve`; ``threads`` as for
-    :func:`pytdcr.solve_batch`. The samples are solved in blocks of ``block``
-    (the results do not depend on it); ``progress`` is called with the size of
-    each block solved. ``stability=True`` tests each block's stability as it
-    is solved (else on first use of ``stable``). Ctrl-C raises
+    ``model`` and ``options`` as for :func:`pytdcr.solve`; ``config``
+    (:class:`SamplingConfig`) sets the threads, the blocks the samples are
+    solved in (the results do not depend on them), a progress callback and
+    whether stability is tested as the blocks are solved. Ctrl-C raises
     :class:`SamplingInterrupted` with the blocks finished so far.
     """
     n = check_count(n, "n")
-    block = check_count(block, "block")
+    cfg = config if config is not None else SamplingConfig()
+    if not isinstance(cfg, SamplingConfig):
+        raise TypeError(f"config must be a pytdcr.workspace.SamplingConfig, got {type(cfg).__name__}")
+    block, progress = cfg.block, cfg.progress
     if not isinstance(bounds, TensionBounds):
         raise TypeError(f"bounds must be a pytdcr.TensionBounds, got {type(bounds).__name__}")
     bounds.check_robot(robot)
@@ -122,8 +146,8 @@ def sample_workspace(
     parts: list[BatchSolution] = []
     try:
         for start in range(0, int(n), int(block)):
-            part = solve_batch(robot, T[start : start + block], loads, model=m, options=opts, threads=threads)
-            if stability:
+            part = solve_batch(robot, T[start : start + block], loads, model=m, options=opts, threads=cfg.threads)
+            if cfg.stability:
                 part.stability  # noqa: B018 - computed now, while the block is current
             parts.append(part)
             if progress is not None:

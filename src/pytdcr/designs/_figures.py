@@ -140,11 +140,11 @@ def _best_figure(study: DesignStudy, robot: Robot, table: Any, records: dict[int
         if sol is None or not sol.converged:
             ax.set_title(f"{title}: farthest shape not converged", fontsize=9)
             continue
-        from ..plotting import plot_robot
+        from ..plotting import RobotStyle, plot_robot
 
         if abs(float(np.linalg.norm(sol.tip_position)) - row["largest_reach_m"]) > 1e-3:
             title += " (re-solved on another branch)"
-        plot_robot(sol, case_robot, ax, frames=False, equal=False)
+        plot_robot(case_robot, sol, ax, style=RobotStyle(frames=False, equal=False))
         points.append(sol.disk_positions)
         ax.set_title(f"{title}\nreach {row['largest_reach_m'] * 1e3:.0f} mm, FSW "
                      f"{row['volume_m3'] * 1e6:.0f} cm³", fontsize=9)

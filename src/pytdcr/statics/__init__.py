@@ -11,12 +11,12 @@ from .cosserat import CosseratModel, CosseratShooting
 from .options import DEFAULT_ATOL, PATH_NAMES, TIGHT_ATOL, CosseratOptions, SolverOptions, SSCROptions
 from .pcc import PCCEquations, PCCModel
 from .pcc2 import PCC2Model
-from .registry import MODELS, check_resources, configure, get_model, options_record, resolve
+from .registry import MODELS, check_resources, configure, get_model, get_models, options_record, resolve
 from .solving import solve, solve_batch, tip_gradient, warmup
 from .sscr import SSCREquations, SSCRModel
 
 __all__ = ["DEFAULT_ATOL", "MODELS", "PATH_NAMES", "TIGHT_ATOL", "CancelScope", "Cancelled", "Capabilities",
            "CosseratModel", "CosseratOptions", "CosseratShooting", "Model", "PCC2Model", "PCCEquations", "PCCModel",
            "SSCREquations", "SSCRModel", "SSCROptions", "SolverOptions", "UnsupportedFeatureError", "cancellable",
-           "check_cancelled", "check_resources", "configure", "get_model", "mark_saving", "options_record", "resolve",
-           "saving", "solve", "solve_batch", "tip_gradient", "warmup"]
+           "check_cancelled", "check_resources", "configure", "get_model", "get_models", "mark_saving",
+           "options_record", "resolve", "saving", "solve", "solve_batch", "tip_gradient", "warmup"]

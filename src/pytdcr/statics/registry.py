@@ -12,11 +12,13 @@ the optimiser, ``--model`` on the command line) finds it here.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from typing import Any
 
 from ..design import Robot
 from ..limits import Resources, check_memory, human_seconds
 from ..loads import Loads
+from ..validate import SettingsError
 from .base import Model, UnsupportedFeatureError
 from .cosserat import COSSERAT
 from .kernels.solver import register_kernels
@@ -24,7 +26,8 @@ from .pcc import PCC
 from .pcc2 import PCC2
 from .sscr import SSCR
 
-__all__ = ["MODELS", "check_resources", "configure", "get_model", "options_record", "register", "resolve"]
+__all__ = ["MODELS", "check_resources", "configure", "get_model", "get_models", "options_record", "register",
+           "resolve"]
 
 
 def register(*models: Model) -> dict[str, Model]:
@@ -62,6 +65,20 @@ def get_model(model: str | Model) -> Model:
     if isinstance(model, Model):
         return model
     raise TypeError(f"model must be a registered name ({', '.join(MODELS)}) or a Model, got {type(model).__name__}")
+
+
+def get_models(models: Sequence[str | Model], field: str = "models") -> tuple[Model, ...]:
+    """The models of ``models`` (registered names or :class:`Model` objects), in order.
+
+    Raises
+    ------
+    SettingsError
+        Naming ``field`` and the first unknown name, listing the registered ones.
+    """
+    for m in models:
+        if isinstance(m, str) and m not in MODELS:
+            raise SettingsError(field, f": {m!r} is not a model; choose from {', '.join(MODELS)}")
+    return tuple(get_model(m) for m in models)
 
 
 def configure(model: str | Model, options: Any = None, **overrides: Any) -> Any:

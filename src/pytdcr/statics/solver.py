@@ -218,9 +218,7 @@ class CompiledModel:
         t0 = time.perf_counter()
         out = _solve_rows(eq, Q0, eq.packed.tension[None, :], kernel_settings(options, q0 is not None), 1)
         seconds = time.perf_counter() - t0
-        sol = self.solution(eq, out.q[0], bool(out.converged[0]), float(out.residual[0]),
-                            int(out.iterations[0]), PATH_NAMES[out.path[0]], seconds, options.atol,
-                            int(out.load_steps[0]))
+        sol = self.solution(eq, out, 0, seconds, options.atol)
         failure = self._contact(robot, eq.shape(sol.q)) if sol.converged else ""
         return replace(sol, converged=False, path=PATH_SELF_CONTACT, failure=failure) if failure else sol
 
@@ -237,16 +235,18 @@ class CompiledModel:
             return None
         return stability_of(conjugate_stiffness(eq.evaluate(q, jacobian=True).jacobian))
 
-    def solution(self, eq: Equations, q: np.ndarray, converged: bool, residual: float, iterations: int,
-                 path: str, seconds: float, atol: float, load_steps: int = 0) -> StaticSolution:
-        """Wrap an outcome of the solver as a :class:`StaticSolution`."""
+    def solution(self, eq: Equations, out: _BatchOut, row: int, seconds: float, atol: float) -> StaticSolution:
+        """Wrap row ``row`` of the solver's outcome ``out`` as a :class:`StaticSolution` (``seconds``: its time [s],
+        ``atol``: its tolerance [N m])."""
+        q = out.q[row]
         pos, rot, curve = eq.shape(q)
-        ok = converged and bool(np.all(np.isfinite(q)))
+        ok = bool(out.converged[row]) and bool(np.all(np.isfinite(q)))
         q = q.copy()
-        return StaticSolution(converged=ok, residual=residual, iterations=iterations, load_steps=load_steps,
-                              path=path, q=q.reshape(eq.n_disks, -1), tensions=eq.evaluate(q).tensions,
-                              seconds=seconds, atol=atol, _positions=pos, _rotations=rot, model=self.name,
-                              _curve=curve, _stability_fn=lambda: self.stability_at(eq, q))
+        return StaticSolution(converged=ok, residual=float(out.residual[row]), iterations=int(out.iterations[row]),
+                              load_steps=int(out.load_steps[row]), path=PATH_NAMES[out.path[row]],
+                              q=q.reshape(eq.n_disks, -1), tensions=eq.evaluate(q).tensions, seconds=seconds,
+                              atol=atol, _positions=pos, _rotations=rot, model=self.name, _curve=curve,
+                              _stability_fn=lambda: self.stability_at(eq, q))
 
     def solve_batch(self, robot: Robot, tensions: np.ndarray, loads: Loads, q0: np.ndarray | None,
                     options: Any, threads: int | None = None) -> BatchSolution:

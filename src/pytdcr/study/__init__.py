@@ -1,5 +1,12 @@
 """The paper's feasible-static-workspace study: runs that write data, figures and a report.
 
+Each run takes typed settings (frozen dataclasses checked on construction, the same for Python and the ``tdcr``
+command of the same name: :class:`SolveSettings`, :class:`SampleSettings`, :class:`OptimizeSettings`,
+:class:`CompareSettings`, :class:`AccuracySettings`, :class:`ReproduceSettings`), built of the groups the runs
+share (:class:`RobotSpec`, :class:`LoadSpec`, :class:`ModelSpec`, :class:`BoundsSpec`), and an output folder,
+and returns a typed result with ``to_dict()`` (:class:`SolveRun`, :class:`SampleRun`, :class:`OptimizeRun`,
+:class:`CompareRun`, :class:`AccuracyRun`, :class:`ReproduceRun`).
+
 Every run writes the exact inputs (robot, loads, bounds, seeds, solver
 options) beside its results, so it can be repeated exactly. Every run's
 folder follows one rule (:func:`pytdcr.runtime.output_folder`): a manifest with
@@ -9,12 +16,19 @@ package changes no global state (the command line alone picks a matplotlib
 backend).
 """
 
-from ._accuracy import run_accuracy
+from ._accuracy import AccuracyRun, run_accuracy
+from ._compare import CompareRun, run_compare
 from ._output import inputs_record
-from ._reproduce import ReproduceSettings, run_reproduce
-from ._runs import SampleRun, run_compare, run_optimize, run_sample, sample_into, write_optimize
+from ._reproduce import ReproduceRun, ReproduceSettings, run_reproduce
+from ._runs import OptimizeRun, SampleRun, run_optimize, run_sample, sample_into, write_optimize
+from ._settings import AccuracySettings, CompareSettings, OptimizeSettings, SampleSettings, SolveSettings, read_cases
+from ._solve import SolveRun, check_figure_path, run_solve
+from ._specs import MAX_FRICTION, BoundsSpec, LoadSpec, ModelSpec, RobotSpec, RunInputs
 from ._workspace import WorkspaceCase, WorkspaceRun, run_workspace, run_workspace_compare
 
-__all__ = ["ReproduceSettings", "SampleRun", "WorkspaceCase", "WorkspaceRun", "inputs_record", "run_accuracy",
-           "run_compare", "run_optimize", "run_reproduce", "run_sample", "run_workspace", "run_workspace_compare",
-           "sample_into", "write_optimize"]
+__all__ = ["MAX_FRICTION", "AccuracyRun", "AccuracySettings", "BoundsSpec", "CompareRun",
+           "CompareSettings", "LoadSpec", "ModelSpec", "OptimizeRun", "OptimizeSettings", "ReproduceRun",
+           "ReproduceSettings", "RobotSpec", "RunInputs", "SampleRun", "SampleSettings", "SolveRun", "SolveSettings",
+           "WorkspaceCase", "WorkspaceRun", "check_figure_path", "inputs_record", "read_cases", "run_accuracy",
+           "run_compare", "run_optimize", "run_reproduce", "run_sample", "run_solve", "run_workspace",
+           "run_workspace_compare", "sample_into", "write_optimize"]

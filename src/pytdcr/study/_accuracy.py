@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..accuracy import AccuracyStudy, LoadGroup, OrderStudy, default_groups, model_accuracy, order_study
+from ..accuracy import AccuracyStudy, LoadGroup, OrderStudy, check_accuracy_plan, model_accuracy, order_study
 from ..bounds import TensionBounds
 from ..design import Robot
 from ..loads import Loads
@@ -16,8 +17,38 @@ from ..plotting import plot_order, save_figure
 from ..runtime import atomic_write_text, output_folder, write_csv, write_json
 from ..statics import saving
 from ._output import inputs_record
+from ._settings import AccuracySettings
 
-__all__ = ["accuracy_markdown", "run_accuracy"]
+__all__ = ["AccuracyRun", "accuracy_markdown", "run_accuracy"]
+
+
+@dataclass(frozen=True)
+class AccuracyRun:
+    """What :func:`run_accuracy` produced.
+
+    Attributes
+    ----------
+    study : AccuracyStudy
+        Every model under every load group against the reference.
+    orders : list of OrderStudy
+        The order study of each group (empty without one).
+    files : list of str
+    """
+
+    study: AccuracyStudy
+    orders: list[OrderStudy]
+    files: list[str]
+
+    def summary(self) -> dict[str, Any]:
+        """The rows, time and orders, JSON-ready (``accuracy.json``'s ``summary``)."""
+        return {"rows": self.study.rows(), "seconds": self.study.seconds,
+                "orders": [{"group": st.group, "disks": list(st.disks), "spacing_m": st.spacing,
+                            "errors_mm": st.errors_mm, "order": st.order, "seconds": st.seconds}
+                           for st in self.orders]}
+
+    def to_dict(self) -> dict[str, Any]:
+        """:meth:`summary` and the files."""
+        return {**self.summary(), "files": list(self.files)}
 
 
 def _fmt(x: float, f: str = ".3f") -> str:
@@ -58,34 +89,40 @@ def accuracy_markdown(study: AccuracyStudy, orders: Sequence[OrderStudy], source
     return "\n".join(lines)
 
 
-def run_accuracy(robot: Robot, out: str | Path, *, n: int = 20, bounds: TensionBounds | None = None, seed: int = 0,
-                 groups: Sequence[LoadGroup] | None = None, models: Sequence[str] | None = None,
-                 disks: Sequence[int] = (5, 10, 20, 40), order_cases: int = 3, reference_steps: int = 160,
-                 progress: Callable[[str], None] | None = None) -> tuple[AccuracyStudy, list[OrderStudy], list[str]]:
+def run_accuracy(settings: AccuracySettings, out: str | Path, *, robot: Robot | None = None,
+                 groups: Sequence[LoadGroup] | None = None,
+                 progress: Callable[[str], None] | None = None) -> AccuracyRun:
     """The accuracy table and the order study; writes CSV, Markdown, the log-log figure and JSON in ``out``
-    (the output-folder rule; an interrupted study saves nothing)."""
-    b = bounds or TensionBounds.uniform(robot.n_tendons, 0.0, 20.0)
-    b.check_robot(robot)
-    T = b.sample(n, np.random.default_rng(seed))
-    groups = tuple(groups or default_groups())
-    with output_folder(out, "accuracy", {"n": n, "seed": seed, "bounds": b.to_dict()}) as run:
-        study = model_accuracy(robot, T, groups=groups, models=models, reference_steps=reference_steps,
+    (the output-folder rule; an interrupted study saves nothing).
+
+    ``robot`` is built from ``settings`` unless given, ``groups`` default to the settings' (:meth:`AccuracySettings
+    .groups`). Every robot the study will build is checked first (:func:`pytdcr.accuracy.check_accuracy_plan`).
+    ``progress`` is called with a label after each step (:attr:`AccuracySettings.steps` in all).
+    """
+    s = settings
+    robot = robot if robot is not None else s.robot.build()
+    check_accuracy_plan(robot, models=s.models, disks=s.disks, reference_steps=s.reference_steps,
+                        order=s.order_cases > 0)
+    b = s.bounds.build(robot)
+    T = b.sample(s.n, np.random.default_rng(s.seed))
+    groups = tuple(groups or s.groups())
+    with output_folder(out, "accuracy", {"n": s.n, "seed": s.seed, "bounds": b.to_dict()}) as run:
+        study = model_accuracy(robot, T, groups=groups, models=s.models, reference_steps=s.reference_steps,
                                progress=progress)
-        orders = [order_study(robot, T[:order_cases], g, disks=disks, reference_steps=reference_steps,
-                              progress=progress) for g in groups] if order_cases > 0 and disks else []
+        orders = [order_study(robot, T[:s.order_cases], g, disks=s.disks, reference_steps=s.reference_steps,
+                              progress=progress) for g in groups] if s.order else []
         with saving():
-            files = _write_accuracy(run.staging, robot, study, orders, T, b, seed, groups, disks, order_cases,
-                                    reference_steps)
-    return study, orders, files
+            files = _write_accuracy(run.staging, AccuracyRun(study, orders, []), s, T, b, groups)
+    return AccuracyRun(study, orders, files)
 
 
-def _write_accuracy(out: Path, robot: Robot, study: AccuracyStudy, orders: list[OrderStudy], T: np.ndarray,
-                    b: TensionBounds, seed: int, groups: Sequence[LoadGroup], disks: Sequence[int], order_cases: int,
-                    reference_steps: int) -> list[str]:
+def _write_accuracy(out: Path, run: AccuracyRun, s: AccuracySettings, T: np.ndarray, b: TensionBounds,
+                    groups: Sequence[LoadGroup]) -> list[str]:
+    study, orders, robot = run.study, run.orders, run.study.robot
     files = ["accuracy.csv", "accuracy.md"]
     rows = study.rows()
     write_csv(out / "accuracy.csv", list(rows[0]), (list(r.values()) for r in rows))
-    source = f"uniform in [{b.lower.min():g}, {b.upper.max():g}] N, seed {seed}"
+    source = f"uniform in [{b.lower.min():g}, {b.upper.max():g}] N, seed {s.seed}"
     atomic_write_text(out / "accuracy.md", accuracy_markdown(study, orders, source))
     if orders:
         write_csv(out / "order.csv", ["group", "model", "disks_per_segment", "spacing_m", "median_error_mm", "order"],
@@ -96,14 +133,10 @@ def _write_accuracy(out: Path, robot: Robot, study: AccuracyStudy, orders: list[
         ax = plot_order(orders)
         ax.set_title(f"{robot.name}: PCC models against sscr as the disks multiply")
         files += save_figure(ax.figure, out, "fig_order")
-    summary: dict[str, Any] = {"rows": rows, "seconds": study.seconds,
-                               "orders": [{"group": st.group, "disks": list(st.disks), "spacing_m": st.spacing,
-                                           "errors_mm": st.errors_mm, "order": st.order, "seconds": st.seconds}
-                                          for st in orders]}
     write_json(out / "accuracy.json", {
-        "inputs": inputs_record(robot, Loads(np.zeros(robot.n_tendons)), tensions=T, bounds=b.to_dict(), seed=seed,
+        "inputs": inputs_record(robot, Loads(np.zeros(robot.n_tendons)), tensions=T, bounds=b.to_dict(), seed=s.seed,
                                 groups=[g.__dict__ for g in groups], models=list(study.models),
-                                disks=list(disks), order_cases=order_cases, reference_steps=reference_steps),
-        "summary": summary, "files": files})
+                                disks=list(s.disks), order_cases=s.order_cases, reference_steps=s.reference_steps),
+        "summary": run.summary(), "files": files})
     files.append("accuracy.json")
     return files

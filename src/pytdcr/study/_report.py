@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import itertools
-from typing import TYPE_CHECKING, Any
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -14,7 +15,7 @@ from ..paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT, PAYLOAD_MASS
 from ..runtime import default_threads
 
 if TYPE_CHECKING:
-    from ._reproduce import ReproduceSettings
+    from ._reproduce import ReproduceRun, ReproduceSettings
 
 __all__ = ["reproduce_report"]
 
@@ -82,10 +83,9 @@ def _ga_row(label: str, r: ReachResult) -> str:
             f"{r.seconds:.1f} |")
 
 
-def _head(robot: Robot, summary: dict[str, Any], bounds: TensionBounds, seconds: float,
-          s: ReproduceSettings) -> list[str]:
-    smp = summary["sampling"]
-    passive = summary["passive"]
+def _head(robot: Robot, run: ReproduceRun, bounds: TensionBounds, s: ReproduceSettings) -> list[str]:
+    smp = run.sampling
+    passive = run.passive
     return [
         "# Feasible static workspace of the paper robot: reproduction",
         "",
@@ -93,12 +93,12 @@ def _head(robot: Robot, summary: dict[str, Any], bounds: TensionBounds, seconds:
         f"length {robot.length} m; friction law `{robot.friction.law}`; gravity {list(robot.gravity)} m/s^2.",
         f"Tension bounds: [{bounds.lower[0]:g}, {bounds.upper[0]:g}] N per tendon (the paper gives none). "
         f"GA: pymoo GA (SBX crossover, polynomial mutation, tournament selection) with a gradient search on each "
-        f"new leader (memetic; its solves are counted), seed {summary['seed']}; stop "
+        f"new leader (memetic; its solves are counted), seed {run.seed}; stop "
         f"when the best cost improves by less than {s.tol:g} 1/m over {s.window} generations, or at {s.max_gen} "
         f"({s.side_max_gen} for the payload and bounds studies). Each GA individual is one static solve along the "
         "loading path from the unloaded robot (the branch quasi-static loading reaches: a tension vector can "
         "have several equilibria under this load); a solve that does not converge makes it infeasible.",
-        f"Whole run: {seconds:.1f} s on {default_threads()} cores.",
+        f"Whole run: {run.seconds:.1f} s on {default_threads()} cores.",
         "",
         "## Fig. 3(a), Fig. 4: random samples under the paper's load",
         "",
@@ -129,16 +129,18 @@ def _payload_text(robot: Robot, pay: ReachResult) -> str:
             "static model does not check the stability of an equilibrium).")
 
 
-def reproduce_report(robot: Robot, summary: dict[str, Any], ga: dict[int, ReachResult], pay: ReachResult,
-                     bound_study: list[tuple[float, ReachResult]], bounds: TensionBounds, seconds: float,
-                     s: ReproduceSettings, extra: list[str] = ()) -> str:
-    """The Markdown report of :func:`~pytdcr.study.run_reproduce`."""
+def reproduce_report(robot: Robot, run: ReproduceRun, bounds: TensionBounds, s: ReproduceSettings,
+                     extra: Sequence[str] = ()) -> str:
+    """The Markdown report of :func:`~pytdcr.study.run_reproduce`: its results ``run`` on ``robot`` within the
+    paper's ``bounds``, at the budget ``s``; ``extra`` lines (the better models' and the workspace's sections)
+    before the list of files."""
+    ga, pay, bound_study = run.ga, run.payload, run.bounds_study
     head = ("| study | GA reach [m] | GA cost [1/m] | polished reach [m] | polish gain in cost | "
             "generation within 1e-6 of final | generations | model solves | not converged | time [s] |\n"
             "|---|---|---|---|---|---|---|---|---|---|")
     best = min(ga.values(), key=lambda r: r.cost)
     lines = [
-        *_head(robot, summary, bounds, seconds, s),
+        *_head(robot, run, bounds, s),
         "## Fig. 5: the GA under the paper's load",
         "",
         head,
@@ -169,7 +171,7 @@ def reproduce_report(robot: Robot, summary: dict[str, Any], ga: dict[int, ReachR
         *extra,
         "## Files",
         "",
-        *[f"- `{f}`" for f in summary["files"]],
+        *[f"- `{f}`" for f in run.files],
         "- `reproduce.json`: every input, seed and result of this run",
         "",
     ]

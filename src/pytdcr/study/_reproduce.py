@@ -22,10 +22,11 @@ from ..statics import options_record, solve
 from ._output import inputs_record, load_arrows
 from ._report import reproduce_report
 from ._runs import sample_into, write_optimize
-from ._survival import model_verdicts, verdict_text
+from ._settings import SampleSettings
+from ._survival import ModelVerdict, model_verdicts, verdict_text
 from ._workspace import workspace_section, workspace_text
 
-__all__ = ["ReproduceSettings", "run_reproduce"]
+__all__ = ["ReproduceRun", "ReproduceSettings", "run_reproduce"]
 
 Progress = Callable[[str, int], Callable[[int, float, float], None]]
 
@@ -85,6 +86,51 @@ class ReproduceSettings:
 
 
 @dataclass(frozen=True)
+class ReproduceRun:
+    """What :func:`run_reproduce` produced.
+
+    Attributes
+    ----------
+    seed : int
+    files : list of str
+        Every file written, in order (``report.md`` last but for ``reproduce.json``).
+    sampling, passive, workspace : dict
+        Fig. 3(a)'s samples (n, converged, reach range [m], time [s]), Fig. 3(b)'s passive solve and the
+        workspace section, JSON-ready.
+    seconds : float
+        The whole run [s].
+    ga : dict of int to ReachResult
+        The GA under the paper's load, by population.
+    payload : ReachResult
+        The GA under a vertical payload.
+    bounds_study : list of (float, ReachResult)
+        The optimum by upper tension bound [N].
+    verdicts : list of ModelVerdict
+        The optimum under the better models.
+    """
+
+    seed: int
+    files: list[str]
+    sampling: dict[str, Any]
+    passive: dict[str, Any]
+    workspace: dict[str, Any]
+    seconds: float
+    ga: dict[int, ReachResult]
+    payload: ReachResult
+    bounds_study: list[tuple[float, ReachResult]]
+    verdicts: list[ModelVerdict]
+
+    def summary(self) -> dict[str, Any]:
+        """Seed, files, sampling, passive solve and workspace section (``reproduce.json``'s ``summary``)."""
+        return {"seed": self.seed, "files": list(self.files), "sampling": self.sampling, "passive": self.passive,
+                "workspace": self.workspace}
+
+    def to_dict(self) -> dict[str, Any]:
+        """:meth:`summary` and the run's time [s]."""
+        return {**self.summary(), "seconds": self.seconds}
+
+
+@dataclass(frozen=True)
 class _Job:
     problem: ReachProblem
     pop: int
@@ -112,7 +158,7 @@ def _sample_and_passive(robot: Robot, loads: Loads, bounds: TensionBounds, s: Re
                         out: Path, summary: dict[str, Any], note: Callable) -> None:
     """Fig. 3(a) and Fig. 4 (random samples under the paper's load), Fig. 3(b) (no tension, the load alone)."""
     cb = note("sampling", 1)
-    sample = sample_into(out, robot, loads, bounds, s.n_samples, seed)
+    sample = sample_into(out, SampleSettings(n=s.n_samples, seed=seed), robot=robot, loads=loads, bounds=bounds)
     if cb:
         cb(1, 0.0, 0.0)
     summary["files"] += sample.files
@@ -121,7 +167,7 @@ def _sample_and_passive(robot: Robot, loads: Loads, bounds: TensionBounds, s: Re
                            "reach_max": float(np.nanmax(smp.reach)), "reach_min": float(np.nanmin(smp.reach))}
     passive = solve(robot, loads)
     if passive.converged:
-        ax = plot_robot(passive, robot, loads=load_arrows(passive, loads, robot))
+        ax = plot_robot(robot, passive, loads=load_arrows(passive, loads, robot))
         ax.set_title(f"no tension; tip force {tuple(loads.tip_force.tolist())} N (purple),\n"
                      f"moment {tuple(loads.tip_moment.tolist())} N m (orange: axis)")
         summary["files"] += save_figure(ax.figure, out, "fig3b_loaded")
@@ -182,18 +228,19 @@ def _run_jobs(jobs: dict[str, _Job], s: ReproduceSettings, seed: int, note: Call
 
 
 def run_reproduce(robot: Robot, out: str | Path, *, seed: int = 0, progress: Progress | None = None,
-                  settings: ReproduceSettings | None = None) -> dict[str, Any]:
+                  settings: ReproduceSettings | None = None) -> ReproduceRun:
     """The paper's whole study (sections 3-4) on ``robot``; writes figures, data and ``report.md`` in ``out``.
 
     ``out`` follows the output-folder rule (:func:`output_folder`): Ctrl-C keeps the figures and data
-    finished so far, with the manifest's status ``interrupted``.
+    finished so far, with the manifest's status ``interrupted``. ``progress(stage, total)`` returns the GA's
+    callback for each stage.
     """
     s = settings or ReproduceSettings()
     with output_folder(out, "reproduce", {"seed": seed, **dataclasses.asdict(s)}) as run:
         return _reproduce(robot, run.staging, seed, progress, s)
 
 
-def _reproduce(robot: Robot, out: Path, seed: int, progress: Progress | None, s: ReproduceSettings) -> dict[str, Any]:
+def _reproduce(robot: Robot, out: Path, seed: int, progress: Progress | None, s: ReproduceSettings) -> ReproduceRun:
     t_start = time.perf_counter()
     bounds = paper_bounds(robot.n_tendons)
     jobs = _jobs(robot, s)
@@ -223,21 +270,21 @@ def _reproduce(robot: Robot, out: Path, seed: int, progress: Progress | None, s:
         bound_study = _bounds_study(robot, jobs, done, ga, s)
         verdicts = later.result()
     with saving():  # everything is computed: Ctrl-C from here waits for the report
-        seconds = time.perf_counter() - t_start
-        report = reproduce_report(robot, summary, ga, pay, bound_study, bounds, seconds, s,
-                                  [*verdict_text(best, verdicts), *workspace_text(summary["workspace"], s)])
+        run = ReproduceRun(seed, summary["files"], summary["sampling"], summary["passive"], summary["workspace"],
+                           time.perf_counter() - t_start, ga, pay, bound_study, verdicts)
+        report = reproduce_report(robot, run, bounds, s, [*verdict_text(best, verdicts),
+                                                          *workspace_text(run.workspace, s)])
         atomic_write_text(out / "report.md", report)
-        summary["files"].append("report.md")
+        run = dataclasses.replace(run, files=[*run.files, "report.md"])
         write_json(out / "reproduce.json", {
             "inputs": inputs_record(robot, loaded.loads, bounds=bounds.to_dict(), seed=seed,
                                     payload_mass_kg=PAYLOAD_MASS, **dataclasses.asdict(s),
                                     solver=options_record(loaded.model, loaded.options)),
-            "summary": summary,
+            "summary": run.summary(),
             "ga": {str(p): r.to_dict() for p, r in ga.items()},
             "payload": pay.to_dict(),
             "bounds_study": [{"upper": hi, **r.to_dict()} for hi, r in bound_study],
             "better_models": [v.to_dict() for v in verdicts],
-            "seconds": seconds,
+            "seconds": run.seconds,
         })
-    summary["seconds"] = seconds
-    return summary
+    return run

@@ -1,0 +1,61 @@
+"""The ``tdcr`` command. Nothing in the package imports it.
+
+One module per command (or pair of commands): ``solve``, ``sample``, ``workspace``, ``optimize``, ``reproduce``,
+``compare`` (with ``accuracy``), ``designs``, ``robot``; each declares its options (``add_parser``) and runs
+(``run``): it turns the options into the study's settings (:mod:`pytdcr.study`), calls the library and prints.
+The options the commands share are declared once (:mod:`._args`); how a command runs, Ctrl-C and the exit
+status are in :mod:`._runtime`: 0 success, 1 not converged, 2 bad input, 70 internal error (a bug), 75 the
+compute went away under a resumable run, 130 interrupted. The study and the heavy libraries are imported when
+a command runs, not for ``--help``.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import threading
+from collections.abc import Sequence
+
+from . import compare, designs, optimize, reproduce, robot, sample, solve, workspace
+from ._args import FLAGS, Parser, glue_negative_values
+from ._runtime import EXIT_INTERRUPTED, run, terminate
+
+__all__ = ["build_parser", "entry", "main"]
+
+
+def build_parser() -> Parser:
+    """The argument parser of ``tdcr``."""
+    p = Parser(prog="tdcr", description="Statics and workspace of tendon-driven continuum robots.")
+    sub = p.add_subparsers(dest="command", required=True)
+    for add in (solve.add_parser, sample.add_parser, workspace.add_parser, optimize.add_parser,
+                reproduce.add_parser, compare.add_parser, compare.add_accuracy_parser, designs.add_parser,
+                robot.add_parser):
+        add(sub)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``tdcr``; returns the exit status (0 success, 1 not converged, 2 bad input, 130 Ctrl-C,
+    75 the compute went away under a resumable run, 70 a bug).
+
+    Arguments are checked before any work starts; errors are one line on stderr. The command line writes
+    figures to files and never opens a window: it alone picks matplotlib's Agg backend (unless
+    ``MPLBACKEND`` says otherwise). Set ``PYTDCR_DEBUG=1`` to see the traceback behind an error message.
+    """
+    os.environ.setdefault("MPLBACKEND", "Agg")
+    args = sys.argv[1:] if argv is None else argv
+    return run(lambda: build_parser().parse_args(glue_negative_values(args)), FLAGS)
+
+
+def entry() -> None:
+    """The console script: :func:`main`, with SIGTERM treated as Ctrl-C; after an interrupt the process leaves
+    without waiting for worker threads still finishing a chunk (everything saved has been written)."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, terminate)
+    code = main()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    if code == EXIT_INTERRUPTED:
+        os._exit(code)
+    sys.exit(code)

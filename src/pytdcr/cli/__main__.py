@@ -1,0 +1,5 @@
+"""``python -m pytdcr.cli``: the ``tdcr`` console script."""
+
+from . import entry
+
+entry()

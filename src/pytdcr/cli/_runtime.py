@@ -1,0 +1,153 @@
+"""How a ``tdcr`` command runs: in a worker thread, Ctrl-C turned into a cancellation, errors on one line, and
+the exit status.
+
+Exit status:
+
+- 0 success;
+- 1 solved but not converged (a single solve, a batch where nothing converged, a search that found no
+  converged tension vector, a design study where every design failed);
+- 2 bad input (one line on stderr naming what is wrong);
+- 70 internal error: a bug in pytdcr (sysexits' EX_SOFTWARE; one line, ``PYTDCR_DEBUG=1`` shows the traceback);
+- 75 the compute went away under a run that resumes (a design study's worker processes died; sysexits'
+  EX_TEMPFAIL: run the same command again);
+- 130 interrupted (Ctrl-C or SIGTERM: one line saying what was saved).
+
+The command runs in a worker thread; the main thread waits for it and turns Ctrl-C into a cancellation the
+solvers check between small chunks of work (:func:`pytdcr.runtime.cancellable`), so every command stops within
+about a second and saves what it has (:func:`pytdcr.runtime.output_folder`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextvars
+import os
+import sys
+import threading
+from collections.abc import Callable
+from typing import Any
+
+from ..runtime import cancellable
+from ..validate import SettingsError, show
+
+__all__ = ["EXIT_BAD_INPUT", "EXIT_INTERNAL", "EXIT_INTERRUPTED", "EXIT_NOT_CONVERGED", "EXIT_OK", "EXIT_TRY_AGAIN",
+           "SAVE_GRACE_S", "CliError", "one_line", "run", "terminate"]
+
+#: success
+EXIT_OK = 0
+#: solved, but not converged (or nothing converged)
+EXIT_NOT_CONVERGED = 1
+#: bad input
+EXIT_BAD_INPUT = 2
+#: a bug in pytdcr (sysexits' EX_SOFTWARE)
+EXIT_INTERNAL = 70
+#: the compute went away under a run that resumes (sysexits' EX_TEMPFAIL: try again)
+EXIT_TRY_AGAIN = 75
+#: interrupted (Ctrl-C, SIGTERM)
+EXIT_INTERRUPTED = 130
+
+#: how long the main thread lets an interrupted command save what it has before it stops waiting [s]
+SAVE_GRACE_S = 0.6
+
+
+class CliError(Exception):
+    """Bad command-line input: reported on one line, exit status 2."""
+
+
+class _Interrupted(Exception):
+    """The command was interrupted; ``str()`` says what was saved."""
+
+
+def one_line(message: object, limit: int = 600) -> str:
+    """A message on one line: newlines folded, control characters escaped, at most ``limit`` characters."""
+    text = " ".join(str(message).split())
+    return show(text, limit)[1:-1]
+
+
+def _run_command(args: argparse.Namespace) -> int:
+    """Run the chosen command in a worker thread within a cancellation scope; Ctrl-C here cancels it.
+
+    The main thread waits on an event, not on ``Thread.join`` (an interrupted join can leave the thread
+    reported as finished while it still runs).
+    """
+    outcome: dict[str, Any] = {}
+    done = threading.Event()
+
+    def target() -> None:
+        try:
+            outcome["code"] = int(args.func(args))
+        except BaseException as err:  # handed to the main thread as it is
+            outcome["error"] = err
+        finally:
+            done.set()
+
+    with cancellable() as scope:
+        threading.Thread(target=contextvars.copy_context().run, args=(target,), name="tdcr-command",
+                         daemon=True).start()
+        try:
+            while not done.wait(0.1):
+                pass
+        except KeyboardInterrupt:
+            scope.cancel()
+            try:
+                if not done.wait(SAVE_GRACE_S):
+                    if not scope.saving.is_set():  # still inside one compiled call, with nothing to save
+                        raise _Interrupted("nothing saved")
+                    print("tdcr: interrupted; saving what was finished (Ctrl-C again to leave at once)",
+                          file=sys.stderr, flush=True)
+                    while not done.wait(0.1):
+                        pass
+            except KeyboardInterrupt:
+                raise _Interrupted("left at once; nothing more saved") from None
+            err = outcome.get("error")
+            if err is None:
+                raise _Interrupted("the run had finished; everything it wrote was saved") from None
+            raise _Interrupted(getattr(err, "message", None) or "nothing saved") from None
+    err = outcome.get("error")
+    if err is None:
+        return outcome["code"]
+    if isinstance(err, KeyboardInterrupt):
+        raise _Interrupted(getattr(err, "message", None) or "nothing saved") from None
+    raise err
+
+
+def run(parse: Callable[[], argparse.Namespace], flags: dict[str, str]) -> int:
+    """Parse the arguments with ``parse`` and run the command they name; returns the exit status.
+
+    Every error is one line on stderr; a :class:`~pytdcr.validate.SettingsError` calls each setting by its
+    option (``flags``: field name to option). Set ``PYTDCR_DEBUG=1`` to see the traceback behind an error.
+    """
+    try:
+        return _run_command(parse())
+    except _Interrupted as stop:
+        print(f"tdcr: interrupted; {one_line(stop)}", file=sys.stderr, flush=True)
+        return EXIT_INTERRUPTED
+    except KeyboardInterrupt:
+        print("tdcr: interrupted; nothing saved", file=sys.stderr, flush=True)
+        return EXIT_INTERRUPTED
+    except (CliError, ValueError, TypeError, OSError, MemoryError) as err:
+        if os.environ.get("PYTDCR_DEBUG"):
+            raise
+        text = err.worded(flags) if isinstance(err, SettingsError) else err
+        print(f"tdcr: error: {one_line(text)}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except Exception as err:  # a search with nothing converged, or a bug: one line, no traceback unless asked
+        from ..designs import WorkersLost
+        from ..optimize import SearchFailed
+
+        if isinstance(err, SearchFailed):
+            print(f"tdcr: {one_line(err)}", file=sys.stderr)
+            return EXIT_NOT_CONVERGED
+        if isinstance(err, WorkersLost):
+            print(f"tdcr: {one_line(err)}", file=sys.stderr)
+            return EXIT_TRY_AGAIN
+        if os.environ.get("PYTDCR_DEBUG"):
+            raise
+        print(f"tdcr: internal error: {type(err).__name__}: {one_line(err, 300)} (a bug in pytdcr: please report "
+              "it; PYTDCR_DEBUG=1 shows the traceback)", file=sys.stderr)
+        return EXIT_INTERNAL
+
+
+def terminate(_signum: int, _frame: Any) -> None:
+    """SIGTERM's handler: the same as Ctrl-C."""
+    raise KeyboardInterrupt

@@ -1,0 +1,71 @@
+"""``tdcr designs``: a design study (a workspace study per design) on local processes or a Dask cluster;
+resumable."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from ..validate import escape_controls
+from ._args import add_out
+from ._progress import Bar
+from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK, CliError
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub: Any) -> None:
+    """The ``designs`` command and its options."""
+    d = sub.add_parser("designs", help="a design study: a workspace study per design, on local processes or a "
+                       "Dask cluster; resumable")
+    d.add_argument("study", help="the study file (TOML; see examples/design_study_small.toml)")
+    add_out(d, "out/designs", "output folder; a stopped study there resumes [out/designs]")
+    d.add_argument("--scheduler", help="a Dask scheduler's address (tcp://host:8786) to run on; default: local "
+                   "processes")
+    d.add_argument("--workers", type=int, help="local processes [all cores]")
+    d.add_argument("--restart", action="store_true", help="discard what the folder holds and start again")
+    d.add_argument("--no-figures", action="store_true", help="write no figures (the table and report only)")
+    d.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """The design study; print the best design per load case, and what was written."""
+    from ..designs import load_study, run_designs
+    from ..designs._run import format_measure  # TODO(merge): from pytdcr.designs, once it is exported there
+
+    study, robot, text = load_study(args.study)
+    if args.workers is not None and not 1 <= args.workers <= 4096:
+        raise CliError(f"--workers = {args.workers}: must be in [1, 4096]")
+    bar = Bar("designs", 0, "design")
+
+    def progress(done: int, failed: int, total: int) -> None:
+        if bar.bar is None:
+            bar.total = total
+            bar.step(done, f"failed={failed}")
+        else:
+            bar.bar.total = total  # the optimiser's total is an upper bound until it ends
+            bar.step(done - bar.bar.n, f"failed={failed}")
+
+    try:
+        res = run_designs(study, robot, args.out, study_text=text, scheduler=args.scheduler, workers=args.workers,
+                          restart=args.restart, progress=progress, figures=not args.no_figures)
+    finally:
+        bar.__exit__()
+    s = res.summary
+    print(f"design study '{study.name}': {s['designs']} designs, {s['designs_computed']} computed, "
+          f"{s['designs_reused']} reused, {s['designs_failed']} failed, on {s['executor']} in {s['seconds']:.1f} s")
+    t = res.table
+    for b in s["best"]:
+        m = b["measure"]
+        ref = t[(t["load_case"] == b["load_case"]) & (t["design"] == -1) & (t["status"] == "ok")]
+        err = f" ± {format_measure(b['error'], m)}" if b["error"] is not None else ""
+        versus = f" (base robot {format_measure(ref[m].iloc[0], m)})" if not ref.empty else ""
+        print(f"  {escape_controls(b['load_case'])}: best by {b['goal']} {m}: design {b['design']}, "
+              f"{format_measure(b['value'], m)}{err}{versus}")
+    if s.get("warnings"):
+        print("  warning: at this budget the volumes are a screening index, not a measurement: their errors exceed "
+              "the margins between the leading designs (see report.md)")
+    figures = ", figures" if s.get("figures") else ""
+    print(f"wrote designs.parquet, designs.csv, timings.csv, summary.json, report.md, best/{figures} in "
+          f"{escape_controls(str(res.path))}")
+    return EXIT_OK if s["designs_failed"] < s["designs"] else EXIT_NOT_CONVERGED

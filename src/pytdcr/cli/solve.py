@@ -1,0 +1,72 @@
+"""``tdcr solve``: static equilibrium under tendon tensions and tip loads."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from ..runtime import dump_json
+from ..statics import DEFAULT_ATOL
+from ._args import add_model, add_robot_and_loads, load_spec, model_spec, parse_floats, real_type, robot_spec
+from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub: Any) -> None:
+    """The ``solve`` command and its options."""
+    s = sub.add_parser("solve", help="static equilibrium under tendon tensions and tip loads")
+    add_robot_and_loads(s)
+    add_model(s)
+    s.add_argument("--tensions", required=True, metavar="T1,...,Tn", help="actuator tensions [N]")
+    s.add_argument("--atol", type=real_type, default=DEFAULT_ATOL,
+                   help=f"convergence tolerance on max |residual| [N m] [{DEFAULT_ATOL:g}]")
+    s.add_argument("--json", action="store_true", help="print one JSON object")
+    s.add_argument("--plot", metavar="FILE", help="write a 3D figure of the robot (PNG, PDF, SVG)")
+    s.set_defaults(func=run)
+
+
+def stability_text(st: Any) -> str:
+    """One line on the equilibrium's static stability."""
+    if st is None:
+        return "stability: not tested by this model"
+    words = ("stable" if st.stable else
+             f"UNSTABLE: {st.n_real_nonpositive} real eigenvalue(s) of the tangent stiffness <= 0 "
+             f"(lowest {st.min_real_eigenvalue:.3g})")
+    if st.flutter_pairs:
+        z = st.least_damped
+        words += (f"; {st.flutter_pairs} complex pair(s) with a negative real part (least damped {z.real:.3g} "
+                  f"+/- {abs(z.imag):.3g}i: possible flutter, which a static model cannot decide)")
+    return f"stability: {words}"
+
+
+def run(args: argparse.Namespace) -> int:
+    """Solve; print a summary (or one JSON object) and write the figure asked for."""
+    from ..study import SolveSettings, check_figure_path, run_solve
+
+    if args.plot is not None:
+        check_figure_path(args.plot)
+    settings = SolveSettings(tensions=tuple(parse_floats(args.tensions, "--tensions")), robot=robot_spec(args),
+                             loads=load_spec(args), model=model_spec(args, atol=args.atol))
+    res = run_solve(settings, plot=args.plot)
+    robot, sol = res.robot, res.solution
+    if args.json:
+        print(dump_json(res.to_dict()))
+    else:
+        status = "converged" if sol.converged else "NOT converged"
+        print(f"robot {robot.name}: {robot.n_disks} disks, {robot.n_tendons} tendons; {res.model.name} model; "
+              f"{status}")
+        print(f"  max |residual| {sol.residual:.3e} N m, {sol.iterations} {res.model.iteration_unit}, "
+              f"{sol.load_steps} load steps, {sol.seconds * 1e3:.2f} ms")
+        if sol.failure:
+            print(f"  refused: {sol.failure}")
+        if sol.converged:
+            p = sol.tip_position
+            print(f"  tip position  [{p[0]: .6f}, {p[1]: .6f}, {p[2]: .6f}] m, |p| = {sol.reach:.6f} m")
+            z = sol.tip_rotation[:, 2]
+            print(f"  tip direction [{z[0]: .4f}, {z[1]: .4f}, {z[2]: .4f}]")
+            print(f"  {stability_text(sol.stability)}")
+    if args.plot is not None and not sol.converged:
+        print("tdcr: not plotting: the solve did not converge", file=sys.stderr)
+    return EXIT_OK if sol.converged else EXIT_NOT_CONVERGED

@@ -1,0 +1,105 @@
+"""``tdcr workspace``: the feasible static workspace as a region (volume, boundary, realisability), under the
+loads given or, with ``--compare-loads``, under each of the paper's load cases."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from ..paper import workspace_load_cases
+from ..validate import escape_controls
+from ._args import (
+    add_bounds,
+    add_model,
+    add_n,
+    add_out,
+    add_robot_and_loads,
+    add_seed,
+    bounds_spec,
+    check_out,
+    count_type,
+    load_spec,
+    model_spec,
+    real_type,
+    robot_spec,
+)
+from ._progress import Bars
+from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK, CliError
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub: Any) -> None:
+    """The ``workspace`` command and its options."""
+    ws = sub.add_parser("workspace", help="the feasible static workspace as a region: volume, boundary, "
+                        "realisability")
+    add_robot_and_loads(ws)
+    add_model(ws)
+    add_bounds(ws)
+    add_n(ws, 4000, "base (Sobol) samples")
+    add_seed(ws)
+    ws.add_argument("--voxel", type=real_type, default=None, help="voxel edge [m] [robot length / 32]")
+    ws.add_argument("--no-warm", action="store_true", help="every sample along the loading path (no warm starts)")
+    ws.add_argument("--no-search", action="store_true", help="no boundary search: the region of the samples alone")
+    ws.add_argument("--budget", type=count_type, default=None,
+                    help="the boundary search's budget of solves [25 n]")
+    ws.add_argument("--directions", type=int, default=200,
+                    help="directions of the support function h(d) on a Fibonacci sphere; 0: none [200]")
+    ws.add_argument("--compare-loads", action="store_true",
+                    help="compare load cases: no load, gravity only, payloads 5/10/20 g, the paper's wrench, and "
+                    "--tip-force/--tip-moment when given; one sub-folder each")
+    add_out(ws, "out/workspace")
+    ws.set_defaults(func=run)
+
+
+def _workspace_lines(name: str, s: dict[str, Any]) -> list[str]:
+    out = [f"  {name}:"]
+    for label, d in (("FSW", s), ("realisable", s["realisable"])):
+        reach = f"{d['largest_reach_m']:.4f} m" if d["largest_reach_m"] is not None else "none"
+        out.append(f"    {label}: volume {d['volume_m3'] * 1e6:.0f} ± {d['volume_err_m3'] * 1e6:.0f} cm^3, largest "
+                   f"reach {reach}")
+    c = s["counts"]
+    search = s.get("boundary_search") or {}
+    out.append(f"    {c['converged']} of {c['solved']} converged, {c['unstable']} unstable; warm starts: "
+               f"{s['warm_start']['mode']}; boundary search: {search.get('solves', 0)} solves, "
+               f"{search.get('stop', 'off')}")
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    """The workspace study; print each case's volumes and reach, and what was written."""
+    from ..study import BoundsSpec, run_workspace, run_workspace_compare
+
+    out = check_out(args.out)
+    robot = robot_spec(args).build()
+    loads = load_spec(args).build(robot)
+    bounds = (bounds_spec(args) or BoundsSpec()).build(robot)
+    m, options = model_spec(args).resolve(robot, loads)
+    if args.voxel is not None and not (1e-4 <= args.voxel <= robot.length):
+        raise CliError(f"--voxel = {args.voxel:g}: must be in [0.0001, {robot.length:g}] m (the robot's length)")
+    if not 0 <= args.directions <= 100_000:
+        raise CliError(f"--directions = {args.directions}: must be in [0, 100000]")
+    kw = {"model": m.name, "options": options, "voxel": args.voxel, "warm": not args.no_warm,
+          "search": not args.no_search, "budget": args.budget, "directions": args.directions,
+          "command": " ".join(["tdcr", *sys.argv[1:]])}
+    bars = Bars()
+    try:
+        if args.compare_loads:
+            cases = workspace_load_cases(robot, loads)
+            res = run_workspace_compare(robot, cases, bounds, args.n, args.seed, out, progress=bars, **kw)
+        else:
+            res = run_workspace(robot, loads, bounds, args.n, args.seed, out, progress=bars, **kw)
+    finally:
+        bars.close()
+    print(f"workspace of robot '{robot.name}' (n {args.n}, seed {args.seed}, bounds "
+          f"{bounds.lower.min():g} to {bounds.upper.max():g} N):")
+    for case in res.cases:
+        print("\n".join(_workspace_lines(case.name, case.summary)))
+    print(f"wrote {', '.join(res.files)} in {escape_controls(str(out))}")
+    for case in res.cases:
+        for w in case.summary["warnings"]:
+            print(f"tdcr: {case.name}: {w}", file=sys.stderr)
+    if any(c.summary["mesh"] is None for c in res.cases):
+        return EXIT_NOT_CONVERGED
+    return EXIT_OK

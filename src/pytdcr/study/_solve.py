@@ -1,0 +1,88 @@
+"""``tdcr solve``: one static equilibrium, and a figure of it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..design import Robot
+from ..loads import Loads
+from ..plotting import plot_robot, save_figure_as
+from ..results import StaticSolution
+from ..statics import Model, solve
+from ..validate import SettingsError, show_path
+from ._settings import SolveSettings
+
+__all__ = ["FIGURE_SUFFIXES", "SolveRun", "check_figure_path", "run_solve"]
+
+#: the figure formats a file name may ask for
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
+
+
+@dataclass(frozen=True)
+class SolveRun:
+    """What :func:`run_solve` produced.
+
+    Attributes
+    ----------
+    robot : Robot
+    loads : Loads
+        Tensions and external loads solved.
+    model : Model
+        The model that solved them.
+    solution : StaticSolution
+    plot : Path or None
+        The figure written (None when none was asked for or the solve did not converge).
+    """
+
+    robot: Robot
+    loads: Loads
+    model: Model
+    solution: StaticSolution
+    plot: Path | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready: the robot's name and :meth:`StaticSolution.to_dict` (what ``tdcr solve --json`` prints)."""
+        return {"robot": self.robot.name, **self.solution.to_dict()}
+
+
+def check_figure_path(path: str | Path) -> Path:
+    """A figure's file: a name ending in .png, .pdf or .svg whose folder exists or can be made, never a folder
+    (SettingsError naming ``plot``)."""
+    p = Path(path)
+    if p.is_dir():
+        raise SettingsError("plot", f" {show_path(path)}: is a folder; give a file name ending in .png, .pdf or .svg")
+    if p.suffix.lower() not in FIGURE_SUFFIXES:
+        raise SettingsError("plot", f" {show_path(path)}: the file name must end in .png, .pdf or .svg")
+    if p.parent.exists() and not p.parent.is_dir():
+        raise SettingsError("plot", f" {show_path(path)}: {show_path(p.parent)} is a file, not a folder")
+    return p
+
+
+def run_solve(settings: SolveSettings, plot: str | Path | None = None) -> SolveRun:
+    """Solve the settings' tensions under their loads; with ``plot``, a 3D figure of the converged robot there
+    (PNG, PDF or SVG by its suffix; whole or absent). Everything is checked before the solve."""
+    figure = check_figure_path(plot) if plot is not None else None
+    robot = settings.robot.build()
+    tensions = settings.tensions_for(robot)
+    loads = settings.loads.build(robot).with_tensions(tensions)
+    model, options = settings.model.resolve(robot, loads)
+    sol = solve(robot, loads, model=model, options=options)
+    if figure is None or not sol.converged:
+        return SolveRun(robot, loads, model, sol)
+    _plot_solution(sol, robot, loads, figure)
+    return SolveRun(robot, loads, model, sol, figure)
+
+
+def _plot_solution(sol: StaticSolution, robot: Robot, loads: Loads, path: Path) -> None:
+    arrows = []
+    if np.any(loads.tip_force):
+        f = loads.tip_force
+        arrows.append((sol.tip_position, f / np.linalg.norm(f) * 0.25 * robot.length))
+    ax = plot_robot(robot, sol, loads=arrows)
+    ax.set_title(f"{robot.name}: tip at {np.array2string(sol.tip_position, precision=3)} m")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    save_figure_as(ax.figure, path)  # whole or absent

@@ -1,0 +1,331 @@
+"""The groups of settings the runs share, declared once: :class:`RobotSpec` (which robot, its gravity and
+friction), :class:`LoadSpec` (the tip wrench and the friction direction), :class:`ModelSpec` (the static model
+and its options) and :class:`BoundsSpec` (the tension box).
+
+Each is a frozen dataclass whose fields hold the defaults; ``__post_init__`` checks every field and raises
+:class:`~pytdcr.validate.SettingsError` (a ValueError) naming the field, the value and the allowed range. What
+needs the robot (a file's tendon count, the model's capabilities) is checked when the spec is built against
+it, still before any work.
+"""
+
+from __future__ import annotations
+
+import numbers
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..bounds import TensionBounds
+from ..design import ConstantFriction, ExponentialFriction, NoFriction, Robot
+from ..io import load_robot, read_toml
+from ..loads import Loads, check_vector
+from ..paper import DEFAULT_BOUNDS
+from ..statics import Model, configure, get_model, get_models, resolve
+from ..validate import MAX_SEED, SettingsError, as_real_array, check_count, show
+
+__all__ = ["MAX_FRICTION", "BoundsSpec", "LoadSpec", "ModelSpec", "RobotSpec", "RunInputs",
+           "check_flag", "check_seed", "check_type", "count_setting"]
+
+#: the largest constant friction coefficient accepted
+MAX_FRICTION = 10.0
+#: friction laws by name (``RobotSpec.friction``)
+FRICTION_LAWS = {"none": NoFriction, "paper": ExponentialFriction}
+
+
+def count_setting(value: Any, name: str, lo: int = 1, hi: int | None = None) -> int:
+    """``value`` as an int in [lo, hi] (:func:`pytdcr.validate.check_count`), a :class:`SettingsError` naming
+    ``name`` when out of range."""
+    try:
+        return check_count(value, name, lo, hi)
+    except ValueError as err:
+        raise SettingsError.about(name, err) from None
+
+
+def check_seed(seed: Any) -> int:
+    """A random seed: an integer in [0, :data:`MAX_SEED`]."""
+    return count_setting(seed, "seed", 0, MAX_SEED)
+
+
+def check_flag(value: Any, name: str) -> bool:
+    """``value`` as a bool (NumPy's too); TypeError for anything else."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be True or False, got {show(value)}")
+    return bool(value)
+
+
+def check_type(value: Any, kind: type, name: str) -> None:
+    """TypeError unless ``value`` is a ``kind`` (one of the settings' groups, say)."""
+    if not isinstance(value, kind):
+        raise TypeError(f"{name} must be a pytdcr.study.{kind.__name__}, got {type(value).__name__}")
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """Which robot, and what of its own to override.
+
+    Attributes
+    ----------
+    robot : str, Path or Robot
+        A built-in robot (``paper``, ``rao``), a robot TOML file, or a :class:`~pytdcr.Robot`.
+    gravity : bool or None
+        True: -9.81 m/s^2 along base z; False: no gravity; None: the robot's own.
+    friction : str, float or None
+        ``"none"``, ``"paper"`` (mu = 0.689 exp(-0.027 sigma_deg)) or a constant mu in [0, 10]; None: the
+        robot's own law.
+    """
+
+    robot: str | Path | Robot = "paper"
+    gravity: bool | None = None
+    friction: str | float | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.robot, (str, Path, Robot)):
+            raise TypeError(f"robot must be a built-in robot's name, a TOML file or a pytdcr.Robot, got "
+                            f"{type(self.robot).__name__}")
+        if self.gravity is not None:
+            object.__setattr__(self, "gravity", check_flag(self.gravity, "gravity"))
+        f = self.friction
+        if isinstance(f, str):
+            if f.strip().lower() not in FRICTION_LAWS:
+                raise SettingsError("friction", f": expected 'none', 'paper' or a constant mu in [0, "
+                                    f"{MAX_FRICTION:g}], got {show(f)}")
+            object.__setattr__(self, "friction", f.strip().lower())
+        elif f is not None:
+            if isinstance(f, (bool, np.bool_)) or not isinstance(f, numbers.Real):
+                raise TypeError(f"friction must be a law's name or a real number, got {show(f)}")
+            mu = float(f)
+            if not 0.0 <= mu <= MAX_FRICTION:
+                raise SettingsError("friction", f": constant mu must be in [0, {MAX_FRICTION:g}], got {mu}")
+            object.__setattr__(self, "friction", mu)
+
+    @property
+    def explicit_friction(self) -> bool:
+        """A friction law other than none was asked for."""
+        return self.friction is not None and self.friction != "none"
+
+    def build(self) -> Robot:
+        """The robot (:class:`~pytdcr.io.RobotFileError` for a bad file), with the gravity and friction asked."""
+        robot = self.robot if isinstance(self.robot, Robot) else load_robot(str(self.robot))
+        if self.gravity is True:
+            robot = robot.with_gravity((0.0, 0.0, -9.81))
+        elif self.gravity is False:
+            robot = robot.with_gravity(None)
+        if isinstance(self.friction, str):
+            robot = robot.with_friction(FRICTION_LAWS[self.friction]())
+        elif self.friction is not None:
+            robot = robot.with_friction(ConstantFriction(mu0=self.friction))
+        return robot
+
+
+@dataclass(frozen=True)
+class LoadSpec:
+    """The external loads: a tip wrench and the friction direction (the tensions come from the run).
+
+    Attributes
+    ----------
+    tip_force : 3 floats
+        In the base frame [N], each within +/-1e6.
+    tip_moment : 3 floats
+        In the base frame [N m], each within +/-1e6.
+    release : bool
+        Friction for releasing actuators (default: pulling).
+    """
+
+    tip_force: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    tip_moment: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    release: bool = False
+
+    def __post_init__(self) -> None:
+        for name in ("tip_force", "tip_moment"):
+            object.__setattr__(self, name, tuple(float(x) for x in check_vector(getattr(self, name), name)))
+        object.__setattr__(self, "release", check_flag(self.release, "release"))
+
+    @property
+    def has_tip_wrench(self) -> bool:
+        """A tip force or moment is given."""
+        return any(self.tip_force) or any(self.tip_moment)
+
+    def build(self, robot: Robot) -> Loads:
+        """The loads on ``robot``, its tensions zero."""
+        return Loads(np.zeros(robot.n_tendons), tip_force=np.array(self.tip_force),
+                     tip_moment=np.array(self.tip_moment), release=self.release)
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """The static model, by its registered name, and its options.
+
+    Attributes
+    ----------
+    name : str
+        A registered model (:data:`pytdcr.statics.MODELS`).
+    shear_extension : bool
+        Let the backbone shear and stretch (models with that option).
+    atol : float or None
+        Convergence tolerance on max |residual| [N m], in [1e-14, 1e-4]; None: the model's default.
+    """
+
+    name: str = "pcc"
+    shear_extension: bool = False
+    atol: float | None = None
+
+    def __post_init__(self) -> None:
+        get_models([self.name], "model")
+        object.__setattr__(self, "shear_extension", check_flag(self.shear_extension, "shear_extension"))
+        self.options()
+
+    @property
+    def model(self) -> Model:
+        """The registered model."""
+        return get_model(self.name)
+
+    def options(self) -> Any:
+        """The model's default options with these overrides (SettingsError for an option it does not have)."""
+        m = self.model
+        overrides: dict[str, Any] = {}
+        if self.atol is not None:
+            overrides["atol"] = self.atol
+        if self.shear_extension:
+            overrides["shear_extension"] = True
+        known = {f.name for f in fields(m.options_type)}
+        for key in overrides:
+            if key not in known:
+                raise SettingsError(key, f": model '{self.name}' has no such option")
+        return configure(m, **overrides)
+
+    def resolve(self, robot: Robot, loads: Loads | None = None) -> tuple[Model, Any]:
+        """The model and its options, checked by the registry against ``robot`` and ``loads``
+        (:func:`pytdcr.statics.resolve`)."""
+        return resolve(self.model, robot, loads, self.options())
+
+
+@dataclass(frozen=True)
+class BoundsSpec:
+    """The tension box: the same bounds for every tendon, one pair per tendon, or a TOML file.
+
+    Attributes
+    ----------
+    lower, upper : float, sequence of float, or None
+        [N], finite, 0 <= lower <= upper; a number for every tendon or one per tendon; None: 0 and 20 N.
+    file : str, Path or None
+        A TOML file with lists ``lower`` and ``upper``, one entry per tendon [N] (instead of lower and upper).
+    """
+
+    lower: float | tuple[float, ...] | None = None
+    upper: float | tuple[float, ...] | None = None
+    file: str | Path | None = None
+
+    def __post_init__(self) -> None:
+        if self.file is not None:
+            if self.lower is not None or self.upper is not None:
+                raise SettingsError("bounds_file", ": give either a bounds file or lower and upper bounds, not both")
+            return
+        for name in ("lower", "upper"):
+            value = getattr(self, name)
+            if value is None:
+                continue
+            arr = as_real_array(value, f"bounds: {name}")
+            if arr.ndim > 1 or arr.size == 0:
+                raise SettingsError("bounds", f": {name} must be a number or one number per tendon, got {show(value)}")
+            object.__setattr__(self, name, float(arr) if arr.ndim == 0 else tuple(float(x) for x in arr))
+        self._box(1)
+
+    def _box(self, n_tendons: int) -> TensionBounds:
+        lo = np.atleast_1d(DEFAULT_BOUNDS[0] if self.lower is None else self.lower)
+        hi = np.atleast_1d(DEFAULT_BOUNDS[1] if self.upper is None else self.upper)
+        try:
+            if lo.size == 1 and hi.size == 1:
+                return TensionBounds.uniform(n_tendons, lo[0], hi[0])
+            size = max(lo.size, hi.size)
+            return TensionBounds(np.broadcast_to(lo, size) if lo.size == 1 else lo,
+                                 np.broadcast_to(hi, size) if hi.size == 1 else hi)
+        except ValueError as err:
+            raise SettingsError.about("bounds", err) from None
+
+    def build(self, robot: Robot) -> TensionBounds:
+        """The bounds for ``robot``'s tendons (SettingsError naming ``bounds`` or ``bounds_file``)."""
+        if self.file is not None:
+            return self._from_file(robot)
+        b = self._box(robot.n_tendons)
+        try:
+            b.check_robot(robot)
+        except ValueError as err:
+            raise SettingsError.about("bounds", err) from None
+        return b
+
+    def _from_file(self, robot: Robot) -> TensionBounds:
+        nt = robot.n_tendons
+        try:
+            data = read_toml(self.file, "bounds_file")  # type: ignore[arg-type]
+        except ValueError as err:
+            raise SettingsError.about("bounds_file", err) from None
+        unknown = set(data) - {"lower", "upper"}
+        if unknown:
+            raise SettingsError("bounds_file", f": unknown key(s) {show(sorted(unknown))}; allowed: lower, upper")
+        if "lower" not in data or "upper" not in data:
+            raise SettingsError("bounds_file", ": needs both 'lower' and 'upper' lists")
+        try:
+            lo = as_real_array(data["lower"], "bounds_file: lower").reshape(-1)
+            hi = as_real_array(data["upper"], "bounds_file: upper").reshape(-1)
+        except TypeError as err:
+            raise SettingsError("bounds_file", f"{SettingsError.about('bounds_file', err).text}; 'lower' and "
+                                "'upper' must be lists of numbers") from None
+        except ValueError as err:
+            raise SettingsError.about("bounds_file", err) from None
+        if lo.size != nt or hi.size != nt:
+            raise SettingsError("bounds_file", f": robot '{robot.name}' has {nt} tendons; lower has {lo.size} "
+                                f"entries, upper {hi.size}")
+        try:
+            return TensionBounds(lo, hi)
+        except ValueError as err:
+            raise SettingsError.about("bounds", err) from None
+
+
+@dataclass(frozen=True)
+class RunInputs:
+    """What a run's settings build: the robot, its external loads, the tension bounds and the resolved model.
+
+    Attributes
+    ----------
+    robot : Robot
+    loads : Loads
+        External loads and friction direction (tensions zero).
+    bounds : TensionBounds
+    model : Model
+    options : the model's options type
+    """
+
+    robot: Robot
+    loads: Loads
+    bounds: TensionBounds
+    model: Model
+    options: Any
+
+
+@dataclass(frozen=True)
+class _Buildable:
+    """Settings with the robot, loads, model and bounds groups, built by :meth:`build`."""
+
+    robot: RobotSpec = field(default_factory=RobotSpec)
+    loads: LoadSpec = field(default_factory=LoadSpec)
+    model: ModelSpec = field(default_factory=ModelSpec)
+    bounds: BoundsSpec = field(default_factory=BoundsSpec)
+
+    def __post_init__(self) -> None:
+        for name, kind in (("robot", RobotSpec), ("loads", LoadSpec), ("model", ModelSpec), ("bounds", BoundsSpec)):
+            check_type(getattr(self, name), kind, name)
+
+    def build(self, robot: Robot | None = None, loads: Loads | None = None,
+              bounds: TensionBounds | None = None) -> RunInputs:
+        """The run's inputs, each built from its spec unless given (in this order: robot, loads, bounds, then the
+        model resolved against them)."""
+        robot = robot if robot is not None else self.robot.build()
+        loads = loads if loads is not None else self.loads.build(robot)
+        bounds = bounds if bounds is not None else self.bounds.build(robot)
+        if not isinstance(bounds, TensionBounds):
+            raise TypeError(f"bounds must be a pytdcr.TensionBounds, got {type(bounds).__name__}")
+        model, options = self.model.resolve(robot, loads)
+        return RunInputs(robot, loads, bounds, model, options)
+
