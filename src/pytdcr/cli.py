@@ -303,8 +303,7 @@ class _Bars:
 
 
 def _cmd_designs(args: argparse.Namespace) -> int:
-    from .designs import load_study, run_designs
-    from .designs._run import format_measure
+    from .designs import DesignsRunOptions, format_measure, load_study, run_designs
 
     study, robot, text = load_study(args.study)
     if args.workers is not None and not 1 <= args.workers <= 4096:
@@ -320,8 +319,9 @@ def _cmd_designs(args: argparse.Namespace) -> int:
             bar.step(done - bar.bar.n, f"failed={failed}")
 
     try:
-        run = run_designs(study, robot, args.out, study_text=text, scheduler=args.scheduler, workers=args.workers,
-                          restart=args.restart, progress=progress, figures=not args.no_figures)
+        run = run_designs(study, robot, args.out, study_text=text, options=DesignsRunOptions(
+            scheduler=args.scheduler, workers=args.workers, restart=args.restart, progress=progress,
+            figures=not args.no_figures))
     finally:
         bar.__exit__()
     s = run.summary
@@ -360,26 +360,28 @@ def _workspace_lines(name: str, s: dict[str, Any]) -> list[str]:
 
 def _cmd_workspace(args: argparse.Namespace) -> int:
     from .paper import workspace_load_cases
-    from .study import run_workspace, run_workspace_compare
+    from .region import WorkspaceSettings
+    from .study import WorkspaceRunOptions, run_workspace, run_workspace_compare
 
     out = _check_out(args.out)
     setup = model_from_args(args)
     bounds = bounds_from_args(args, setup.robot)
     model, options = solver_from_args(args, setup.robot, setup.loads)
-    if args.voxel is not None and not (1e-4 <= args.voxel <= setup.robot.length):
-        raise CliError(f"--voxel = {args.voxel:g}: must be in [0.0001, {setup.robot.length:g}] m (the robot's length)")
-    if not 0 <= args.directions <= 100_000:
-        raise CliError(f"--directions = {args.directions}: must be in [0, 100000]")
-    kw = {"model": model, "options": options, "voxel": args.voxel, "warm": not args.no_warm,
-          "search": not args.no_search, "budget": args.budget, "directions": args.directions,
-          "command": " ".join(["tdcr", *sys.argv[1:]])}
+    try:  # the settings check their ranges; the message names the option
+        settings = WorkspaceSettings(n=args.n, seed=args.seed, voxel=args.voxel, warm=not args.no_warm,
+                                     search=not args.no_search, budget=args.budget,
+                                     directions=args.directions).check(setup.robot)
+    except ValueError as err:
+        raise CliError(f"--{err}") from None
     bars = _Bars()
+    kw = {"model": model, "options": options,
+          "run_options": WorkspaceRunOptions(command=" ".join(["tdcr", *sys.argv[1:]]), progress=bars)}
     try:
         if args.compare_loads:
             cases = workspace_load_cases(setup.robot, setup.loads)
-            run = run_workspace_compare(setup.robot, cases, bounds, args.n, args.seed, out, progress=bars, **kw)
+            run = run_workspace_compare(setup.robot, cases, bounds, settings, out, **kw)
         else:
-            run = run_workspace(setup.robot, setup.loads, bounds, args.n, args.seed, out, progress=bars, **kw)
+            run = run_workspace(setup.robot, setup.loads, bounds, settings, out, **kw)
     finally:
         bars.close()
     print(f"workspace of robot '{setup.robot.name}' (n {args.n}, seed {args.seed}, bounds "

@@ -13,8 +13,8 @@ from ._accuracy import run_accuracy
 from ._output import inputs_record
 from ._reproduce import ReproduceSettings, run_reproduce
 from ._runs import SampleRun, run_compare, run_optimize, run_sample, sample_into, write_optimize
-from ._workspace import WorkspaceCase, WorkspaceRun, run_workspace, run_workspace_compare
+from ._workspace import WorkspaceCase, WorkspaceRun, WorkspaceRunOptions, run_workspace, run_workspace_compare
 
-__all__ = ["ReproduceSettings", "SampleRun", "WorkspaceCase", "WorkspaceRun", "inputs_record", "run_accuracy",
-           "run_compare", "run_optimize", "run_reproduce", "run_sample", "run_workspace", "run_workspace_compare",
-           "sample_into", "write_optimize"]
+__all__ = ["ReproduceSettings", "SampleRun", "WorkspaceCase", "WorkspaceRun", "WorkspaceRunOptions", "inputs_record",
+           "run_accuracy", "run_compare", "run_optimize", "run_reproduce", "run_sample", "run_workspace",
+           "run_workspace_compare", "sample_into", "write_optimize"]
