@@ -3,8 +3,8 @@
 Sobol studies of the paper robot (its budget: ``--samples`` samples, ``--search`` search solves, under the
 paper's wrench) of ``--designs`` and of twice as many designs are each run into a fresh folder, ``--repeat``
 times, on:
-- 1 local process, 2 local processes (``run_designs(workers=...)``, spawned: their start-up is in the wall time);
-- a ``distributed.LocalCluster`` of 2 single-threaded worker processes (``run_designs(scheduler=...)``), started
+- 1 local process, 2 local processes (``DesignsRunOptions(workers=...)``, spawned: their start-up is in the wall time);
+- a ``distributed.LocalCluster`` of 2 single-threaded worker processes (``DesignsRunOptions(scheduler=...)``), started
   once before the runs (a cluster is long-lived: its start-up is not in the wall time).
 Each executor's median wall times at the two sizes give a line: wall = start-up + designs x slope. Printed and
 written to ``bench/results/designs.json``: designs per minute at the larger size, the median seconds one design
@@ -30,7 +30,7 @@ from pathlib import Path
 import pandas as pd
 from _common import write_result
 
-from pytdcr.designs import run_designs, study_from_dict
+from pytdcr.designs import DesignsRunOptions, run_designs, study_from_dict
 
 
 def _study(designs: int, samples: int, search: int) -> dict:
@@ -46,7 +46,7 @@ def _run(data: dict, **where: object) -> tuple[float, float]:
     out = Path(tempfile.mkdtemp(prefix="bench-designs-"))
     try:
         t0 = time.perf_counter()
-        run_designs(study, robot, out / "run", figures=False, **where)
+        run_designs(study, robot, out / "run", options=DesignsRunOptions(figures=False, **where))
         wall = time.perf_counter() - t0
         inside = float(pd.read_csv(out / "run" / "timings.csv")["seconds"].median())
     finally:

@@ -22,14 +22,22 @@ from _common import write_result
 
 from pytdcr.optimize import ReachProblem
 from pytdcr.paper import paper_bounds, paper_loads, paper_robot
-from pytdcr.region import fibonacci_directions, plan_tensions, solve_plan, support_function, workspace_region
+from pytdcr.region import (
+    WarmStarts,
+    WorkspaceSettings,
+    fibonacci_directions,
+    plan_tensions,
+    solve_plan,
+    support_function,
+    workspace_region,
+)
 from pytdcr.statics import warmup
 
 
 def sampling(n: int, seed: int) -> dict[str, float]:
     robot, loads, b = paper_robot(), paper_loads(), paper_bounds()
     t0 = time.perf_counter()
-    s = solve_plan(robot, loads, b, plan_tensions(b, n, seed), seed=seed)
+    s = solve_plan(robot, loads, plan_tensions(b, n, seed), warm=WarmStarts(seed=seed))
     sec = time.perf_counter() - t0
     solves = s.source.size + s.warm.checked
     return {"samples": int(s.source.size), "solves": int(solves), "seconds": sec, "solves_per_s": solves / sec,
@@ -38,10 +46,10 @@ def sampling(n: int, seed: int) -> dict[str, float]:
 
 def support(n: int, k: int, seed: int) -> dict[str, float]:
     robot, loads, b = paper_robot(), paper_loads(), paper_bounds()
-    s = solve_plan(robot, loads, b, plan_tensions(b, n, seed), seed=seed)
+    s = solve_plan(robot, loads, plan_tensions(b, n, seed), warm=WarmStarts(seed=seed))
     problem = ReachProblem.create(robot, loads, b)
     t0 = time.perf_counter()
-    sf = support_function(problem, s.tensions[s.feasible], s.tip[s.feasible], fibonacci_directions(k))
+    sf = support_function(problem, s.tensions[s.feasible], s.tip_position[s.feasible], fibonacci_directions(k))
     sec = time.perf_counter() - t0
     return {"directions": k, "seconds": sec, "evaluations_median": float(np.median(sf.evaluations)),
             "improved": int(np.sum(sf.gain > 0)), "gain_median_m": float(np.median(sf.gain))}
@@ -50,7 +58,7 @@ def support(n: int, k: int, seed: int) -> dict[str, float]:
 def region(n: int, seed: int) -> dict[str, float]:
     robot, loads, b = paper_robot(), paper_loads(), paper_bounds()
     t0 = time.perf_counter()
-    wr = workspace_region(robot, loads, b, n, seed)
+    wr = workspace_region(robot, loads, b, WorkspaceSettings(n=n, seed=seed))
     sec = time.perf_counter() - t0
     assert wr.search is not None
     return {"n": n, "seconds": sec, "solves": int(wr.samples.source.size + wr.samples.warm.checked),

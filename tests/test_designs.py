@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from pytdcr.designs import (
+    DesignsRunOptions,
     StudyError,
     apply_parameters,
     choose_designs,
@@ -106,7 +107,7 @@ def test_local_and_dask_runs_give_one_table_and_resume(tmp_path):
     from distributed import LocalCluster
 
     study, robot = study_from_dict(_study())
-    local = run_designs(study, robot, tmp_path / "local", workers=2)
+    local = run_designs(study, robot, tmp_path / "local", options=DesignsRunOptions(workers=2))
     t = local.table
     assert list(t["design"]) == [-1, 0, 1, 2, 3] and local.summary["reference"] == "ok"
     ref = t[t["design"] == -1].iloc[0]  # the base robot, measured like a design
@@ -118,16 +119,17 @@ def test_local_and_dask_runs_give_one_table_and_resume(tmp_path):
     assert np.all(ok["volume_m3"] > 0) and np.all(ok["largest_reach_m"] <= ok["arc_length_m"] + 1e-12)
     assert np.all(ok["h_up_m"] <= ok["largest_reach_m"] + 1e-12) and np.all(ok["peak_stress_pa"] > 0)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        remote = run_designs(study, robot, tmp_path / "dask", scheduler=cluster.scheduler_address)
+        remote = run_designs(study, robot, tmp_path / "dask",
+                             options=DesignsRunOptions(scheduler=cluster.scheduler_address))
     assert "Dask" in remote.summary["executor"]
     assert (tmp_path / "local" / "designs.csv").read_text() == (tmp_path / "dask" / "designs.csv").read_text()
     # run again: everything reused, the same table
-    again = run_designs(study, robot, tmp_path / "local", workers=1)
+    again = run_designs(study, robot, tmp_path / "local", options=DesignsRunOptions(workers=1))
     assert again.summary["designs_reused"] == 4 and again.summary["designs_computed"] == 0
     assert again.table.equals(local.table)
     # a missing design file is computed again, alone
     (tmp_path / "local" / "designs" / "000001.json").unlink()
-    part = run_designs(study, robot, tmp_path / "local", workers=1)
+    part = run_designs(study, robot, tmp_path / "local", options=DesignsRunOptions(workers=1))
     assert (part.summary["designs_reused"], part.summary["designs_computed"]) == (3, 1)
     assert (tmp_path / "local" / "designs.csv").read_text() == (tmp_path / "dask" / "designs.csv").read_text()
     summary = json.loads((tmp_path / "local" / "summary.json").read_text())
@@ -222,7 +224,7 @@ def test_an_optimised_study_is_the_same_on_any_executor_and_resumes(tmp_path):
         parameters={"routing_radius_2": {"range": [0.004, 0.012]}, "disks_1": {"range": [6, 12]}},
         budget={"samples": 16}, objectives=[{"measure": "largest_reach_m", "goal": "max"},
                                             {"measure": "peak_stress_pa", "goal": "min"}]))
-    local = run_designs(study, robot, tmp_path / "local", workers=1, figures=False)
+    local = run_designs(study, robot, tmp_path / "local", options=DesignsRunOptions(workers=1, figures=False))
     t = local.table
     assert list(t["design"]) == list(range(-1, len(t) - 1)) and set(t["generation"]) == {-1, 0, 1, 2}
     assert 4 < local.summary["designs"] <= 12 and local.summary["designs_failed"] == 0
@@ -237,11 +239,12 @@ def test_an_optimised_study_is_the_same_on_any_executor_and_resumes(tmp_path):
     assert (tmp_path / "local" / best["robot_file"]).is_file() and best["error"] is None
     assert "(max largest_reach_m, the first objective)" in (tmp_path / "local" / "report.md").read_text()
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        run_designs(study, robot, tmp_path / "dask", scheduler=cluster.scheduler_address, figures=False)
+        run_designs(study, robot, tmp_path / "dask",
+                    options=DesignsRunOptions(scheduler=cluster.scheduler_address, figures=False))
     assert (tmp_path / "local" / "designs.csv").read_text() == (tmp_path / "dask" / "designs.csv").read_text()
     # the optimiser replays its generations from the files: nothing computed again
     (tmp_path / "local" / "designs" / "000005.json").unlink()
-    again = run_designs(study, robot, tmp_path / "local", workers=1, figures=False)
+    again = run_designs(study, robot, tmp_path / "local", options=DesignsRunOptions(workers=1, figures=False))
     assert (again.summary["designs_computed"], again.summary["designs_reused"]) == (1, local.summary["designs"] - 1)
     assert (tmp_path / "local" / "designs.csv").read_text() == (tmp_path / "dask" / "designs.csv").read_text()
 
@@ -376,12 +379,12 @@ def test_a_local_worker_that_dies_stops_the_run_saved_and_resumable(tmp_path, mo
     monkeypatch.setattr(_run._Local, "__init__", spy)
     threading.Thread(target=killer, daemon=True).start()
     with pytest.raises(WorkersLost, match=r"saved \d of 4 designs in .*run the same command again"):
-        run_designs(study, robot, tmp_path / "out", workers=2, figures=False)
+        run_designs(study, robot, tmp_path / "out", options=DesignsRunOptions(workers=2, figures=False))
     monkeypatch.undo()
     assert multiprocessing.active_children() == []
     manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
     assert manifest["status"] == "interrupted"
-    again = run_designs(study, robot, tmp_path / "out", workers=2, figures=False)
+    again = run_designs(study, robot, tmp_path / "out", options=DesignsRunOptions(workers=2, figures=False))
     assert again.summary["designs"] == 4 and again.summary["designs_computed"] + again.summary["designs_reused"] == 4
 
 

@@ -11,6 +11,8 @@ from pytdcr.contact import disks_below_base, disks_touch
 from pytdcr.paper import paper_bounds, paper_loads, paper_robot
 from pytdcr.region import (
     SOURCES,
+    WarmStarts,
+    WorkspaceSettings,
     estimate_volume,
     inside,
     nested_stages,
@@ -114,16 +116,16 @@ def test_solved_plan_is_independent_of_threads_and_checks_its_warm_starts():
     robot = paper_robot().with_disks(3).with_friction(NoFriction()).with_gravity(None)
     b = TensionBounds.uniform(8, 0, 4)
     plan = plan_tensions(b, 512, seed=1, corners=False)
-    one = solve_plan(robot, Loads(np.zeros(8)), b, plan, threads=1, check=200, seed=1)
-    two = solve_plan(robot, Loads(np.zeros(8)), b, plan, threads=2, check=200, seed=1)
-    np.testing.assert_array_equal(one.tip, two.tip)
+    one = solve_plan(robot, Loads(np.zeros(8)), plan, threads=1, warm=WarmStarts(check=200, seed=1))
+    two = solve_plan(robot, Loads(np.zeros(8)), plan, threads=2, warm=WarmStarts(check=200, seed=1))
+    np.testing.assert_array_equal(one.tip_position, two.tip_position)
     w = one.warm
     assert w.checked == 200 and w.anchors == 64 and w.to_dict()["required"] == 0.999
     assert w.mode == ("warm" if w.agreed >= 0.999 * w.checked else "loading path")
-    cold = solve_plan(robot, Loads(np.zeros(8)), b, plan, warm=False)
-    agree = np.linalg.norm(one.tip - cold.tip, axis=1) <= 1e-6
+    cold = solve_plan(robot, Loads(np.zeros(8)), plan, warm=False)
+    agree = np.linalg.norm(one.tip_position - cold.tip_position, axis=1) <= 1e-6
     assert agree.mean() >= 0.99  # the check's promise, seen on every sample
-    assert one.converged.all() and np.linalg.norm(one.tip, axis=1).max() <= robot.length
+    assert one.converged.all() and np.linalg.norm(one.tip_position, axis=1).max() <= robot.length
 
 
 def test_tdcr_workspace_writes_the_named_files(capsys, tmp_path):
@@ -183,8 +185,8 @@ def test_tension_step_stays_in_the_box_and_moves_the_tip_as_asked():
 def test_boundary_search_grows_the_region_with_loading_path_equilibria():
     robot, loads, b = paper_robot(), paper_loads(), paper_bounds()
     voxel = robot.length / 10
-    plain = workspace_region(robot, loads, b, 64, 3, voxel=voxel, search=False)
-    found = workspace_region(robot, loads, b, 64, 3, voxel=voxel, budget=600)
+    plain = workspace_region(robot, loads, b, WorkspaceSettings(n=64, seed=3, voxel=voxel, search=False))
+    found = workspace_region(robot, loads, b, WorkspaceSettings(n=64, seed=3, voxel=voxel, budget=600))
     s = found.samples
     extra = s.source == SOURCES.index("search")
     assert found.search is not None and found.search.solves == extra.sum() <= 600
@@ -196,7 +198,7 @@ def test_boundary_search_grows_the_region_with_loading_path_equilibria():
     rows = np.flatnonzero(extra & s.converged)[:: max(1, int((extra & s.converged).sum()) // 8)][:8]
     for r in rows:
         tip = solve(robot, loads.with_tensions(s.tensions[r])).tip_position
-        np.testing.assert_allclose(tip, s.tip[r], atol=1e-6)
+        np.testing.assert_allclose(tip, s.tip_position[r], atol=1e-6)
     assert found.fsw.to_dict()["scales"][0]["n_base"] == 16
 
 
@@ -204,8 +206,8 @@ def test_without_loads_the_region_has_the_robots_fourfold_symmetry():
     """Tendons at 0/90/180/270 and 45/135/225/315 deg: with no gravity and no tip load, the four quadrants
     about the base axis hold the same volume, within the estimate's error."""
     robot = paper_robot().with_gravity(None)
-    found = workspace_region(robot, Loads(np.zeros(8)), paper_bounds(), 256, 1, voxel=robot.length / 12,
-                             budget=4000)
+    found = workspace_region(robot, Loads(np.zeros(8)), paper_bounds(),
+                             WorkspaceSettings(n=256, seed=1, voxel=robot.length / 12, budget=4000))
     reg = found.fsw_region
     centres = reg.origin + (np.argwhere(reg.occupied) + 0.5) * reg.voxel
     quadrant = (centres[:, 0] > 0).astype(int) * 2 + (centres[:, 1] > 0).astype(int)
@@ -234,8 +236,9 @@ def test_a_region_with_too_few_converged_samples_is_reported_and_not_meshed(tmp_
     from pytdcr.study import run_workspace
 
     # one Newton iteration per load step: no solve converges, so neither region has a point
-    run = run_workspace(paper_robot(), paper_loads(), paper_bounds(), 32, 1, tmp_path / "ws",
-                        options=SolverOptions(max_iter=1), budget=50, directions=4)
+    run = run_workspace(paper_robot(), paper_loads(), paper_bounds(),
+                        WorkspaceSettings(n=32, seed=1, budget=50, directions=4), tmp_path / "ws",
+                        options=SolverOptions(max_iter=1))
     summary = json.loads((tmp_path / "ws" / "workspace.json").read_text())
     assert summary["counts"]["converged"] == 0 and summary["mesh"] is None
     assert summary["realisable"]["mesh"] is None and summary["volume_m3"] == 0.0
@@ -246,3 +249,57 @@ def test_a_region_with_too_few_converged_samples_is_reported_and_not_meshed(tmp_
     assert "**Warning:**" in (tmp_path / "ws" / "report.md").read_text()
     assert "fsw.ply" not in run.files
     assert json.loads((tmp_path / "ws" / "manifest.json").read_text())["status"] == "complete"
+
+
+def test_workspace_settings_hold_every_default_and_range():
+    s = WorkspaceSettings()
+    assert (s.n, s.seed, s.voxel, s.warm, s.search, s.budget, s.tol, s.directions, s.reach, s.threads) == (
+        4000, 0, None, True, True, None, 0.002, 200, "search", None)
+    robot = paper_robot()
+    assert s.search_budget == 25 * 4000 and WorkspaceSettings(n=10, budget=0).search_budget == 0
+    assert s.voxel_for(robot) == robot.length / 32 and s.with_voxel_for(robot).voxel == robot.length / 32
+    assert WorkspaceSettings(voxel=0.02).voxel_for(robot) == 0.02
+    with pytest.raises(ValueError, match=r"^voxel = 5: must be in \[0.0001, 0.4\] m \(the robot's length\)$"):
+        WorkspaceSettings(voxel=5).check(robot)
+    with pytest.raises(ValueError, match=r"^voxel = 5e-05: must be in \[0.0001, 0.4\] m"):
+        WorkspaceSettings(voxel=5e-5).check(robot)
+    with pytest.raises(ValueError, match=r"^directions = 100001: must be in \[0, 100000\]$"):
+        WorkspaceSettings(directions=100_001)
+    for bad, says in (({"n": 0}, "n = 0"), ({"budget": -1}, "budget = -1"), ({"seed": -1}, "seed = -1"),
+                      ({"tol": 2.0}, "tol = 2"), ({"reach": "far"}, "reach = 'far'"), ({"threads": 0}, "threads"),
+                      ({"directions": [[0.0, 0.0, 0.0]]}, "nonzero"), ({"directions": [[1.0, 0.0]]}, "shape")):
+        with pytest.raises(ValueError, match=says):
+            WorkspaceSettings(**bad)
+    with pytest.raises(TypeError, match="warm"):
+        WorkspaceSettings(warm=1)
+    given = WorkspaceSettings(directions=[[0.0, 0.0, 2.0], [1.0, 1.0, 0.0]])
+    assert given.direction_count == 2
+    np.testing.assert_allclose(given.direction_vectors(), [[0, 0, 1], [2**-0.5, 2**-0.5, 0]])
+    assert WorkspaceSettings(directions=0).direction_vectors() is None
+
+
+def test_the_largest_reach_follows_its_rule():
+    """"farthest" keeps the farthest of the reach search, the support function's tips and the samples;
+    "samples" runs no search and keeps the farthest feasible sample."""
+    from pytdcr.region import workspace_study
+
+    robot, loads, b = paper_robot().with_gravity(None), Loads(np.zeros(8)), TensionBounds.uniform(8, 0, 4)
+    base = {"n": 32, "seed": 2, "voxel": robot.length / 8, "search": False}
+    far = workspace_study(robot, loads, b, WorkspaceSettings(**base, directions=3, reach="farthest"))
+    s = far.samples
+    sample_reach = np.linalg.norm(s.tip_position[s.feasible], axis=1).max()
+    support_reach = np.linalg.norm(far.support.tip_position, axis=1).max()
+    assert far.reach_search is not None and far.support.h.size == 3
+    assert far.largest_reach.reach == max(sample_reach, support_reach, far.reach_search.reach)
+    assert far.largest_reach.source in ("search", "support", "samples")
+    numbers = far.to_dict()
+    assert numbers["largest_reach_m"] == far.largest_reach.reach
+    assert numbers["largest_reach"] == far.reach_search.to_dict() and numbers["voxel_m"] == robot.length / 8
+    assert set(numbers) == {"volume_m3", "volume_err_m3", "largest_reach_m", "points", "volume", "realisable",
+                            "voxel_m", "counts", "warm_start", "boundary_sources", "boundary_search", "support",
+                            "largest_reach", "seconds_sampling"}
+    plain = workspace_study(robot, loads, b, WorkspaceSettings(**base, directions=0, reach="samples"))
+    assert plain.support is None and plain.reach_search is None and plain.largest_reach.source == "samples"
+    assert plain.largest_reach.reach == sample_reach  # the same samples: the same seed and plan
+    k = int(np.argmax(np.where(s.feasible, np.linalg.norm(s.tip_position, axis=1), -1.0)))
+    np.testing.assert_array_equal(plain.largest_reach.tensions, s.tensions[k])

@@ -13,6 +13,7 @@ from pytdcr.optimize import MemeticGA, ReachProblem, SearchFailed, Termination, 
 from pytdcr.paper import paper_bounds, paper_loads, paper_robot
 from pytdcr.region import (
     SupportFunction,
+    SupportSettings,
     fibonacci_directions,
     largest_reach,
     plan_tensions,
@@ -31,9 +32,9 @@ SAME_TIP = 1e-6
 def case():
     """The paper's robot and tip load, bounds [0, 20] N, and the feasible samples of a small plan."""
     robot, loads, bounds = paper_robot(), paper_loads(), paper_bounds()
-    samples = solve_plan(robot, loads, bounds, plan_tensions(bounds, 256, seed=0), seed=0)
+    samples = solve_plan(robot, loads, plan_tensions(bounds, 256, seed=0))
     ok = samples.feasible
-    return ReachProblem.create(robot, loads, bounds), samples.tensions[ok], samples.tip[ok]
+    return ReachProblem.create(robot, loads, bounds), samples.tensions[ok], samples.tip_position[ok]
 
 
 @pytest.fixture(scope="module")
@@ -80,12 +81,12 @@ def test_reported_tensions_reproduce_the_reported_tips(case, support):
     for k in range(support.h.size):
         sol = solve(robot, loads.with_tensions(support.tensions[k]))
         assert sol.converged
-        assert np.linalg.norm(sol.tip_position - support.tips[k]) <= SAME_TIP
-        assert support.h[k] == pytest.approx(support.tips[k] @ support.directions[k], abs=1e-15)
+        assert np.linalg.norm(sol.tip_position - support.tip_position[k]) <= SAME_TIP
+        assert support.h[k] == pytest.approx(support.tip_position[k] @ support.directions[k], abs=1e-15)
 
 
 def test_h_is_the_support_function_of_the_reported_tips(support):
-    values = support.tips @ support.directions.T  # values[j, k] = d_k . tip_j
+    values = support.tip_position @ support.directions.T  # values[j, k] = d_k . tip_j
     assert np.all(values.max(axis=0) <= support.h + 1e-12)
     assert np.all(support.evaluations > 0) and np.all(support.starts >= 1)
     out = json.loads(json.dumps(support.to_dict()))
@@ -98,10 +99,10 @@ def test_h_is_the_support_function_of_the_reported_tips(support):
 def test_results_do_not_depend_on_the_threads(case):
     problem, T, P = case
     d = fibonacci_directions(12)[[2, 7, 9]]
-    kw = {"max_iter": 4, "restarts": 0, "exchange_rounds": 1}
-    one = support_function(problem, T, P, d, threads=1, **kw)
-    two = support_function(problem, T, P, d, threads=2, **kw)
-    for name in ("h", "tensions", "tips", "evaluations", "from_sample", "exchanged"):
+    settings = SupportSettings(max_iter=4, restarts=0, exchange_rounds=1)
+    one = support_function(problem, T, P, d, settings=settings, threads=1)
+    two = support_function(problem, T, P, d, settings=settings, threads=2)
+    for name in ("h", "tensions", "tip_position", "evaluations", "from_sample", "exchanged"):
         np.testing.assert_array_equal(getattr(one, name), getattr(two, name))
 
 
@@ -134,17 +135,17 @@ def test_bad_input_is_refused(case):
     with pytest.raises(ValueError, match="nonzero"):
         support_function(problem, T, P, np.zeros((2, 3)))
     with pytest.raises(ValueError, match="starts"):
-        support_function(problem, T, P, starts=0)
+        support_function(problem, T, P, settings=SupportSettings(starts=0))
 
 
 def test_largest_reach_beats_the_samples_and_reproduces(case, support):
     problem, T, P = case
     far = largest_reach(problem, T, P, support, starts=2)
     assert far.reach >= np.linalg.norm(P, axis=1).max() - SLACK
-    assert far.reach >= np.linalg.norm(support.tips, axis=1).max() - SLACK
+    assert far.reach >= np.linalg.norm(support.tip_position, axis=1).max() - SLACK
     assert far.reach <= problem.robot.length
     sol = solve(problem.robot, problem.loads.with_tensions(far.tensions))
-    assert np.linalg.norm(sol.tip_position - far.tip) <= SAME_TIP
+    assert np.linalg.norm(sol.tip_position - far.tip_position) <= SAME_TIP
     assert json.loads(json.dumps(far.to_dict()))["reach"] == far.reach
 
 
@@ -156,9 +157,9 @@ def test_largest_reach_matches_the_reach_search_over_seeds():
     problem = ReachProblem.create(robot, loads, bounds)
     ga = max(maximize_reach(problem, MemeticGA(pop_size=50), Termination(1e-6, 5, 30), seed=s).reach
              for s in range(8))
-    samples = solve_plan(robot, loads, bounds, plan_tensions(bounds, 1000, seed=0), seed=0)
+    samples = solve_plan(robot, loads, plan_tensions(bounds, 1000, seed=0))
     ok = samples.feasible
-    T, P = samples.tensions[ok], samples.tip[ok]
+    T, P = samples.tensions[ok], samples.tip_position[ok]
     support = support_function(problem, T, P, fibonacci_directions(12))
     far = largest_reach(problem, T, P, support)
     assert far.reach >= ga - 1e-4

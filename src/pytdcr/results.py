@@ -216,6 +216,8 @@ class BatchSolution:
     Attributes
     ----------
     tensions : ndarray, shape (B, n_tendons)
+        The actuator tensions solved [N], one row per case (not the per-piece tensions of
+        :attr:`StaticSolution.tensions`, shape (n_tendons, N)).
     converged : ndarray of bool, shape (B,)
     residual : ndarray, shape (B,)
         max |residual| [N m].

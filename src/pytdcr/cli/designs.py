@@ -7,7 +7,7 @@ import argparse
 from typing import Any
 
 from ..validate import escape_controls
-from ._args import add_out
+from ._args import add_out, count_type
 from ._progress import Bar
 from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK, CliError
 
@@ -22,7 +22,7 @@ def add_parser(sub: Any) -> None:
     add_out(d, "out/designs", "output folder; a stopped study there resumes [out/designs]")
     d.add_argument("--scheduler", help="a Dask scheduler's address (tcp://host:8786) to run on; default: local "
                    "processes")
-    d.add_argument("--workers", type=int, help="local processes [all cores]")
+    d.add_argument("--workers", type=count_type, help="local processes [all cores]")
     d.add_argument("--restart", action="store_true", help="discard what the folder holds and start again")
     d.add_argument("--no-figures", action="store_true", help="write no figures (the table and report only)")
     d.set_defaults(func=run)
@@ -30,12 +30,9 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """The design study; print the best design per load case, and what was written."""
-    from ..designs import load_study, run_designs
-    from ..designs._run import format_measure  # TODO(merge): from pytdcr.designs, once it is exported there
+    from ..designs import DesignsRunOptions, format_measure, load_study, run_designs
 
     study, robot, text = load_study(args.study)
-    if args.workers is not None and not 1 <= args.workers <= 4096:
-        raise CliError(f"--workers = {args.workers}: must be in [1, 4096]")
     bar = Bar("designs", 0, "design")
 
     def progress(done: int, failed: int, total: int) -> None:
@@ -47,8 +44,12 @@ def run(args: argparse.Namespace) -> int:
             bar.step(done - bar.bar.n, f"failed={failed}")
 
     try:
-        res = run_designs(study, robot, args.out, study_text=text, scheduler=args.scheduler, workers=args.workers,
-                          restart=args.restart, progress=progress, figures=not args.no_figures)
+        options = DesignsRunOptions(scheduler=args.scheduler, workers=args.workers, restart=args.restart,
+                                    progress=progress, figures=not args.no_figures)
+    except ValueError as err:  # the options check their ranges; the message names the option
+        raise CliError(f"--{err}") from None
+    try:
+        res = run_designs(study, robot, args.out, study_text=text, options=options)
     finally:
         bar.__exit__()
     s = res.summary

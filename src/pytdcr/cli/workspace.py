@@ -18,6 +18,7 @@ from ._args import (
     add_seed,
     bounds_spec,
     check_out,
+    count0_type,
     count_type,
     load_spec,
     model_spec,
@@ -44,7 +45,7 @@ def add_parser(sub: Any) -> None:
     ws.add_argument("--no-search", action="store_true", help="no boundary search: the region of the samples alone")
     ws.add_argument("--budget", type=count_type, default=None,
                     help="the boundary search's budget of solves [25 n]")
-    ws.add_argument("--directions", type=int, default=200,
+    ws.add_argument("--directions", type=count0_type, default=200,
                     help="directions of the support function h(d) on a Fibonacci sphere; 0: none [200]")
     ws.add_argument("--compare-loads", action="store_true",
                     help="compare load cases: no load, gravity only, payloads 5/10/20 g, the paper's wrench, and "
@@ -69,27 +70,29 @@ def _workspace_lines(name: str, s: dict[str, Any]) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     """The workspace study; print each case's volumes and reach, and what was written."""
-    from ..study import BoundsSpec, run_workspace, run_workspace_compare
+    from ..region import WorkspaceSettings
+    from ..study import BoundsSpec, WorkspaceRunOptions, run_workspace, run_workspace_compare
 
     out = check_out(args.out)
     robot = robot_spec(args).build()
     loads = load_spec(args).build(robot)
     bounds = (bounds_spec(args) or BoundsSpec()).build(robot)
     m, options = model_spec(args).resolve(robot, loads)
-    if args.voxel is not None and not (1e-4 <= args.voxel <= robot.length):
-        raise CliError(f"--voxel = {args.voxel:g}: must be in [0.0001, {robot.length:g}] m (the robot's length)")
-    if not 0 <= args.directions <= 100_000:
-        raise CliError(f"--directions = {args.directions}: must be in [0, 100000]")
-    kw = {"model": m.name, "options": options, "voxel": args.voxel, "warm": not args.no_warm,
-          "search": not args.no_search, "budget": args.budget, "directions": args.directions,
-          "command": " ".join(["tdcr", *sys.argv[1:]])}
+    try:  # the settings check their ranges (the only place they live); the message names the option
+        settings = WorkspaceSettings(n=args.n, seed=args.seed, voxel=args.voxel, warm=not args.no_warm,
+                                     search=not args.no_search, budget=args.budget,
+                                     directions=args.directions).check(robot)
+    except ValueError as err:
+        raise CliError(f"--{err}") from None
     bars = Bars()
+    kw = {"model": m.name, "options": options,
+          "run_options": WorkspaceRunOptions(command=" ".join(["tdcr", *sys.argv[1:]]), progress=bars)}
     try:
         if args.compare_loads:
             cases = workspace_load_cases(robot, loads)
-            res = run_workspace_compare(robot, cases, bounds, args.n, args.seed, out, progress=bars, **kw)
+            res = run_workspace_compare(robot, cases, bounds, settings, out, **kw)
         else:
-            res = run_workspace(robot, loads, bounds, args.n, args.seed, out, progress=bars, **kw)
+            res = run_workspace(robot, loads, bounds, settings, out, **kw)
     finally:
         bars.close()
     print(f"workspace of robot '{robot.name}' (n {args.n}, seed {args.seed}, bounds "

@@ -16,13 +16,13 @@ from typing import Any
 import numpy as np
 
 from ..bounds import TensionBounds
-from ..optimize import ReachProblem
-from ..region import VOXELS_PER_LENGTH, largest_reach, support_function, workspace_region
-from ..statics import Cancelled, resolve
+from ..region import WorkspaceSettings, workspace_study
+from ..statics import Cancelled
 from ._space import apply_parameters
 from ._spec import MEASURES, DesignStudy
 
 __all__ = ["MEASURES", "design_seed", "evaluate_design"]
+
 
 def design_seed(study_seed: int, index: int) -> int:
     """The seed of design ``index``: from the study's seed and the index alone (the reference, index -1, has its
@@ -31,47 +31,44 @@ def design_seed(study_seed: int, index: int) -> int:
     return int(np.random.SeedSequence(entropy).generate_state(1, dtype=np.uint32)[0])
 
 
-def _case_row(study: DesignStudy, robot: Any, loads: Any, seed: int, voxel: float) -> dict[str, Any]:
+def _workspace_settings(study: DesignStudy, base: Any, seed: int) -> WorkspaceSettings:
+    """The workspace study of every design and load case of ``study``: its budget, seeded by the design's
+    ``seed``, h(d) along the study's named directions, on one thread (designs run side by side), on one grid
+    for every design (the voxel of the base robot ``base``). The largest reach is the farthest of the feasible
+    samples and the tips attaining h(d), and of the reach search with ``budget.reach_search``."""
+    directions = tuple(tuple(v) for v in study.measures.directions.values())
+    return WorkspaceSettings(n=study.budget.samples, seed=seed, voxel=study.budget.voxel,
+                             search=study.budget.search > 0, budget=study.budget.search, directions=directions or 0,
+                             reach="farthest" if study.budget.reach_search else "support",
+                             threads=1).with_voxel_for(base)
+
+
+def _case_row(study: DesignStudy, settings: WorkspaceSettings, robot: Any, loads: Any) -> dict[str, Any]:
     bounds = TensionBounds.uniform(robot.n_tendons, *study.bounds)
-    m, opts = resolve(study.model, robot, loads, None)
-    wr = workspace_region(robot, loads, bounds, study.budget.samples, seed, model=m, options=opts, voxel=voxel,
-                          search=study.budget.search > 0, budget=study.budget.search, threads=1)
-    s = wr.samples
+    ws = workspace_study(robot, loads, bounds, settings, model=study.model)
+    s = ws.samples
     ok, feas = s.converged, s.feasible
-    tips = s.tip[feas]
-    reach = np.linalg.norm(tips, axis=1)
-    far = (float(reach.max()), s.tensions[feas][int(reach.argmax())]) if tips.size else (np.nan, None)
     row: dict[str, Any] = {
-        "volume_m3": wr.fsw.volume_m3, "volume_err_m3": wr.fsw.error_m3,
-        "realisable_volume_m3": wr.realisable.volume_m3, "realisable_volume_err_m3": wr.realisable.error_m3,
+        "volume_m3": ws.region.fsw.volume_m3, "volume_err_m3": ws.region.fsw.error_m3,
+        "realisable_volume_m3": ws.region.realisable.volume_m3,
+        "realisable_volume_err_m3": ws.region.realisable.error_m3,
         "fraction_converged": float(ok.mean()),
         "fraction_realisable": float(s.realisable.sum() / max(int(ok.sum()), 1)),
         "peak_stress_pa": (float(robot.backbone.youngs_modulus * np.nanmax(s.curvature)
                                  * robot.backbone.outer_radius) if ok.any() else np.nan),
         "arc_length_m": float(robot.length)}
     names = list(study.measures.directions)
-    sf = None
-    gradient = m.capabilities.gradient is not None
-    problem = ReachProblem.create(robot, loads, bounds, model=m, options=opts) if gradient and tips.size else None
     if names:
-        D = np.array([study.measures.directions[k] for k in names], dtype=float)
-        D /= np.linalg.norm(D, axis=1, keepdims=True)
-        if problem is not None:
-            sf = support_function(problem, s.tensions[feas], tips, D, threads=1)
-            h = sf.h  # the tips that attain h are feasible too: the largest reach is at least theirs
-            r = np.linalg.norm(sf.tips, axis=1)
-            if r.max() > far[0]:
-                far = (float(r.max()), sf.tensions[int(r.argmax())])
-        else:
+        if ws.support is not None:
+            h = ws.support.h
+        else:  # no gradient search (or nothing feasible): the samples' own
+            tips, D = s.tip_position[feas], settings.direction_vectors()
             h = (tips @ D.T).max(axis=0) if tips.size else np.full(len(names), np.nan)
         row.update({f"h_{k}_m": float(v) for k, v in zip(names, h, strict=True)})
-    if study.budget.reach_search and problem is not None:
-        lr = largest_reach(problem, s.tensions[feas], tips, support=sf, threads=1)
-        if lr.reach >= far[0]:  # keep the farther of the search and the support function's tips
-            far = (float(lr.reach), lr.tensions)
-    row["largest_reach_m"] = far[0]
+    far = ws.largest_reach
+    row["largest_reach_m"] = far.reach if far.reach is not None else np.nan
     # not a column: the tensions that reach farthest, to draw the design (the table ignores this key)
-    row["reach_tensions_n"] = None if far[1] is None else [float(t) for t in far[1]]
+    row["reach_tensions_n"] = None if far.tensions is None else [float(t) for t in far.tensions]
     return row
 
 
@@ -91,10 +88,9 @@ def evaluate_design(study_data: dict[str, Any], robot_data: dict[str, Any], inde
     out: dict[str, Any] = {"design": int(index), "params": dict(params), "status": "ok", "reason": "", "rows": []}
     try:
         robot = apply_parameters(base, params)
-        seed = design_seed(study.seed, index)
-        voxel = study.budget.voxel or base.length / VOXELS_PER_LENGTH  # one voxel for every design
+        settings = _workspace_settings(study, base, design_seed(study.seed, index))
         for name, (case_robot, loads) in study.load_cases(robot).items():
-            row = _case_row(study, case_robot, loads, seed, voxel)
+            row = _case_row(study, settings, case_robot, loads)
             out["rows"].append({"load_case": name, **row})
         if all(r["fraction_converged"] == 0.0 for r in out["rows"]):
             out["status"], out["reason"] = "failed", "no sample converged under any load case"

@@ -27,13 +27,14 @@ from ..design import Robot
 from ..io import write_robot
 from ..runtime import RunInterrupted, atomic_write, atomic_write_text, default_threads, resumable_folder, write_json
 from ..statics import check_cancelled, mark_saving
+from ..validate import check_count
 from ._evaluate import evaluate_design
 from ._figures import write_design_figures
 from ._optimize import design_batches, objective_matrix, pareto_front
 from ._space import apply_parameters, choose_designs, read_parameter
 from ._spec import MEASURES, DesignStudy, StudyError
 
-__all__ = ["DesignsRun", "WorkersLost", "run_designs"]
+__all__ = ["DesignsRun", "DesignsRunOptions", "WorkersLost", "format_measure", "run_designs"]
 
 #: files and folders a study's folder holds
 LAYOUT = ("study.toml", "designs", "designs.csv", "designs.parquet", "timings.csv", "summary.json", "report.md",
@@ -45,6 +46,40 @@ POLL_S = 0.1
 class WorkersLost(RuntimeError):
     """The compute went away under the run (a local worker process died, the Dask scheduler closed): what was
     finished is saved and the same command resumes it."""
+
+
+#: the most local worker processes a design study starts
+MAX_WORKERS = 4096
+
+
+@dataclass(frozen=True)
+class DesignsRunOptions:
+    """Where and how :func:`run_designs` runs.
+
+    Attributes
+    ----------
+    scheduler : str or None
+        A Dask scheduler's address (``tcp://host:8786``) to run on; None: local processes.
+    workers : int or None
+        Local processes, in [1, :data:`MAX_WORKERS`] (default: all cores; at most one per design).
+    restart : bool
+        Discard what the folder holds and start again (otherwise a stopped study resumes).
+    progress : callable or None
+        ``progress(done, failed, total)``, called as designs finish (the optimiser's total is an upper bound
+        until it ends).
+    figures : bool
+        Draw the Pareto front, the measures against the parameters and the best designs.
+    """
+
+    scheduler: str | None = None
+    workers: int | None = None
+    restart: bool = False
+    progress: Callable[[int, int, int], None] | None = None
+    figures: bool = True
+
+    def __post_init__(self) -> None:
+        if self.workers is not None:
+            object.__setattr__(self, "workers", check_count(self.workers, "workers", lo=1, hi=MAX_WORKERS))
 
 
 @dataclass(frozen=True)
@@ -366,11 +401,10 @@ class _Runner:
     """Evaluates batches of designs into the folder: reuses a design's file when it is there, sends the rest to
     the executor (made when first needed), writes each record as it arrives, counts and reports progress."""
 
-    def __init__(self, study: DesignStudy, robot: Robot, run: Any, total: int, scheduler: str | None,
-                 workers: int | None, progress: Callable[[int, int, int], None] | None) -> None:
+    def __init__(self, study: DesignStudy, robot: Robot, run: Any, total: int, options: DesignsRunOptions) -> None:
         self.study, self.robot, self.run, self.path = study, robot, run, run.path
         self.total = total + study.reference
-        self.scheduler, self.workers, self.progress = scheduler, workers, progress
+        self.scheduler, self.workers, self.progress = options.scheduler, options.workers, options.progress
         self.records: dict[int, dict[str, Any]] = {}
         self.reused = self.computed = self.failed = 0
         self.executor: Any = None
@@ -429,27 +463,28 @@ def run_digest(study: DesignStudy, robot: Robot) -> str:
 
 
 def run_designs(study: DesignStudy, robot: Robot, out: str | Path, *, study_text: str | None = None,
-                scheduler: str | None = None, workers: int | None = None, restart: bool = False,
-                progress: Callable[[int, int, int], None] | None = None, figures: bool = True) -> DesignsRun:
+                options: DesignsRunOptions | None = None) -> DesignsRun:
     """Evaluate every design of ``study`` (base robot ``robot``) into the folder ``out``, resuming it.
 
-    ``scheduler``: a Dask scheduler's address (``tcp://host:8786``) to run on; default local processes
-    (``workers``, default all cores). ``progress(done, failed, total)`` is called as designs finish. Ctrl-C
-    stops at once, keeping every finished design (:class:`pytdcr.study.RunInterrupted` says how many).
-    ``figures``: draw the Pareto front, the measures against the parameters and the best designs.
+    ``options`` (:class:`DesignsRunOptions`): a Dask scheduler to run on, or local processes (``workers``,
+    default all cores); ``restart`` to start again; ``progress(done, failed, total)``, called as designs finish;
+    ``figures``. ``study_text`` is kept as ``study.toml``. Ctrl-C stops at once, keeping every finished design
+    (:class:`pytdcr.study.RunInterrupted` says how many).
     Returns the table (also ``designs.parquet`` and ``designs.csv``) and the summary (``summary.json``).
     """
+    how = options if options is not None else DesignsRunOptions()
+    progress = how.progress
     t0 = time.perf_counter()
     designs = (None if study.designs.method == "optimize" else
                choose_designs(study.parameters, study.designs.method, study.designs.count, study.seed))
     total = study.designs.total if designs is None else len(designs)
     inputs = {"study": study.model_dump(mode="json"), "designs": total, "robot": robot.model_dump(mode="json")}
     digest = run_digest(study, robot)
-    with resumable_folder(out, "designs", inputs, digest, restart, LAYOUT) as run:
+    with resumable_folder(out, "designs", inputs, digest, how.restart, LAYOUT) as run:
         (run.path / "designs").mkdir(exist_ok=True)
         if study_text is not None:
             atomic_write_text(run.path / "study.toml", study_text)
-        runner = _Runner(study, robot, run, total, scheduler, workers, progress)
+        runner = _Runner(study, robot, run, total, how)
         finished = False
         try:
             generation_of = design_batches(study, designs, runner.batch)
@@ -475,5 +510,5 @@ def run_designs(study: DesignStudy, robot: Robot, out: str | Path, *, study_text
                    "executor": runner.executor.name if runner.executor is not None else "none (every design reused)",
                    "seconds": time.perf_counter() - t0, "inputs": inputs["study"], "versions": _versions(),
                    "measures": MEASURES}
-        table = _finish(run.path, study, robot, runner.records, generation_of, summary, figures)
+        table = _finish(run.path, study, robot, runner.records, generation_of, summary, how.figures)
     return DesignsRun(table, summary, run.path)

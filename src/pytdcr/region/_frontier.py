@@ -14,17 +14,18 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
 
 from ..bounds import TensionBounds
+from ..validate import check_count
 from ._grid import region_from_points
 from ._plan import SOURCES
 from ._solve import RegionSamples, WarmStartCheck, _checked, _Solver
 
-__all__ = ["BoundarySearch", "SearchRound", "grow_region"]
+__all__ = ["BoundarySearch", "GrowthSettings", "SearchRound", "SearchState", "grow_region"]
 
 #: the six face directions of a voxel
 FACES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]])
@@ -70,6 +71,57 @@ class SearchRound:
     warm: str = "loading path"
     checked: int = 0
     agreed: int = 0
+
+
+@dataclass(frozen=True)
+class GrowthSettings:
+    """How :func:`grow_region` searches.
+
+    Attributes
+    ----------
+    tol : float
+        Stop when a round adds less than this share of the voxels.
+    max_rounds : int
+        Rounds at most, >= 1.
+    budget : int
+        Solves at most, >= 0.
+    step : float
+        The tip's asked move across a face [voxels].
+    tries : int
+        Times a boundary face of a voxel may be tried (by different samples), >= 1.
+    warm : bool
+        Start each round's steps from the equilibria they step from, if a checked subset agrees with the
+        loading path; otherwise they follow the loading path.
+    check : int
+        The checked subset's size, >= 0.
+    seed : int
+        Seed of the checked subsets (with the stage and the round), >= 0.
+    """
+
+    tol: float = 0.002
+    max_rounds: int = 40
+    budget: int = 100_000
+    step: float = 1.5
+    tries: int = 2
+    warm: bool = True
+    check: int = 200
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        for name, lo in (("max_rounds", 1), ("budget", 0), ("tries", 1), ("check", 0), ("seed", 0)):
+            object.__setattr__(self, name, check_count(getattr(self, name), name, lo=lo))
+        if not (np.isfinite(self.step) and self.step > 0):
+            raise ValueError(f"step = {self.step!r}: must be a positive number of voxels")
+
+
+@dataclass
+class SearchState:
+    """What the boundary search has tried, carried from one stage to the next: per sample, face and region
+    (FSW, realisable) whether it was tried (``tried``, (M, 6, 2) of bool, None before the first stage), and
+    per region how often each voxel's face was tried (``counts``)."""
+
+    tried: np.ndarray | None = None
+    counts: tuple[dict, dict] = field(default_factory=lambda: ({}, {}))
 
 
 @dataclass(frozen=True)
@@ -187,44 +239,45 @@ def _solved(solver: _Solver, T: np.ndarray, q0: np.ndarray | None, stage: int, c
         got, report = solver.solve(T), WarmStartCheck("loading path")
     else:
         got, report = _checked(solver, T, q0, check, seed, 0)
-    return RegionSamples(T, np.full(T.shape[0], SEARCH, dtype=np.int8), got["tip"], got["converged"],
+    return RegionSamples(T, np.full(T.shape[0], SEARCH, dtype=np.int8), got["tip_position"], got["converged"],
                          got["stable"], got["below_base"], got["disks_touch"], 0, seconds=time.perf_counter() - t0,
                          q=got["q"], stage=np.full(T.shape[0], stage, dtype=np.int8),
                          curvature=got["curvature"]), report
 
 
 def _voxels(samples: RegionSamples, mask: np.ndarray, voxel: float) -> int:
-    return int(region_from_points(samples.tip[mask], voxel).occupied.sum()) if np.any(mask) else 0
+    return int(region_from_points(samples.tip_position[mask], voxel).occupied.sum()) if np.any(mask) else 0
 
 
 def grow_region(solver: _Solver, samples: RegionSamples, bounds: TensionBounds, voxel: float, stage: int, *,
-                tol: float = 0.002, max_rounds: int = 40, budget: int = 100_000, step: float = 1.5,
-                tries: int = 2, warm: bool = True, check: int = 200, seed: int = 0,
-                tried: np.ndarray | None = None, counts: tuple[dict, dict] | None = None,
+                settings: GrowthSettings | None = None, state: SearchState | None = None,
                 on_round: Callable[[SearchRound], None] | None = None
-                ) -> tuple[RegionSamples, list[SearchRound], np.ndarray, str]:
+                ) -> tuple[RegionSamples, list[SearchRound], SearchState, str]:
     """Grow the FSW and the realisable region of ``samples`` rows with ``stage <= stage`` (see the module).
 
-    With ``warm``, each round's steps start from the equilibria they step from, if a random subset of
-    ``check`` (``seed``, the stage and the round) solved both ways agrees with the loading path as
-    :func:`solve_plan` requires; otherwise, and without ``warm``, they follow the loading path.
+    With ``settings.warm``, each round's steps start from the equilibria they step from, if a random subset of
+    ``settings.check`` (``settings.seed``, the stage and the round) solved both ways agrees with the loading path
+    as :func:`solve_plan` requires; otherwise they follow the loading path. ``state`` is what an earlier stage
+    tried (updated in place; a new one when None); ``on_round`` sees each round.
 
     Returns the samples with the search's rows appended (source ``"search"``, this ``stage``), the rounds,
-    the (M, 6, 2) record of faces tried (pass it to the next stage) and why the search stopped:
-    ``"converged"`` (a round added less than ``tol`` of the voxels), ``"no boundary left"``, ``"budget"``
-    (``budget`` solves spent) or ``"rounds"`` (``max_rounds``).
+    the state (pass it to the next stage) and why the search stopped: ``"converged"`` (a round added less than
+    ``settings.tol`` of the voxels), ``"no boundary left"``, ``"budget"`` (``settings.budget`` solves spent)
+    or ``"rounds"`` (``settings.max_rounds``).
     """
     assert samples.stage is not None
-    if tried is None:
-        tried = np.zeros((samples.source.size, FACES.shape[0], 2), dtype=bool)
-    counts = counts if counts is not None else ({}, {})
+    g = settings if settings is not None else GrowthSettings()
+    state = state if state is not None else SearchState()
+    if state.tried is None:
+        state.tried = np.zeros((samples.source.size, FACES.shape[0], 2), dtype=bool)
+    tried, counts = state.tried, state.counts
     rounds: list[SearchRound] = []
     spent, stop = 0, "rounds"
     active = samples.stage <= stage
     before = (_voxels(samples, samples.feasible & active, voxel), _voxels(samples, samples.realisable & active, voxel))
-    for k in range(max_rounds):
+    for k in range(g.max_rounds):
         t0 = time.perf_counter()
-        picks = [_faces(samples.tip, np.flatnonzero(m & active), tried[:, :, j], voxel, counts[j], tries)
+        picks = [_faces(samples.tip_position, np.flatnonzero(m & active), tried[:, :, j], voxel, counts[j], g.tries)
                  for j, m in enumerate((samples.feasible, samples.realisable))]
         for j, (rows, faces) in enumerate(picks):
             tried[rows, faces, j] = True
@@ -233,12 +286,12 @@ def grow_region(solver: _Solver, samples: RegionSamples, bounds: TensionBounds, 
         if rows.size == 0:
             stop = "no boundary left"
             break
-        T = _steps(solver, samples, rows, faces, bounds, step * voxel)
+        T = _steps(solver, samples, rows, faces, bounds, g.step * voxel)
         ok = np.all(np.isfinite(T), axis=1)
-        parents, T = rows[ok][: max(0, budget - spent)], T[ok][: max(0, budget - spent)]
+        parents, T = rows[ok][: max(0, g.budget - spent)], T[ok][: max(0, g.budget - spent)]
         assert samples.q is not None
-        new, report = _solved(solver, T, samples.q[parents] if warm else None, stage, check,
-                              int(np.random.SeedSequence([seed, stage, k]).generate_state(1)[0]))
+        new, report = _solved(solver, T, samples.q[parents] if g.warm else None, stage, g.check,
+                              int(np.random.SeedSequence([g.seed, stage, k]).generate_state(1)[0]))
         spent += T.shape[0]
         samples = samples.joined(new)
         tried = np.concatenate([tried, np.zeros((T.shape[0], *tried.shape[1:]), dtype=bool)])
@@ -251,10 +304,11 @@ def grow_region(solver: _Solver, samples: RegionSamples, bounds: TensionBounds, 
             on_round(rounds[-1])
         grown = max((a - b) / max(b, 1) for a, b in zip(now, before, strict=True))
         before = now
-        if spent >= budget:
+        if spent >= g.budget:
             stop = "budget"
             break
-        if grown < tol:
+        if grown < g.tol:
             stop = "converged"
             break
-    return samples, rounds, tried, stop
+    state.tried = tried
+    return samples, rounds, state, stop

@@ -26,8 +26,9 @@ class TensionPlan:
     Attributes
     ----------
     tensions : ndarray, shape (M, n_tendons)
-        [N]; the first ``n_base`` rows are the Sobol points, in the sequence's order (so any prefix of them is
-        a Sobol sample of its own), then the corners, then the edge points.
+        Actuator tensions [N], one row per vector to solve; the first ``n_base`` rows are the Sobol points, in
+        the sequence's order (so any prefix of them is a Sobol sample of its own), then the corners, then the
+        edge points.
     source : ndarray of int8, shape (M,)
         Index into :data:`SOURCES`.
     n_base : int
@@ -35,6 +36,8 @@ class TensionPlan:
     edges_total : int
         Edge points of the whole box (``edges_kept`` of them are in the plan: at most ``n_base``).
     edges_kept : int
+    bounds : TensionBounds
+        The tension box the plan spans (every row lies in it).
     """
 
     tensions: np.ndarray
@@ -42,6 +45,7 @@ class TensionPlan:
     n_base: int
     edges_total: int
     edges_kept: int
+    bounds: TensionBounds
 
     def count(self, name: str) -> int:
         """Rows from the source ``name``."""
@@ -107,4 +111,4 @@ def plan_tensions(bounds: TensionBounds, n: int, seed: int = 0, *, edge_points: 
     tensions = np.broadcast_to(bounds.lower, (u.shape[0], bounds.n)).copy()
     tensions[:, free] = bounds.lower[free] + u * (bounds.upper[free] - bounds.lower[free])
     return TensionPlan(tensions=tensions, source=np.concatenate(source), n_base=n, edges_total=edges_total,
-                       edges_kept=kept)
+                       edges_kept=kept, bounds=bounds)

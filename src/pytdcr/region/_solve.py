@@ -21,7 +21,8 @@ from ..statics import Model, check_resources, resolve, solve_batch
 from ..validate import check_count
 from ._plan import TensionPlan
 
-__all__ = ["AGREEMENT_REQUIRED", "RegionSamples", "WarmStartCheck", "plan_stages", "solve_plan", "solves_needed"]
+__all__ = ["AGREEMENT_REQUIRED", "RegionSamples", "WarmStartCheck", "WarmStarts", "plan_stages", "solve_plan",
+           "solves_needed"]
 
 #: the share of checked warm starts that must land on the loading path's equilibrium for warm starts to be used
 AGREEMENT_REQUIRED = 0.999
@@ -29,6 +30,29 @@ AGREEMENT_REQUIRED = 0.999
 SAME_TIP = 1e-6
 #: rows solved per call (progress and Ctrl-C between blocks)
 BLOCK = 512
+#: warm-started samples also solved along the loading path, by default
+CHECK = 1000
+
+
+@dataclass(frozen=True)
+class WarmStarts:
+    """How :func:`solve_plan` uses warm starts from solved neighbours.
+
+    Attributes
+    ----------
+    check : int
+        Warm-started samples also solved along the loading path before warm starts are used, >= 0 (0: none
+        checked, so none used).
+    seed : int
+        Seed of the checked random subset, >= 0.
+    """
+
+    check: int = CHECK
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "check", check_count(self.check, "check", lo=0))
+        object.__setattr__(self, "seed", check_count(self.seed, "seed", lo=0))
 
 
 @dataclass(frozen=True)
@@ -76,10 +100,11 @@ class RegionSamples:
     Attributes
     ----------
     tensions : ndarray, shape (M, n_tendons)
-        [N].
+        The actuator tensions solved [N], one row per sample (not the per-piece tensions of
+        :attr:`pytdcr.StaticSolution.tensions`, shape (n_tendons, N)).
     source : ndarray of int8, shape (M,)
         Where each comes from (:data:`pytdcr.region.SOURCES`).
-    tip : ndarray, shape (M, 3)
+    tip_position : ndarray, shape (M, 3)
         Tip position [m]; NaN where not converged.
     converged : ndarray of bool, shape (M,)
     stable : ndarray, shape (M,)
@@ -104,7 +129,7 @@ class RegionSamples:
 
     tensions: np.ndarray
     source: np.ndarray
-    tip: np.ndarray
+    tip_position: np.ndarray
     converged: np.ndarray
     stable: np.ndarray
     below_base: np.ndarray
@@ -129,7 +154,7 @@ class RegionSamples:
     def take(self, rows: np.ndarray) -> RegionSamples:
         """The samples at ``rows`` (indices or a mask); ``n_base`` counts the Sobol rows kept."""
         idx = np.arange(self.source.size)[rows]
-        return RegionSamples(self.tensions[idx], self.source[idx], self.tip[idx], self.converged[idx],
+        return RegionSamples(self.tensions[idx], self.source[idx], self.tip_position[idx], self.converged[idx],
                              self.stable[idx], self.below_base[idx], self.disks_touch[idx],
                              int(np.sum(self.source[idx] == 0)), self.warm, self.seconds,
                              None if self.q is None else self.q[idx],
@@ -144,7 +169,7 @@ class RegionSamples:
         kappa = (cat([self.curvature, other.curvature])
                  if self.curvature is not None and other.curvature is not None else None)
         return RegionSamples(cat([self.tensions, other.tensions]), cat([self.source, other.source]),
-                             cat([self.tip, other.tip]), cat([self.converged, other.converged]),
+                             cat([self.tip_position, other.tip_position]), cat([self.converged, other.converged]),
                              cat([self.stable, other.stable]), cat([self.below_base, other.below_base]),
                              cat([self.disks_touch, other.disks_touch]), self.n_base + other.n_base, self.warm,
                              self.seconds + other.seconds, q, stage, kappa)
@@ -177,7 +202,7 @@ class _Solver:
         q[~ok] = np.nan
         kappa = bending_curvature(rot, self.robot.subsegment_lengths).max(axis=1)
         kappa[~ok] = np.nan
-        return {"tip": b.tip_position, "converged": ok, "stable": stable, "q": q, "curvature": kappa,
+        return {"tip_position": b.tip_position, "converged": ok, "stable": stable, "q": q, "curvature": kappa,
                 "plain": np.asarray(b.path == "loading", dtype=bool),
                 "below_base": disks_below_base(pos, rot, r) & ok, "disks_touch": disks_touch(pos, rot, r) & ok}
 
@@ -195,7 +220,7 @@ class _Solver:
 def _agree(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> np.ndarray:
     """Row by row: the same equilibrium (tips within SAME_TIP) or neither converged."""
     same_flag = a["converged"] == b["converged"]
-    close = np.linalg.norm(np.nan_to_num(a["tip"] - b["tip"], nan=np.inf), axis=1) <= SAME_TIP
+    close = np.linalg.norm(np.nan_to_num(a["tip_position"] - b["tip_position"], nan=np.inf), axis=1) <= SAME_TIP
     return same_flag & (~a["converged"] | close)
 
 
@@ -212,28 +237,40 @@ def _warm_from(anchors: dict[str, np.ndarray], t_anchor: np.ndarray, tensions: n
     return np.ascontiguousarray(anchors["q"][usable][idx])
 
 
+def _warm_starts(warm: bool | WarmStarts) -> WarmStarts | None:
+    """``warm`` as :class:`WarmStarts` (True: the defaults), or None for none."""
+    if isinstance(warm, WarmStarts):
+        return warm
+    if not isinstance(warm, (bool, np.bool_)):
+        raise TypeError(f"warm must be True, False or a WarmStarts, got {type(warm).__name__}")
+    return WarmStarts() if warm else None
+
+
 def _anchors(plan: TensionPlan, warm: bool) -> int:
     return min(plan.n_base, max(64, plan.n_base // 8)) if warm else plan.tensions.shape[0]
 
 
-def solves_needed(plan: TensionPlan, warm: bool = True, check: int = 1000) -> int:
+def solves_needed(plan: TensionPlan, warm: bool | WarmStarts = True) -> int:
     """The solves :func:`solve_plan` makes (the checked subset is solved twice), for a progress bar."""
-    rest = plan.tensions.shape[0] - _anchors(plan, warm)
-    return plan.tensions.shape[0] + (min(check, rest) if warm and rest > 0 else 0)
+    how = _warm_starts(warm)
+    rest = plan.tensions.shape[0] - _anchors(plan, how is not None)
+    return plan.tensions.shape[0] + (min(how.check, rest) if how is not None and rest > 0 else 0)
 
 
-def solve_plan(robot: Robot, loads: Loads, bounds: TensionBounds, plan: TensionPlan, *, model: str | Model = "pcc",
-               options: Any = None, threads: int | None = None, warm: bool = True, check: int = 1000,
-               seed: int = 0, progress: Callable[[int], None] | None = None) -> RegionSamples:
+def solve_plan(robot: Robot, loads: Loads, plan: TensionPlan, *, model: str | Model = "pcc", options: Any = None,
+               threads: int | None = None, warm: bool | WarmStarts = True,
+               progress: Callable[[int], None] | None = None) -> RegionSamples:
     """Solve every tension vector of ``plan`` under ``loads`` and test each equilibrium.
 
-    With ``warm``, an eighth of the Sobol points (at least 64) are solved along the loading path first; the
-    rest start from the nearest of them that reached its equilibrium without a fold. Before they are used, a
-    random subset of ``check`` warm-started samples (``seed``) is solved both ways: warm starts are kept only
-    if at least :data:`AGREEMENT_REQUIRED` of them agree, otherwise every sample follows the loading path.
-    Neighbours and the subset do not depend on the threads, so neither do the results.
+    With ``warm`` (True, or :class:`WarmStarts` for its check), an eighth of the Sobol points (at least 64)
+    are solved along the loading path first; the rest start from the nearest of them (in tension space scaled
+    by the plan's bounds) that reached its equilibrium without a fold. Before they are used, a random subset of
+    ``warm.check`` warm-started samples (``warm.seed``) is solved both ways: warm starts are kept only if at
+    least :data:`AGREEMENT_REQUIRED` of them agree, otherwise every sample follows the loading path. Without
+    ``warm``, every sample follows the loading path. Neighbours and the subset do not depend on ``threads``, so
+    neither do the results. ``progress`` is advanced by the solves done (:func:`solves_needed` in all).
     """
-    check = check_count(check, "check", lo=0)
+    how = _warm_starts(warm)
     m, opts = resolve(model, robot, loads, options)
     res = check_resources(m, robot, opts)
     per_row = 8.0 * ((res.unknowns if res else 3 * robot.n_disks) + robot.n_tendons + 16)
@@ -243,18 +280,18 @@ def solve_plan(robot: Robot, loads: Loads, bounds: TensionBounds, plan: TensionP
     solver = _Solver(robot, loads.with_tensions(np.zeros(robot.n_tendons)), m, opts, threads, progress, stability)
     T = plan.tensions
     t0 = time.perf_counter()
-    n_anchor = _anchors(plan, warm)
+    n_anchor = _anchors(plan, how is not None)
     anchors = solver.solve(T[:n_anchor])
     rest = T[n_anchor:]
-    report = WarmStartCheck("loading path", anchors=n_anchor if warm else 0)
-    if warm and rest.shape[0]:
-        q0 = _warm_from(anchors, T[:n_anchor], rest, bounds)
-        out, report = _checked(solver, rest, q0, check, seed, n_anchor)
+    report = WarmStartCheck("loading path", anchors=n_anchor if how is not None else 0)
+    if how is not None and rest.shape[0]:
+        q0 = _warm_from(anchors, T[:n_anchor], rest, plan.bounds)
+        out, report = _checked(solver, rest, q0, how.check, how.seed, n_anchor)
     else:
         out = solver.solve(rest) if rest.shape[0] else {}
-    keys = ("tip", "converged", "stable", "below_base", "disks_touch", "q", "curvature")
+    keys = ("tip_position", "converged", "stable", "below_base", "disks_touch", "q", "curvature")
     got = {k: np.concatenate([anchors[k], out[k]]) if out else anchors[k] for k in keys}
-    return RegionSamples(T, plan.source, got["tip"], got["converged"], got["stable"], got["below_base"],
+    return RegionSamples(T, plan.source, got["tip_position"], got["converged"], got["stable"], got["below_base"],
                          got["disks_touch"], plan.n_base, report, time.perf_counter() - t0, got["q"],
                          plan_stages(plan), got["curvature"])
 

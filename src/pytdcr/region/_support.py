@@ -30,8 +30,8 @@ from ..optimize import ReachProblem, SearchFailed, polish_reach
 from ..runtime import default_threads, worker_pool
 from ..validate import check_count
 
-__all__ = ["DEFAULT_DIRECTIONS", "LargestReach", "SupportFunction", "fibonacci_directions", "largest_reach",
-           "support_function"]
+__all__ = ["DEFAULT_DIRECTIONS", "LargestReach", "SupportFunction", "SupportSettings", "fibonacci_directions",
+           "largest_reach", "support_function"]
 
 #: directions of the support function by default (a Fibonacci sphere)
 DEFAULT_DIRECTIONS = 200
@@ -79,9 +79,9 @@ class SupportFunction:
     h : ndarray, shape (K,)
         ``max d . tip`` found along each direction [m]; never below ``sample_h``.
     tensions : ndarray, shape (K, n_tendons)
-        Tensions that attain it [N].
-    tips : ndarray, shape (K, 3)
-        Their tips [m] (``h = tips . directions`` row by row).
+        Actuator tensions that attain it [N].
+    tip_position : ndarray, shape (K, 3)
+        Their tips [m] (``h = tip_position . directions`` row by row).
     sample_h : ndarray, shape (K,)
         The best sample's ``d . tip`` [m]: the lower bound the search started from.
     from_sample : ndarray of bool, shape (K,)
@@ -102,7 +102,7 @@ class SupportFunction:
     directions: np.ndarray
     h: np.ndarray
     tensions: np.ndarray
-    tips: np.ndarray
+    tip_position: np.ndarray
     sample_h: np.ndarray
     from_sample: np.ndarray
     exchanged: np.ndarray
@@ -122,14 +122,14 @@ class SupportFunction:
                  "sample_h_m": float(self.sample_h[k]), "gain_m": float(self.gain[k]),
                  "from_sample": bool(self.from_sample[k]), "exchanged": bool(self.exchanged[k]),
                  "evaluations": int(self.evaluations[k]),
-                 "tensions": self.tensions[k].tolist(), "tip": self.tips[k].tolist()}
+                 "tensions": self.tensions[k].tolist(), "tip": self.tip_position[k].tolist()}
                 for k in range(self.h.size)]
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form: the arrays as lists, and a summary."""
         gain = self.gain
         return {"directions": self.directions.tolist(), "h": self.h.tolist(), "tensions": self.tensions.tolist(),
-                "tips": self.tips.tolist(), "sample_h": self.sample_h.tolist(),
+                "tips": self.tip_position.tolist(), "sample_h": self.sample_h.tolist(),
                 "from_sample": self.from_sample.tolist(), "exchanged": self.exchanged.tolist(),
                 "evaluations": self.evaluations.tolist(),
                 "starts": self.starts.tolist(), "seconds": self.seconds, "settings": self.settings,
@@ -148,8 +148,8 @@ class LargestReach:
     Attributes
     ----------
     tensions : ndarray, shape (n_tendons,)
-        [N].
-    tip : ndarray, shape (3,)
+        Actuator tensions [N].
+    tip_position : ndarray, shape (3,)
         [m].
     reach : float
         ``||tip||`` [m]; never below ``sample_reach``.
@@ -166,7 +166,7 @@ class LargestReach:
     """
 
     tensions: np.ndarray
-    tip: np.ndarray
+    tip_position: np.ndarray
     reach: float
     sample_reach: float
     from_sample: bool
@@ -176,34 +176,61 @@ class LargestReach:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form."""
-        return {"tensions": self.tensions.tolist(), "tip": self.tip.tolist(), "reach": self.reach,
+        return {"tensions": self.tensions.tolist(), "tip": self.tip_position.tolist(), "reach": self.reach,
                 "sample_reach": self.sample_reach, "from_sample": self.from_sample,
                 "evaluations": self.evaluations, "starts": self.starts, "seconds": self.seconds}
+
+
+@dataclass(frozen=True)
+class SupportSettings:
+    """How :func:`support_function` searches each direction.
+
+    Attributes
+    ----------
+    starts : int
+        First searches per direction, from the samples, >= 1.
+    max_iter, restarts : int
+        L-BFGS-B iterations per search and per restart (>= 1), and restarts after a failed line search (>= 0)
+        (:func:`pytdcr.optimize.polish_reach`).
+    exchange_rounds : int
+        Rounds of searches from other directions' tips, >= 0 (they end at the first round with nothing to do).
+    """
+
+    starts: int = 1
+    max_iter: int = 30
+    restarts: int = 1
+    exchange_rounds: int = 4
+
+    def __post_init__(self) -> None:
+        for name, lo in (("starts", 1), ("max_iter", 1), ("restarts", 0), ("exchange_rounds", 0)):
+            object.__setattr__(self, name, check_count(getattr(self, name), name, lo=lo))
 
 
 class _Best(NamedTuple):
     """The outcome on one objective: tensions, tip, value, whether the sample was kept, solves, searches."""
 
     tensions: np.ndarray
-    tip: np.ndarray
+    tip_position: np.ndarray
     value: float
     from_sample: bool
     evaluations: int
     starts: int
 
 
-def _check_samples(problem: ReachProblem, tensions: np.ndarray, tips: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _check_samples(problem: ReachProblem, tensions: np.ndarray,
+                   tip_position: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The samples as float arrays (M, n_tendons) [N] and (M, 3) [m]: finite, at least one (ValueError)."""
     t = np.asarray(tensions, dtype=float)
-    p = np.asarray(tips, dtype=float)
+    p = np.asarray(tip_position, dtype=float)
     nt = problem.robot.n_tendons
     if t.ndim != 2 or t.shape[1] != nt or p.shape != (t.shape[0], 3):
-        raise ValueError(f"samples: tensions must have shape (M, {nt}) and tips (M, 3), got {t.shape} and {p.shape}")
+        raise ValueError(f"samples: tensions must have shape (M, {nt}) and tip positions (M, 3), got {t.shape} and "
+                         f"{p.shape}")
     if t.shape[0] == 0:
         raise ValueError("samples: at least one feasible sample is needed")
     if not (np.all(np.isfinite(t)) and np.all(np.isfinite(p))):
         raise ValueError("samples must be finite: pass the feasible ones (samples.tensions[samples.feasible], "
-                         "samples.tip[samples.feasible])")
+                         "samples.tip_position[samples.feasible])")
     return t, p
 
 
@@ -277,7 +304,7 @@ def _exchange(problem: ReachProblem, D: np.ndarray, found: list[_Best], max_iter
     than :data:`EXCHANGE_TOL`) is searched again from that tip's tensions, keeping at least that tip; without
     ``search``, each that a tip beats by more than :data:`TAKE_TOL` takes it as it is (no solve). Returns the
     directions changed."""
-    tips = np.array([b.tip for b in found])
+    tips = np.array([b.tip_position for b in found])
     h = np.array([b.value for b in found])
     values = tips @ D.T  # values[j, k] = d_k . tip_j
     donor = np.argmax(values, axis=0)
@@ -286,7 +313,7 @@ def _exchange(problem: ReachProblem, D: np.ndarray, found: list[_Best], max_iter
 
     def job(k: int) -> Callable[[], _Best]:
         j = int(donor[k])
-        start = (found[j].tensions, found[j].tip)
+        start = (found[j].tensions, found[j].tip_position)
         if not search:
             return lambda: _Best(*start, float(values[j, k]), False, 0, 0)
         return lambda: _climb(problem.with_direction(D[k]), [start[0]], start, max_iter, restarts)
@@ -298,40 +325,34 @@ def _exchange(problem: ReachProblem, D: np.ndarray, found: list[_Best], max_iter
     return todo
 
 
-def support_function(problem: ReachProblem, samples_tensions: np.ndarray, samples_tips: np.ndarray,
-                     directions: np.ndarray | None = None, *, starts: int = 1, max_iter: int = 30,
-                     restarts: int = 1, exchange_rounds: int = 4, threads: int | None = None,
-                     progress: Callable[[int], None] | None = None) -> SupportFunction:
+def support_function(problem: ReachProblem, samples_tensions: np.ndarray, samples_tip_position: np.ndarray,
+                     directions: np.ndarray | None = None, *, settings: SupportSettings | None = None,
+                     threads: int | None = None, progress: Callable[[int], None] | None = None) -> SupportFunction:
     """The support function ``h(d) = max d . tip`` over the feasible tensions, along each direction.
 
-    First, for each direction d, the ``starts`` samples with the largest ``d . tip`` (with distinct tensions)
-    are polished by :func:`pytdcr.optimize.polish_reach` on ``problem.with_direction(d)``; the best result is
-    kept, or the best sample itself when no search ends above it (``from_sample``). The objective has many
-    local optima, and another direction's optimum is often a better start than any sample: in up to
-    ``exchange_rounds`` rounds, every direction whose h another direction's tip beats is searched again from
-    that tip's tensions (``exchanged``). A last pass takes, without a solve, any tip that still beats a
+    First, for each direction d, the ``settings.starts`` samples with the largest ``d . tip`` (with distinct
+    tensions) are polished by :func:`pytdcr.optimize.polish_reach` on ``problem.with_direction(d)``; the best
+    result is kept, or the best sample itself when no search ends above it (``from_sample``). The objective has
+    many local optima, and another direction's optimum is often a better start than any sample: in up to
+    ``settings.exchange_rounds`` rounds, every direction whose h another direction's tip beats is searched again
+    from that tip's tensions (``exchanged``). A last pass takes, without a solve, any tip that still beats a
     direction's h, so that h is the support function of the reported tips themselves:
-    ``h[k] = max_j directions[k] . tips[j]`` (to 1e-12 m). Every reported tip is the cold solve of its tensions (or a
-    sample's, as given). With ``problem.stable_only`` the search refuses unstable equilibria (pass stable
-    samples).
+    ``h[k] = max_j directions[k] . tip_position[j]`` (to 1e-12 m). Every reported tip is the cold solve of its
+    tensions (or a sample's, as given). With ``problem.stable_only`` the search refuses unstable equilibria
+    (pass stable samples).
 
     Parameters
     ----------
     problem : ReachProblem
         Robot, loads, bounds, model (its own direction is ignored).
     samples_tensions : ndarray, shape (M, n_tendons)
-        Feasible samples' tensions [N] (e.g. ``samples.tensions[samples.feasible]``).
-    samples_tips : ndarray, shape (M, 3)
-        Their tips [m] (``samples.tip[samples.feasible]``).
+        Feasible samples' actuator tensions [N] (e.g. ``samples.tensions[samples.feasible]``).
+    samples_tip_position : ndarray, shape (M, 3)
+        Their tips [m] (``samples.tip_position[samples.feasible]``).
     directions : ndarray, shape (K, 3), optional
         Directions (normalised here); default :func:`fibonacci_directions` (200).
-    starts : int
-        First searches per direction, from the samples, >= 1.
-    max_iter, restarts : int
-        L-BFGS-B iterations per search and per restart, and restarts after a failed line search
-        (:func:`pytdcr.optimize.polish_reach`).
-    exchange_rounds : int
-        Rounds of searches from other directions' tips, >= 0 (they end at the first round with nothing to do).
+    settings : SupportSettings, optional
+        The searches: starts, iterations, restarts, exchange rounds (default :class:`SupportSettings`).
     threads : int, optional
         Searches run at once (default: the cores this process may use); the results do not depend on it.
     progress : callable, optional
@@ -343,12 +364,10 @@ def support_function(problem: ReachProblem, samples_tensions: np.ndarray, sample
     SupportFunction
     """
     t0 = time.perf_counter()
-    T, P = _check_samples(problem, samples_tensions, samples_tips)
+    T, P = _check_samples(problem, samples_tensions, samples_tip_position)
     D = _check_directions(directions)
-    starts = check_count(starts, "starts", lo=1)
-    max_iter = check_count(max_iter, "max_iter", lo=1)
-    restarts = check_count(restarts, "restarts", lo=0)
-    exchange_rounds = check_count(exchange_rounds, "exchange_rounds", lo=0)
+    cfg = settings if settings is not None else SupportSettings()
+    starts, max_iter, restarts, exchange_rounds = cfg.starts, cfg.max_iter, cfg.restarts, cfg.exchange_rounds
     scale = problem.bounds.span
 
     def job(d: np.ndarray) -> Callable[[], _Best]:
@@ -372,20 +391,20 @@ def support_function(problem: ReachProblem, samples_tensions: np.ndarray, sample
                     "seconds": time.perf_counter() - t1})
     taken = _exchange(problem, D, found, max_iter, restarts, threads, search=False)
     exchanged[taken] = True
-    settings = {**problem.describe(), "objective": "support", "direction": None, "starts": starts,
-                "max_iter": max_iter, "restarts": restarts, "exchange_rounds": exchange_rounds, "rounds": log,
-                "taken_without_search": len(taken), "samples": int(T.shape[0])}
-    tips = np.array([b.tip for b in found])
+    record = {**problem.describe(), "objective": "support", "direction": None, "starts": starts,
+              "max_iter": max_iter, "restarts": restarts, "exchange_rounds": exchange_rounds, "rounds": log,
+              "taken_without_search": len(taken), "samples": int(T.shape[0])}
+    tips = np.array([b.tip_position for b in found])
     best = np.argmax(P @ D.T, axis=0)
     return SupportFunction(
-        directions=D, h=_dots(tips, D), tensions=np.array([b.tensions for b in found]), tips=tips,
+        directions=D, h=_dots(tips, D), tensions=np.array([b.tensions for b in found]), tip_position=tips,
         sample_h=_dots(P[best], D),
         from_sample=np.array([b.from_sample for b in found], dtype=bool), exchanged=exchanged,
         evaluations=np.array([b.evaluations for b in found], dtype=int),
-        starts=np.array([b.starts for b in found], dtype=int), seconds=time.perf_counter() - t0, settings=settings)
+        starts=np.array([b.starts for b in found], dtype=int), seconds=time.perf_counter() - t0, settings=record)
 
 
-def largest_reach(problem: ReachProblem, samples_tensions: np.ndarray, samples_tips: np.ndarray,
+def largest_reach(problem: ReachProblem, samples_tensions: np.ndarray, samples_tip_position: np.ndarray,
                   support: SupportFunction | None = None, *, starts: int = 4, max_iter: int = 200,
                   threads: int | None = None) -> LargestReach:
     """The largest reach ``max ||tip||`` over the feasible tensions (the paper's Eq. 29), by the same search.
@@ -399,8 +418,8 @@ def largest_reach(problem: ReachProblem, samples_tensions: np.ndarray, samples_t
     ----------
     problem : ReachProblem
     samples_tensions : ndarray, shape (M, n_tendons)
-        Feasible samples' tensions [N].
-    samples_tips : ndarray, shape (M, 3)
+        Feasible samples' actuator tensions [N].
+    samples_tip_position : ndarray, shape (M, 3)
         Their tips [m].
     support : SupportFunction, optional
         Of the same problem: more starts.
@@ -416,7 +435,7 @@ def largest_reach(problem: ReachProblem, samples_tensions: np.ndarray, samples_t
     LargestReach
     """
     t0 = time.perf_counter()
-    T, P = _check_samples(problem, samples_tensions, samples_tips)
+    T, P = _check_samples(problem, samples_tensions, samples_tip_position)
     starts = check_count(starts, "starts", lo=1)
     max_iter = check_count(max_iter, "max_iter", lo=1)
     reach_problem = problem.with_direction(None)
@@ -425,14 +444,14 @@ def largest_reach(problem: ReachProblem, samples_tensions: np.ndarray, samples_t
     first = _top_distinct(reach, T, starts, scale)
     begin = [T[k] for k in first]
     if support is not None:
-        far = np.linalg.norm(support.tips, axis=1)
+        far = np.linalg.norm(support.tip_position, axis=1)
         cand = [support.tensions[k] for k in _top_distinct(far, support.tensions, starts, scale)]
         begin += [t for t in cand if all(np.max(np.abs(t - s) / scale) > _DISTINCT for s in begin)]
     sample = (T[first[0]], P[first[0]])
     jobs = [lambda t=t: _climb(reach_problem, [t], sample, max_iter) for t in begin]
     found = _run(jobs, threads, None)
     best = max(found, key=lambda b: (b.value, not b.from_sample))
-    return LargestReach(tensions=np.array(best.tensions), tip=np.array(best.tip), reach=float(best.value),
-                        sample_reach=float(reach[first[0]]), from_sample=best.from_sample,
+    return LargestReach(tensions=np.array(best.tensions), tip_position=np.array(best.tip_position),
+                        reach=float(best.value), sample_reach=float(reach[first[0]]), from_sample=best.from_sample,
                         evaluations=int(sum(b.evaluations for b in found)), starts=len(begin),
                         seconds=time.perf_counter() - t0)

@@ -6,7 +6,7 @@ tendon runs along it at its routing radius and angle (Rucker & Webster 2011,
 straight routing) and ends at its anchor disk. Disk weights and point
 wrenches act at the disks, the backbone's weight along it, the tip wrench at
 the tip: the loads, the routing and the packing are those of the PCC model
-(:class:`~pytdcr.statics.model.StaticModel`); only the backbone's mechanics
+(:class:`~pytdcr.statics.pcc.PCCEquations`); only the backbone's mechanics
 differ. See :mod:`pytdcr.statics.kernels.cosserat` for the equations.
 
 The boundary-value problem has three unknowns, the total moment at the base
@@ -51,7 +51,7 @@ class Shot(NamedTuple):
     """One integration from the base: the moment just past the tip [N m], the tip [m], and the shape if recorded."""
 
     residual: np.ndarray  # (3,) the shooting residual: total moment just past the tip
-    tip: np.ndarray  # (3,)
+    tip_position: np.ndarray  # (3,) [m]
     positions: np.ndarray | None  # (N+1, 3) disk centres [m]
     rotations: np.ndarray | None  # (N+1, 3, 3)
     curve: np.ndarray | None  # (N nsub + 1, 3) backbone points [m]
@@ -137,7 +137,7 @@ class CosseratShooting:
 
         def run(m: np.ndarray, t: np.ndarray) -> np.ndarray:
             shot = self.with_tensions(t).shoot(m)
-            return np.concatenate([shot.residual, shot.tip])
+            return np.concatenate([shot.residual, shot.tip_position])
 
         base = run(m0, tension)
         nt = tension.size

@@ -13,7 +13,6 @@ import numpy as np
 from ..bounds import TensionBounds
 from ..design import Robot
 from ..loads import Loads
-from ..optimize import ReachProblem
 from ..plotting import plot_region_3d, plot_region_slices, plot_support_map, save_figure, write_region_html
 from ..region import (
     MIN_MESH_POINTS,
@@ -23,32 +22,65 @@ from ..region import (
     RegionSamples,
     SearchRound,
     SupportFunction,
+    WorkspaceHooks,
     WorkspaceRegion,
-    fibonacci_directions,
-    largest_reach,
-    support_function,
-    workspace_region,
+    WorkspaceSettings,
+    WorkspaceStudy,
+    workspace_study,
 )
 from ..runtime import atomic_write, atomic_write_text, output_folder, write_csv, write_json
-from ..statics import Model, options_record, resolve, saving, solve
+from ..statics import Model, options_record, saving, solve
 from ._output import inputs_record
 
-__all__ = ["WorkspaceCase", "WorkspaceRun", "run_workspace", "run_workspace_compare"]
+__all__ = ["WorkspaceCase", "WorkspaceRun", "WorkspaceRunOptions", "run_workspace", "run_workspace_compare"]
 
 #: ``progress(stage, total)`` returns a callable advanced by the work done (total None: unknown)
 Progress = Callable[[str, "int | None"], Callable[[int], None]]
 
 
+@dataclass(frozen=True)
+class WorkspaceRunOptions:
+    """How a workspace run reports itself.
+
+    Attributes
+    ----------
+    command : str
+        The command that made it, named in each ``report.md``.
+    progress : callable or None
+        ``progress(stage, total)`` returns a callable advanced by the work done (:class:`pytdcr.region.WorkspaceHooks`).
+    on_round : callable or None
+        Sees each round of the boundary search.
+    """
+
+    command: str = "tdcr workspace"
+    progress: Progress | None = None
+    on_round: Callable[[SearchRound], None] | None = None
+
+
 @dataclass(frozen=True, eq=False)
 class WorkspaceCase:
-    """One load case's workspace: the regions, the support function and the largest reach."""
+    """One load case's workspace: the study (regions, support function, largest reach) and its summary (the
+    study's numbers with the files' names, the inputs and the warnings: ``workspace.json``)."""
 
     name: str
     loads: Loads
-    region: WorkspaceRegion
-    support: SupportFunction | None
-    reach: LargestReach | None
+    study: WorkspaceStudy
     summary: dict[str, Any]
+
+    @property
+    def region(self) -> WorkspaceRegion:
+        """The samples, the regions and their volumes."""
+        return self.study.region
+
+    @property
+    def support(self) -> SupportFunction | None:
+        """h(d), when computed."""
+        return self.study.support
+
+    @property
+    def reach(self) -> LargestReach | None:
+        """The reach search, when it ran."""
+        return self.study.reach_search
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,30 +97,15 @@ class WorkspaceRun:
         return self.cases[0]
 
 
-def _boundary_sources(region: Region, samples: RegionSamples, mask: np.ndarray) -> dict[str, float]:
-    """Of the region's boundary voxels (occupied, with an empty face neighbour), the share holding a sample
-    from each source (a voxel can hold several)."""
-    from scipy import ndimage
-
-    occ = region.occupied
-    boundary = occ & ~ndimage.binary_erosion(occ, structure=ndimage.generate_binary_structure(3, 1))
-    total = int(boundary.sum())
-    idx = np.floor((samples.tip[mask] - region.origin) / region.voxel).astype(np.int64)
-    src = samples.source[mask]
-    shares = {}
-    for k, name in enumerate(SOURCES):
-        hit = np.zeros_like(occ)
-        i = idx[src == k]
-        hit[i[:, 0], i[:, 1], i[:, 2]] = True
-        shares[name] = float((hit & boundary).sum() / total) if total else 0.0
-    return shares
-
-
-def _numbers(est: Any, samples: RegionSamples, mask: np.ndarray, mesh: str, reach: float | None) -> dict[str, Any]:
-    """A region's numbers; ``mesh`` is None when it has too few points to mesh (:data:`MIN_MESH_POINTS`)."""
-    points = int(mask.sum())
-    return {"volume_m3": est.volume_m3, "volume_err_m3": est.error_m3, "largest_reach_m": reach,
-            "mesh": mesh if points >= MIN_MESH_POINTS else None, "points": points, "volume": est.to_dict()}
+def _with_mesh(numbers: dict[str, Any], mesh: str) -> dict[str, Any]:
+    """A region's numbers with the name of its mesh file after the largest reach; None when it has too few
+    points to mesh (:data:`MIN_MESH_POINTS`)."""
+    out: dict[str, Any] = {}
+    for key, value in numbers.items():
+        out[key] = value
+        if key == "largest_reach_m":
+            out["mesh"] = mesh if numbers["points"] >= MIN_MESH_POINTS else None
+    return out
 
 
 def _warnings(summary: dict[str, Any]) -> list[str]:
@@ -110,60 +127,31 @@ def _warnings(summary: dict[str, Any]) -> list[str]:
     return out
 
 
-def _counts(samples: RegionSamples) -> dict[str, Any]:
-    ok = samples.converged
-    n_ok = max(int(ok.sum()), 1)
-    return {"solved": int(ok.size), "converged": int(ok.sum()), "not_converged": int((~ok).sum()),
-            "unstable": int(np.sum(samples.stable == 0.0)),
-            "stability_untested": int(np.sum(ok & np.isnan(samples.stable))),
-            "below_base": int(samples.below_base.sum()), "disks_touch": int(samples.disks_touch.sum()),
-            "fraction_below_base": float(samples.below_base.sum() / n_ok),
-            "fraction_disks_touch": float(samples.disks_touch.sum() / n_ok),
-            "fraction_realisable": float(samples.realisable.sum() / n_ok),
-            "by_source": {name: int(np.sum(samples.source == k)) for k, name in enumerate(SOURCES)}}
+def _directions_record(settings: WorkspaceSettings) -> int | list[list[float]]:
+    d = settings.directions
+    return d if isinstance(d, int) else [list(v) for v in d]
 
 
-def _case(name: str, robot: Robot, loads: Loads, bounds: TensionBounds, n: int, seed: int, settings: dict[str, Any],
-          progress: Progress | None, checkpoint: Callable[[RegionSamples], None] | None = None) -> WorkspaceCase:
-    """Compute one load case: the regions, then h(d) and the largest reach from the feasible samples."""
-    m, opts = resolve(settings["model"], robot, loads, settings["options"])
-    wr = workspace_region(robot, loads, bounds, n, seed, model=m, options=opts, voxel=settings["voxel"],
-                          warm=settings["warm"], search=settings["search"], budget=settings["budget"],
-                          progress=progress, on_round=settings.get("on_round"), checkpoint=checkpoint)
-    s = wr.samples
-    support, reach = None, None
-    if np.any(s.feasible) and m.capabilities.gradient is not None:
-        problem = ReachProblem.create(robot, loads, bounds, model=m, options=opts)
-        T, tips = s.tensions[s.feasible], s.tip[s.feasible]
-        if settings["directions"]:
-            step = progress("support function h(d)", settings["directions"]) if progress else None
-            support = support_function(problem, T, tips, fibonacci_directions(settings["directions"]),
-                                       progress=step)
-        if settings.get("reach_search", True):
-            reach = largest_reach(problem, T, tips, support=support)
-    far = float(reach.reach) if reach is not None else (
-        float(np.linalg.norm(s.tip[s.feasible], axis=1).max()) if np.any(s.feasible) else None)
-    real_reach = float(np.linalg.norm(s.tip[s.realisable], axis=1).max()) if np.any(s.realisable) else None
-    summary = {**_numbers(wr.fsw, s, s.feasible, "fsw.ply", far),
-               "realisable": _numbers(wr.realisable, s, s.realisable, "fsw_realisable.ply", real_reach),
-               "voxel_m": wr.voxel, "counts": _counts(s), "warm_start": s.warm.to_dict(),
-               "boundary_sources": _boundary_sources(wr.fsw_region, s, s.feasible) if np.any(s.feasible) else {},
-               "boundary_search": wr.search.to_dict() if wr.search is not None else None,
-               "support": support.to_dict() if support is not None else None,
-               "largest_reach": _reach_record(reach), "seconds_sampling": s.seconds,
-               "inputs": inputs_record(robot, loads, bounds=bounds.to_dict(), n=n, seed=seed,
-                                       solver=options_record(m, opts), warm_starts=settings["warm"],
-                                       boundary_search=settings["search"], search_budget=settings["budget"],
-                                       directions=settings["directions"])}
+def _case(name: str, robot: Robot, loads: Loads, bounds: TensionBounds, settings: WorkspaceSettings,
+          model: str | Model, options: Any, hooks: WorkspaceHooks) -> WorkspaceCase:
+    """Compute one load case (:func:`pytdcr.region.workspace_study`) and its summary."""
+    ws = workspace_study(robot, loads, bounds, settings, model=model, options=options, hooks=hooks)
+    numbers = ws.to_dict()
+    summary = _with_mesh(numbers, "fsw.ply")
+    summary["realisable"] = _with_mesh(numbers["realisable"], "fsw_realisable.ply")
+    summary["inputs"] = inputs_record(robot, loads, bounds=bounds.to_dict(), n=settings.n, seed=settings.seed,
+                                      solver=options_record(ws.model, ws.options), warm_starts=settings.warm,
+                                      boundary_search=settings.search, search_budget=settings.budget,
+                                      directions=_directions_record(settings))
     summary["warnings"] = _warnings(summary)
-    return WorkspaceCase(name, loads, wr, support, reach, summary)
+    return WorkspaceCase(name, loads, ws, summary)
 
 
 def _save_samples(out: Path, s: RegionSamples) -> None:
     """``samples.npz`` in ``out``, written aside and renamed (a reader never sees half of it)."""
     def write(tmp: Path) -> None:
         with open(tmp, "wb") as f:
-            np.savez_compressed(f, tensions=s.tensions, source=s.source, tip=s.tip, stage=s.stage,
+            np.savez_compressed(f, tensions=s.tensions, source=s.source, tip=s.tip_position, stage=s.stage,
                                 converged=s.converged, stable=s.stable, below_base=s.below_base,
                                 disks_touch=s.disks_touch, sources=np.array(SOURCES))
 
@@ -181,20 +169,16 @@ def _checkpoint(out: Path, run: Any, before: str = "", where: str = "") -> Calla
     return save
 
 
-def _reach_record(reach: LargestReach | None) -> dict[str, Any] | None:
-    return None if reach is None else reach.to_dict()
-
-
-def _robot_at(case: WorkspaceCase, robot: Robot, settings: dict[str, Any]) -> np.ndarray | None:
-    """Disk centres (N+1, 3) [m] at the largest-reach tensions, or None."""
+def _robot_at(case: WorkspaceCase, robot: Robot) -> np.ndarray | None:
+    """Disk centres (N+1, 3) [m] at the reach search's tensions, or None."""
     if case.reach is None:
         return None
-    sol = solve(robot, case.loads.with_tensions(np.asarray(case.reach.tensions)), model=settings["model"],
-                options=settings["options"])
+    sol = solve(robot, case.loads.with_tensions(np.asarray(case.reach.tensions)), model=case.study.model,
+                options=case.study.options)
     return sol.disk_positions if sol.converged else None
 
 
-def _write_case(out: Path, case: WorkspaceCase, robot: Robot, settings: dict[str, Any], command: str) -> list[str]:
+def _write_case(out: Path, case: WorkspaceCase, robot: Robot, command: str) -> list[str]:
     """Every file of one case in ``out``: meshes, samples, h(d), figures, HTML, report, JSON."""
     wr, s = case.region, case.region.samples
     files = []
@@ -211,20 +195,20 @@ def _write_case(out: Path, case: WorkspaceCase, robot: Robot, settings: dict[str
         sf = case.support
         write_csv(out / "support.csv", ["dx", "dy", "dz", "h_m", "tip_x_m", "tip_y_m", "tip_z_m",
                                         *[f"T{k + 1}_N" for k in range(robot.n_tendons)]],
-                  ([*d, h, *tip, *t] for d, h, tip, t in zip(sf.directions, sf.h, sf.tips, sf.tensions,
+                  ([*d, h, *tip, *t] for d, h, tip, t in zip(sf.directions, sf.h, sf.tip_position, sf.tensions,
                                                                strict=True)))
         files.append("support.csv")
         files += save_figure(plot_support_map(sf.directions, sf.h, f"robot '{robot.name}': h(d), {case.name}"),
                              out, "support_map")
     meshes = {"FSW": wr.fsw_region.mesh() if meshed["fsw.ply"] else None,
               "realisable": wr.realisable_region.mesh() if meshed["fsw_realisable.ply"] else None}
-    pose = _robot_at(case, robot, settings)
+    pose = _robot_at(case, robot)
     files += save_figure(plot_region_slices({"FSW": wr.fsw_region, "realisable": wr.realisable_region},
                                             robot.length, f"robot '{robot.name}': workspace slices, {case.name}"),
                          out, "slices")
     files += save_figure(plot_region_3d(meshes, pose, f"robot '{robot.name}': FSW boundary, {case.name}"),
                          out, "boundary_3d")
-    write_region_html(out / "workspace.html", meshes, {"feasible tips": s.tip[s.feasible]}, pose,
+    write_region_html(out / "workspace.html", meshes, {"feasible tips": s.tip_position[s.feasible]}, pose,
                       f"robot '{robot.name}': feasible static workspace, {case.name}")
     files.append("workspace.html")
     atomic_write_text(out / "report.md", _report(case.summary, command))
@@ -232,29 +216,23 @@ def _write_case(out: Path, case: WorkspaceCase, robot: Robot, settings: dict[str
     return [*files, "report.md", "workspace.json"]
 
 
-def _settings(model: str | Model, options: Any, voxel: float | None, warm: bool, search: bool, budget: int | None,
-              directions: int, on_round: Callable[[SearchRound], None] | None) -> dict[str, Any]:
-    return {"model": model, "options": options, "voxel": voxel, "warm": warm, "search": search, "budget": budget,
-            "directions": int(directions), "on_round": on_round}
-
-
-def run_workspace(robot: Robot, loads: Loads, bounds: TensionBounds, n: int, seed: int, out: str | Path, *,
-                  model: str | Model = "pcc", options: Any = None, voxel: float | None = None, warm: bool = True,
-                  search: bool = True, budget: int | None = None, directions: int = 200,
-                  command: str = "tdcr workspace", progress: Progress | None = None,
-                  on_round: Callable[[SearchRound], None] | None = None) -> WorkspaceRun:
-    """The workspace under ``loads``, written to ``out`` (the output-folder rule): ``workspace.json``,
-    ``fsw.ply``, ``fsw_realisable.ply``, ``samples.npz``, ``support.csv``, figures (slices, 3D boundary with
-    the robot at its largest reach, h(d) map; PNG and PDF), ``workspace.html`` and ``report.md``.
-
-    See :func:`pytdcr.region.workspace_region` for ``n``, ``seed``, ``voxel``, ``warm``, ``search`` and
-    ``budget``; ``directions`` is the number of support-function directions (0: none).
+def run_workspace(robot: Robot, loads: Loads, bounds: TensionBounds, settings: WorkspaceSettings, out: str | Path,
+                  *, model: str | Model = "pcc", options: Any = None,
+                  run_options: WorkspaceRunOptions | None = None) -> WorkspaceRun:
+    """The workspace under ``loads`` (:func:`pytdcr.region.workspace_study` with ``settings``), written to ``out``
+    (the output-folder rule): ``workspace.json``, ``fsw.ply``, ``fsw_realisable.ply``, ``samples.npz``,
+    ``support.csv``, figures (slices, 3D boundary with the robot at its largest reach, h(d) map; PNG and PDF),
+    ``workspace.html`` and ``report.md``. ``run_options`` names the command in the report and carries the
+    progress and search-round callbacks; the samples are saved as they are solved (an interrupted run keeps
+    them).
     """
-    settings = _settings(model, options, voxel, warm, search, budget, directions, on_round)
-    with output_folder(out, "workspace", {"n": n, "seed": seed, "bounds": bounds.to_dict()}) as run:
-        case = _case("as given", robot, loads, bounds, n, seed, settings, progress, _checkpoint(run.staging, run))
+    how = run_options if run_options is not None else WorkspaceRunOptions()
+    settings.check(robot)
+    with output_folder(out, "workspace", {"n": settings.n, "seed": settings.seed, "bounds": bounds.to_dict()}) as run:
+        hooks = WorkspaceHooks(how.progress, how.on_round, _checkpoint(run.staging, run))
+        case = _case("as given", robot, loads, bounds, settings, model, options, hooks)
         with saving():
-            files = _write_case(run.staging, case, robot, settings, command)
+            files = _write_case(run.staging, case, robot, how.command)
     return WorkspaceRun([case], case.summary, files)
 
 
@@ -363,35 +341,33 @@ def _compare_report(rows: list[dict[str, Any]], cases: list[WorkspaceCase], comm
     return "\n".join([*lines, ""])
 
 
-def run_workspace_compare(robot: Robot, cases: dict[str, tuple[Robot, Loads]], bounds: TensionBounds, n: int,
-                          seed: int, out: str | Path, *, model: str | Model = "pcc", options: Any = None,
-                          voxel: float | None = None, warm: bool = True, search: bool = True,
-                          budget: int | None = None, directions: int = 200, command: str = "tdcr workspace",
-                          progress: Progress | None = None,
-                          on_round: Callable[[SearchRound], None] | None = None) -> WorkspaceRun:
+def run_workspace_compare(robot: Robot, cases: dict[str, tuple[Robot, Loads]], bounds: TensionBounds,
+                          settings: WorkspaceSettings, out: str | Path, *, model: str | Model = "pcc",
+                          options: Any = None, run_options: WorkspaceRunOptions | None = None) -> WorkspaceRun:
     """The workspace of each load case (name → (robot, loads): :func:`pytdcr.paper.workspace_load_cases`), one
     sub-folder each with :func:`run_workspace`'s files, and their comparison in ``out``: ``comparison.json``,
     ``comparison.md``, ``support_compare.csv``, overlaid slices and 3D boundaries (PNG, PDF) and
-    ``comparison.html``. ``voxel`` defaults to ``robot.length / 32`` for every case (one grid)."""
-    voxel = voxel if voxel is not None else robot.length / 32
-    settings = _settings(model, options, voxel, warm, search, budget, directions, on_round)
+    ``comparison.html``. Every case has ``robot``'s voxel (:meth:`~pytdcr.region.WorkspaceSettings.voxel_for`:
+    one grid)."""
+    how = run_options if run_options is not None else WorkspaceRunOptions()
+    settings = settings.check(robot).with_voxel_for(robot)
     done: list[WorkspaceCase] = []
-    with output_folder(out, "workspace --compare-loads", {"n": n, "seed": seed, "bounds": bounds.to_dict(),
-                                                          "cases": list(cases)}) as run:
+    with output_folder(out, "workspace --compare-loads", {"n": settings.n, "seed": settings.seed,
+                                                          "bounds": bounds.to_dict(), "cases": list(cases)}) as run:
         files = []
         for name, (case_robot, loads) in cases.items():
             sub = run.staging / _slug(name)
             sub.mkdir()
             whole = f"saved {len(done)} of {len(cases)} load cases whole; "
-            save = _checkpoint(sub, run, whole, f"{sub.name}/")
-            case = _case(name, case_robot, loads, bounds, n, seed, settings, progress, save)
+            hooks = WorkspaceHooks(how.progress, how.on_round, _checkpoint(sub, run, whole, f"{sub.name}/"))
+            case = _case(name, case_robot, loads, bounds, settings, model, options, hooks)
             with saving():
-                _write_case(sub, case, case_robot, settings, command)
+                _write_case(sub, case, case_robot, how.command)
             done.append(case)
             files.append(sub.name)
             run.interrupted_note = f"saved {len(done)} of {len(cases)} load cases whole, not their comparison"
         with saving():
-            files += _write_comparison(run.staging, done, robot, command)
+            files += _write_comparison(run.staging, done, robot, how.command)
     return WorkspaceRun(done, {"cases": _comparison(done)}, files)
 
 
@@ -422,10 +398,12 @@ def workspace_section(robot: Robot, bounds: TensionBounds, s: Any, seed: int, ou
     from ..paper import workspace_load_cases
 
     cases = {k: v for k, v in workspace_load_cases(robot).items() if k in ("no load", "paper wrench")}
-    voxel = robot.length / s.workspace_voxels
-    settings = {**_settings("pcc", None, voxel, True, True, s.workspace_budget, s.workspace_directions, None),
-                "reach_search": s.workspace_directions > 0}
-    done = [_case(name, r, loads, bounds, s.workspace_n, seed, settings, None) for name, (r, loads) in cases.items()]
+    voxel = robot.length / s.workspace_voxels  # the demo's own grid, coarser than the default
+    settings = WorkspaceSettings(n=s.workspace_n, seed=seed, voxel=voxel, budget=s.workspace_budget,
+                                 directions=s.workspace_directions,
+                                 reach="search" if s.workspace_directions else "samples")
+    done = [_case(name, r, loads, bounds, settings, "pcc", None, WorkspaceHooks()) for name, (r, loads) in
+            cases.items()]
     for case in done:
         name = f"workspace_fsw_{_slug(case.name)}.ply"
         case.region.fsw_region.mesh().export(out / name, file_type="ply")
