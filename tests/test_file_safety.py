@@ -196,3 +196,15 @@ def test_a_folder_inside_a_live_run_is_refused(tmp_path):
     time.sleep(0.05)
     with output_folder(outer / "inner", "c") as run:  # the run is gone: its folder's inside is free again
         (run.staging / "x").write_text("1")
+
+
+def test_solve_refuses_a_figure_over_a_device_or_fifo_before_solving(tmp_path):
+    specials = _specials(tmp_path)
+    for kind, path in specials.items():
+        if kind == "folder":
+            continue
+        link = tmp_path / f"{kind}.png"
+        link.symlink_to(path)  # the suffix is a figure's; what it names is not a file
+        res = _tdcr("solve", "--tensions", "1,0,0,0,0,0,0,0", "--plot", str(link), cwd=tmp_path)
+        assert res.returncode == 2 and res.stdout == "" and "--plot" in res.stderr, (kind, res.stderr)
+        assert link.is_symlink() and not stat.S_ISREG(os.stat(path).st_mode), kind

@@ -12,6 +12,7 @@ from ..design import Robot
 from ..loads import Loads
 from ..plotting import plot_robot, save_figure_as
 from ..results import StaticSolution
+from ..runtime import FileRefused, writable_file
 from ..statics import Model, solve
 from ..validate import SettingsError, show_path
 from ._settings import SolveSettings
@@ -59,6 +60,11 @@ def check_figure_path(path: str | Path) -> Path:
         raise SettingsError("plot", f" {show_path(path)}: the file name must end in .png, .pdf or .svg")
     if p.parent.exists() and not p.parent.is_dir():
         raise SettingsError("plot", f" {show_path(path)}: {show_path(p.parent)} is a file, not a folder")
+    if p.parent.is_dir():  # a device, a FIFO, a socket (or a link to one) is refused before the solve
+        try:
+            writable_file(p)
+        except FileRefused as err:
+            raise SettingsError("plot", f" {err}") from None
     return p
 
 
