@@ -6,10 +6,15 @@ STAMP  := $(VENV)/.installed
 
 .PHONY: demo test lint bench clean
 
-$(STAMP): pyproject.toml
+KERNELS := $(wildcard src/pytdcr/statics/kernels/*.py) src/pytdcr/kinematics.py
+
+$(STAMP): pyproject.toml $(KERNELS)
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --upgrade pip
 	$(BIN)/python -m pip install -e '.[dev]'
+	# numba checks only a cached function's own file: a kernel edited elsewhere leaves stale copies of itself
+	# inside other kernels' caches, so every kernel cache goes when any kernel changes
+	find src -name '*.nbi' -delete -o -name '*.nbc' -delete
 	# compile the numba kernels once (cached on disk for every later run)
 	$(BIN)/python -c "import pytdcr.statics; pytdcr.statics.warmup()"
 	touch $(STAMP)

@@ -9,8 +9,8 @@ solver, a fixed bug) regenerates them, and its commit says which moved and why::
     python tests/test_golden.py            # rewrite every baseline
     python tests/test_golden.py solve_pcc  # or only some
 
-The compiled kernels use fast-math, so another CPU or another version of NumPy, Numba or LLVM may compute other
-last bits (README, "Repeatable runs"). Each baseline records the installation it was made on; on the same one
+Another CPU or another version of NumPy, Numba or LLVM may compute other last bits (README, "Repeatable
+runs"). Each baseline records the installation it was made on; on the same one
 the comparison is exact. On another, floats are compared to 1e-9 relative and arrays by their values rather than
 their hashes, and the test says so in its output.
 """
@@ -41,7 +41,7 @@ PAPER_WRENCH = ["--tip-force=0.1,0.1,-0.1", "--tip-moment=-0.1,0.1,0.1"]
 #: keys that change between runs of the same inputs: times, dates, machine, versions, paths
 VOLATILE = re.compile(r"(second|^ms_|_ms(_|$)|time|^started$|^finished$|^ended$|^host$|^pid$|version|^python$|"
                       r"^pytdcr$|^numpy$|^numba$|^command$|^argv$|^cwd$|^executor$|^study_file$)")
-#: relative tolerance of floats on another installation (fast-math may change the last bits)
+#: relative tolerance of floats on another installation (its compiled code may round otherwise)
 OTHER_INSTALLATION_RTOL = 1e-9
 
 

@@ -33,8 +33,11 @@ from numba import njit
 
 from ...kinematics import frames, subsegment
 
-# fast-math that keeps NaN/Inf semantics (non-convergence must stay detectable)
-_FM = {"contract", "reassoc", "arcp", "nsz"}
+# No fast-math here (nor in any kernel): numba links a private, separately optimised copy of every kernel these
+# call into each cached entry point (pcc's and sscr's solvers, the evaluate kernels), as ELF weak symbols, and a
+# process runs whichever copy it loaded first. With fast-math ('contract', 'reassoc') the copies rounded
+# differently (other FMA contractions), so a result depended on what the process had solved before; IEEE
+# arithmetic makes every copy compute the same bits (tests/test_repeatable.py).
 
 __all__ = ["BALANCE_BASE", "BALANCE_MIDPOINT", "Packed", "Work", "evaluate", "frames", "largest_angle",
            "make_model_work", "make_work", "subsegment", "tendon_unit_load_jvp", "with_tension"]
@@ -83,7 +86,7 @@ BALANCE_BASE = 0
 BALANCE_MIDPOINT = 1
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True)
 def tendon_unit_load_jvp(R, d, hn, dR, dd, dh, nl, px, py, is_anchor, fric, out, dout):
     """Load of one tendon of unit tension on disk i, in frame i-1, and its derivatives.
 
@@ -270,7 +273,7 @@ def make_work(n, nt):
     )
 
 
-@njit(cache=True, fastmath=_FM, inline="always")
+@njit(cache=True, inline="always")
 def _tension_lanes(dW, W, c, i, Ti, out):
     """d T_{i,c} / d q for the lanes of subsegments 1..i, into ``out`` (3i,): T_i times the sum of the
     log-derivatives of the tension ratios upstream.
@@ -294,7 +297,7 @@ def _tension_lanes(dW, W, c, i, Ti, out):
             out[base + a] = Ti * acc
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True)
 def _midpoint_rows(q, k, ell, EI, GJ, nFx, nFy, nFz, nMx, nMy, nMz, dF, dM, want_jac, r, J):
     """Residual rows of one subsegment, balanced about its midpoint (MODEL.md, appendix A), and their Jacobian.
 
@@ -375,7 +378,7 @@ def _midpoint_rows(q, k, ell, EI, GJ, nFx, nFy, nFz, nMx, nMy, nMz, dF, dM, want
     J[k + 2, k + 2] += GJ / ell
 
 
-@njit(cache=True, fastmath=_FM, nogil=True)
+@njit(cache=True, nogil=True)
 def evaluate(q, lam, model, want_jac, r, J, work):
     """Residual ``r`` (3N,) and, if ``want_jac``, its Jacobian ``J`` (3N, 3N).
 
