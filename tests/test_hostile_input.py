@@ -158,3 +158,35 @@ def test_strings_are_not_numbers_anywhere(paper):
                  lambda: TensionBounds.uniform(8, "0", "5"), lambda: TensionBounds.uniform("8", 0, 5)):
         with pytest.raises((TypeError, ValueError)):
             make()
+
+
+def _closed_pipe_run(*args):
+    import os
+    import subprocess
+    import sys
+
+    r, w = os.pipe()
+    os.close(r)  # the reader is gone before the command writes a byte
+    try:
+        proc = subprocess.run([sys.executable, "-m", "pytdcr.cli", *args], stdout=w, stderr=subprocess.PIPE,
+                              text=True, check=False)
+    finally:
+        os.close(w)
+    return proc
+
+
+@pytest.mark.parametrize("args", [("robot",), ("solve", "--tensions", "1,0,0,0,0,0,0,0"),
+                                  ("solve", "--tensions", "1,0,0,0,0,0,0,0", "--json")])
+def test_a_closed_pipe_ends_the_command_quietly(args):
+    proc = _closed_pipe_run(*args)
+    assert proc.returncode == 141 and proc.stderr == "", (proc.returncode, proc.stderr)
+
+
+def test_an_error_in_a_bounds_file_names_the_file(tmp_path, capsys):
+    for lower, upper, words in (("[0,0,0,0,0,0,0,0]", "[5,5,5,5,5,5,5,-1]", "must be finite and >= 0"),
+                                ("[0,0,0,0,0,0,0,6]", "[5,5,5,5,5,5,5,5]", "lower 6.0 > upper 5.0")):
+        f = tmp_path / "b.toml"
+        f.write_text(f"lower = {lower}\nupper = {upper}\n")
+        assert main(["sample", "--n", "2", "--bounds-file", str(f), "--out", str(tmp_path / "o")]) == 2
+        err = capsys.readouterr().err
+        assert f"--bounds-file '{f}'" in err and words in err and "--bounds:" not in err, err

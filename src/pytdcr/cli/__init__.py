@@ -5,8 +5,8 @@ One module per command (or pair of commands): ``solve``, ``sample``, ``workspace
 (``run``): it turns the options into the study's settings (:mod:`pytdcr.study`), calls the library and prints.
 The options the commands share are declared once (:mod:`._args`); how a command runs, Ctrl-C and the exit
 status are in :mod:`._runtime`: 0 success, 1 not converged, 2 bad input, 70 internal error (a bug), 75 the
-compute went away under a resumable run, 130 interrupted. The study and the heavy libraries are imported when
-a command runs, not for ``--help``.
+compute went away under a resumable run, 130 interrupted, 141 the output's reader closed the pipe. The study
+and the heavy libraries are imported when a command runs, not for ``--help``.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from collections.abc import Sequence
 
 from . import compare, designs, optimize, reproduce, robot, sample, solve, workspace
 from ._args import FLAGS, Parser, glue_negative_values
-from ._runtime import EXIT_INTERRUPTED, run, terminate
+from ._runtime import EXIT_INTERRUPTED, pipe_closed, run, terminate
 
 __all__ = ["build_parser", "entry", "main"]
 
@@ -54,7 +54,10 @@ def entry() -> None:
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, terminate)
     code = main()
-    sys.stdout.flush()
+    try:
+        sys.stdout.flush()
+    except BrokenPipeError:
+        code = pipe_closed()
     sys.stderr.flush()
     if code == EXIT_INTERRUPTED:
         os._exit(code)

@@ -10,7 +10,9 @@ Exit status:
 - 70 internal error: a bug in pytdcr (sysexits' EX_SOFTWARE; one line, ``PYTDCR_DEBUG=1`` shows the traceback);
 - 75 the compute went away under a run that resumes (a design study's worker processes died; sysexits'
   EX_TEMPFAIL: run the same command again);
-- 130 interrupted (Ctrl-C or SIGTERM: one line saying what was saved).
+- 130 interrupted (Ctrl-C or SIGTERM: one line saying what was saved);
+- 141 the reader of the output went away (``tdcr solve ... | head -1``: the pipe closed; no message, as a
+  program ended by SIGPIPE; everything the run writes to files was written).
 
 The command runs in a worker thread; the main thread waits for it and turns Ctrl-C into a cancellation the
 solvers check between small chunks of work (:func:`pytdcr.runtime.cancellable`), so every command stops within
@@ -45,6 +47,8 @@ EXIT_INTERNAL = 70
 EXIT_TRY_AGAIN = 75
 #: interrupted (Ctrl-C, SIGTERM)
 EXIT_INTERRUPTED = 130
+#: the reader of standard output closed the pipe (128 + SIGPIPE, the status of a program that signal ends)
+EXIT_PIPE_CLOSED = 141
 
 #: how long the main thread lets an interrupted command save what it has before it stops waiting [s]
 SAVE_GRACE_S = 0.6
@@ -125,6 +129,8 @@ def run(parse: Callable[[], argparse.Namespace], flags: dict[str, str]) -> int:
     except KeyboardInterrupt:
         print("tdcr: interrupted; nothing saved", file=sys.stderr, flush=True)
         return EXIT_INTERRUPTED
+    except BrokenPipeError:
+        return pipe_closed()
     except (CliError, ValueError, TypeError, OSError, MemoryError) as err:
         if os.environ.get("PYTDCR_DEBUG"):
             raise
@@ -146,6 +152,17 @@ def run(parse: Callable[[], argparse.Namespace], flags: dict[str, str]) -> int:
         print(f"tdcr: internal error: {type(err).__name__}: {one_line(err, 300)} (a bug in pytdcr: please report "
               "it; PYTDCR_DEBUG=1 shows the traceback)", file=sys.stderr)
         return EXIT_INTERNAL
+
+
+def pipe_closed() -> int:
+    """Standard output's reader went away: say nothing more there (what is buffered goes nowhere, so the
+    interpreter's last flush cannot fail too) and return :data:`EXIT_PIPE_CLOSED`."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):  # stdout is not a file descriptor (a notebook, a test's capture)
+        pass
+    return EXIT_PIPE_CLOSED
 
 
 def terminate(_signum: int, _frame: Any) -> None:

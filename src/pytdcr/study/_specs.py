@@ -23,7 +23,7 @@ from ..io import load_robot, read_toml
 from ..loads import Loads, check_vector
 from ..paper import DEFAULT_BOUNDS
 from ..statics import Model, configure, get_model, get_models, resolve
-from ..validate import MAX_SEED, SettingsError, as_real_array, check_count, show
+from ..validate import MAX_SEED, SettingsError, as_real_array, check_count, show, show_path
 
 __all__ = ["MAX_FRICTION", "BoundsSpec", "LoadSpec", "ModelSpec", "RobotSpec", "RunInputs",
            "check_flag", "check_seed", "check_type", "count_setting"]
@@ -279,8 +279,9 @@ class BoundsSpec:
                                 f"entries, upper {hi.size}")
         try:
             return TensionBounds(lo, hi)
-        except ValueError as err:
-            raise SettingsError.about("bounds", err) from None
+        except ValueError as err:  # named after the file, not the --bounds option it stands in for
+            text = str(err).removeprefix("bounds: ")
+            raise SettingsError("bounds_file", f" {show_path(self.file)}: {text}") from None
 
 
 @dataclass(frozen=True)
