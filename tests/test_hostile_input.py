@@ -190,3 +190,20 @@ def test_an_error_in_a_bounds_file_names_the_file(tmp_path, capsys):
         assert main(["sample", "--n", "2", "--bounds-file", str(f), "--out", str(tmp_path / "o")]) == 2
         err = capsys.readouterr().err
         assert f"--bounds-file '{f}'" in err and words in err and "--bounds:" not in err, err
+
+
+@pytest.mark.parametrize("encoding", ["ascii", "latin-1"])
+def test_a_terminal_that_is_not_utf8_gets_the_same_run_in_its_own_letters(tmp_path, encoding):
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PYTHONIOENCODING": encoding, "MPLBACKEND": "Agg"}
+    proc = subprocess.run([sys.executable, "-m", "pytdcr.cli", "workspace", "--n", "8", "--no-search",
+                           "--directions", "0", "--out", str(tmp_path / "w")], env=env, capture_output=True,
+                          check=False)
+    assert proc.returncode in (0, 1), proc.stderr[-500:]  # 1 only if a region is too small to mesh
+    out = proc.stdout.decode(encoding)
+    assert "volume" in out and ("+/-" in out or "\u00b1" in out) and "wrote" in out
+    proc.stderr.decode(encoding)  # every byte is of that encoding
+    assert (tmp_path / "w" / "workspace.json").exists()

@@ -19,7 +19,7 @@ from collections.abc import Sequence
 
 from . import compare, designs, optimize, reproduce, robot, sample, solve, workspace
 from ._args import FLAGS, Parser, glue_negative_values
-from ._runtime import EXIT_INTERRUPTED, pipe_closed, run, terminate
+from ._runtime import EXIT_INTERRUPTED, pipe_closed, run, speak_the_terminals_encoding, terminate
 
 __all__ = ["build_parser", "entry", "main"]
 
@@ -44,6 +44,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ``MPLBACKEND`` says otherwise). Set ``PYTDCR_DEBUG=1`` to see the traceback behind an error message.
     """
     os.environ.setdefault("MPLBACKEND", "Agg")
+    speak_the_terminals_encoding()
     args = sys.argv[1:] if argv is None else argv
     return run(lambda: build_parser().parse_args(glue_negative_values(args)), FLAGS)
 

@@ -22,6 +22,7 @@ about a second and saves what it has (:func:`pytdcr.runtime.output_folder`).
 from __future__ import annotations
 
 import argparse
+import codecs
 import contextvars
 import os
 import sys
@@ -152,6 +153,37 @@ def run(parse: Callable[[], argparse.Namespace], flags: dict[str, str]) -> int:
         print(f"tdcr: internal error: {type(err).__name__}: {one_line(err, 300)} (a bug in pytdcr: please report "
               "it; PYTDCR_DEBUG=1 shows the traceback)", file=sys.stderr)
         return EXIT_INTERNAL
+
+
+#: ASCII for the characters the command line prints (plus-minus, superscripts, dashes, quotes, the progress
+#: bar's block; by code point), on a terminal or file whose encoding lacks them; every other one becomes "?"
+_ASCII = {"\u00b1": '+/-', "\u00b3": '^3', "\u00b2": '^2', "\u00b0": ' deg', "\u00b5": 'u', "\u2014": '--',
+          "\u2013": '-', "\u00b7": '*', "\u00d7": 'x', "\u2264": '<=', "\u2265": '>=', "\u2192": '->',
+          "\u2026": '...', "\u2019": "'", "\u2018": "'", "\u201c": '"', "\u201d": '"', "\u2588": '#'}
+
+
+def _to_ascii(err: UnicodeError) -> tuple[str, int]:
+    """The codec error handler ``tdcr-ascii``: a character the output's encoding cannot hold becomes its ASCII
+    spelling (``±`` as ``+/-``), or ``?``."""
+    if not isinstance(err, UnicodeEncodeError):
+        raise err
+    text = err.object[err.start:err.end]
+    return "".join(_ASCII.get(c, "?") for c in text), err.end
+
+
+codecs.register_error("tdcr-ascii", _to_ascii)
+
+
+def speak_the_terminals_encoding() -> None:
+    """Standard output and error write what their encoding cannot hold in ASCII (``±`` as ``+/-``) instead of
+    failing: a terminal or file that is not UTF-8 gets the same run and the same words."""
+    for stream in (sys.stdout, sys.stderr):
+        reconfigure = getattr(stream, "reconfigure", None)
+        if reconfigure is not None:
+            try:
+                reconfigure(errors="tdcr-ascii")
+            except (ValueError, OSError):  # pragma: no cover - a stream that cannot be reconfigured
+                pass
 
 
 def pipe_closed() -> int:
