@@ -207,3 +207,26 @@ def test_a_terminal_that_is_not_utf8_gets_the_same_run_in_its_own_letters(tmp_pa
     assert "volume" in out and ("+/-" in out or "\u00b1" in out) and "wrote" in out
     proc.stderr.decode(encoding)  # every byte is of that encoding
     assert (tmp_path / "w" / "workspace.json").exists()
+
+
+@pytest.mark.parametrize("k", [1, 2, 3])
+def test_a_support_map_of_few_directions_is_drawn(k):
+    import numpy as np
+
+    from pytdcr.plotting import plot_support_map, pyplot
+
+    d = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])[:k]
+    for h in (np.linspace(0.1, 0.3, k), np.full(k, 0.2)):
+        fig = plot_support_map(d, h, "few")
+        assert fig.axes and fig.axes[0].get_title() == "few"
+        pyplot().close(fig)
+
+
+def test_a_voxel_grid_beyond_the_memory_budget_is_refused_before_any_work(tmp_path, capsys):
+    import time
+
+    t0 = time.perf_counter()
+    assert main(["workspace", "--voxel", "0.0001", "--out", str(tmp_path / "w")]) == 2
+    err = capsys.readouterr().err
+    assert "--voxel = 0.0001" in err and "memory budget" in err and time.perf_counter() - t0 < 10
+    assert not (tmp_path / "w").exists()

@@ -413,8 +413,8 @@ def plot_region_3d(meshes: dict[str, Any], robot_positions: np.ndarray | None = 
 
 def plot_support_map(directions: np.ndarray, h: np.ndarray, title: str = "") -> Any:
     """The support function h(d) [m] over the sphere of directions ``directions`` (K, 3): azimuth against
-    elevation [deg], filled contours in mm (the map wraps at ±180 deg), the directions as dots. Returns the
-    figure."""
+    elevation [deg], filled contours in mm (the map wraps at ±180 deg), the directions as dots; directions too
+    few to contour (one, or all on one parallel) are drawn as coloured dots. Returns the figure."""
     import matplotlib.tri as mtri
 
     plt = pyplot()
@@ -425,9 +425,14 @@ def plot_support_map(directions: np.ndarray, h: np.ndarray, title: str = "") -> 
     # copies shifted by a full turn, so that the triangulation wraps across the seam
     az3, el3, h3 = np.concatenate([az - 360, az, az + 360]), np.tile(el, 3), np.tile(hm, 3)
     fig, ax = plt.subplots(figsize=(9, 4.6))
-    tri = mtri.Triangulation(az3, el3)
-    cs = ax.tricontourf(tri, h3, levels=14, cmap="viridis")
-    ax.plot(az, el, ".", color="white", markersize=2.5)
+    spread = np.unique(np.round(el, 9)).size > 1 and np.ptp(hm) > 0 if hm.size else False
+    try:  # contours need directions that span an area of the sphere and an h(d) that varies
+        if not spread:
+            raise ValueError("too few directions to contour")
+        cs = ax.tricontourf(mtri.Triangulation(az3, el3), h3, levels=14, cmap="viridis")
+        ax.plot(az, el, ".", color="white", markersize=2.5)
+    except (ValueError, RuntimeError):  # one direction, a great circle, or a constant h: the directions alone
+        cs = ax.scatter(az, el, c=hm, cmap="viridis", s=60, edgecolors="black")
     ax.set_xlim(-180, 180)
     ax.set_ylim(-90, 90)
     ax.set_xticks(range(-180, 181, 45))

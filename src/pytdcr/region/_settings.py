@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..limits import ResourceLimitError, check_memory
 from ..validate import check_count, show
 from ._support import fibonacci_directions
 
@@ -35,6 +36,22 @@ REACH_RULES = ("search", "farthest", "support", "samples")
 
 #: ``progress(stage, total)`` returns a callable advanced by the work done (total None: unknown)
 Progress = Callable[[str, "int | None"], Callable[[int], None]]
+
+
+#: bytes per voxel of the largest grid a workspace study holds at once: the occupancy (1), its float copy for
+#: marching cubes (4), the boundary and closing masks (2) and marching cubes' own work (about 5)
+GRID_BYTES_PER_VOXEL = 12.0
+
+
+def grid_cells(robot: Robot, voxel: float) -> float:
+    """Voxels of the largest grid a workspace of ``robot`` can need at edge ``voxel`` [m]: the cube around the
+    ball of the robot's length (no tip lies farther from the base), with a voxel of margin on each side."""
+    return (2.0 * robot.length / voxel + 3.0) ** 3
+
+
+def grid_bytes(robot: Robot, voxel: float) -> float:
+    """The memory of that grid and its work [bytes] (:data:`GRID_BYTES_PER_VOXEL` a voxel)."""
+    return GRID_BYTES_PER_VOXEL * grid_cells(robot, voxel)
 
 
 def search_budget(n: int) -> int:
@@ -144,10 +161,18 @@ class WorkspaceSettings:
             put(self, "threads", check_count(self.threads, "threads", lo=1))
 
     def check(self, robot: Robot) -> WorkspaceSettings:
-        """These settings if they suit ``robot``: the voxel lies in [0.0001, the robot's length] m (ValueError)."""
+        """These settings if they suit ``robot``, before any work: the voxel lies in [0.0001, the robot's length]
+        m, and the voxel grid fits the memory budget (:func:`grid_bytes`; ValueError naming ``voxel``)."""
         v = self.voxel
         if v is not None and not (MIN_VOXEL <= v <= robot.length):
             raise ValueError(f"voxel = {v:g}: must be in [{MIN_VOXEL:g}, {robot.length:g}] m (the robot's length)")
+        voxel = self.voxel_for(robot)
+        cells = grid_cells(robot, voxel)
+        try:
+            check_memory(f"a grid of {cells:,.0f} voxels of {voxel * 1e3:g} mm", grid_bytes(robot, voxel),
+                         "the tips lie within a ball of the robot's length")
+        except ResourceLimitError as err:
+            raise ValueError(f"voxel = {voxel:g}: {err}") from None
         return self
 
     def voxel_for(self, robot: Robot) -> float:
