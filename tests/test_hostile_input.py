@@ -230,3 +230,28 @@ def test_a_voxel_grid_beyond_the_memory_budget_is_refused_before_any_work(tmp_pa
     err = capsys.readouterr().err
     assert "--voxel = 0.0001" in err and "memory budget" in err and time.perf_counter() - t0 < 10
     assert not (tmp_path / "w").exists()
+
+
+@pytest.mark.slow
+def test_a_design_study_resumes_over_files_that_are_not_records_and_retries_memory_failures(tmp_path, capsys):
+    import json
+    from pathlib import Path
+
+    example = str(Path(__file__).resolve().parents[1] / "examples" / "design_study_small.toml")
+    out = tmp_path / "d"
+    assert main(["designs", example, "--out", str(out), "--no-figures"]) == 0
+    folder = out / "designs"
+    first = {p.name: json.loads(p.read_text()) for p in folder.glob("0*.json")}
+    names = sorted(first)
+    (folder / names[0]).write_text("[1, 2, 3]")  # valid JSON, not a design record
+    (folder / names[1]).write_text(json.dumps({"design": first[names[1]]["design"]}))  # a record cut short
+    failed = dict(first[names[2]], status="failed", rows=[],
+                  reason="ResourceLimitError: a batch needs about 9 GB, more than the memory budget")
+    (folder / names[2]).write_text(json.dumps(failed))
+    capsys.readouterr()
+    assert main(["designs", example, "--out", str(out), "--no-figures"]) == 0
+    said = capsys.readouterr().out
+    assert "3 computed" in said and "1 reused" in said, said
+    for name in names[:3]:
+        again = json.loads((folder / name).read_text())
+        assert again["status"] == "ok" and again["rows"] == first[name]["rows"], name

@@ -95,13 +95,33 @@ def _design_file(out: Path, index: int) -> Path:
     return out / "designs" / (f"{index:06d}.json" if index >= 0 else "reference.json")
 
 
+#: failures that a resume tries again: what more memory, or workers that stay alive, can change
+RETRIED_FAILURES = ("ResourceLimitError", "KilledWorker")
+
+
+def _is_record(rec: Any) -> bool:
+    """A design record as :func:`pytdcr.designs.evaluate_design` writes it (a file of the study's folder that
+    holds valid JSON of another shape is none)."""
+    return (isinstance(rec, dict) and isinstance(rec.get("design"), int) and isinstance(rec.get("params"), dict)
+            and rec.get("status") in ("ok", "failed") and isinstance(rec.get("rows"), list)
+            and isinstance(rec.get("reason", ""), str)
+            and all(isinstance(r, dict) and isinstance(r.get("load_case"), str) for r in rec["rows"]))
+
+
 def _reuse(out: Path, index: int, params: dict[str, float]) -> dict[str, Any] | None:
-    """Design ``index``'s record in the folder, if it is there for these values (else it is redone)."""
+    """Design ``index``'s record in the folder, if it is there for these values (else it is redone): a file that
+    is not a design record, or a failure more memory or live workers may mend (:data:`RETRIED_FAILURES`), is
+    computed again."""
     try:
         rec = json.loads(_design_file(out, index).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):
         return None
-    return rec if rec.get("design") == index and rec.get("params") == params else None
+    if not _is_record(rec) or rec["design"] != index or rec["params"] != params:
+        return None
+    if rec["status"] == "failed" and rec.get("reason", "").startswith(RETRIED_FAILURES):
+        return None
+    rec.setdefault("reason", "")
+    return rec
 
 
 class _Local:
