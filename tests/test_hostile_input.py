@@ -255,3 +255,24 @@ def test_a_design_study_resumes_over_files_that_are_not_records_and_retries_memo
     for name in names[:3]:
         again = json.loads((folder / name).read_text())
         assert again["status"] == "ok" and again["rows"] == first[name]["rows"], name
+
+
+@pytest.mark.slow
+def test_ctrl_c_to_the_process_group_stops_a_design_study_in_one_line(tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    example = str(Path(__file__).resolve().parents[1] / "examples" / "design_study_small.toml")
+    proc = subprocess.Popen([sys.executable, "-m", "pytdcr.cli", "designs", example, "--out", str(tmp_path / "d"),
+                             "--no-figures"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    time.sleep(3.0)  # the worker processes are starting (importing): a terminal's Ctrl-C reaches them all
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130
+    assert "Traceback" not in err and "KeyboardInterrupt" not in err and "leaked" not in err, err[-1500:]
+    assert "tdcr: interrupted; saved" in err

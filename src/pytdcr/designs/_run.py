@@ -8,14 +8,17 @@ at a time the designs ran.
 
 from __future__ import annotations
 
+import gc
 import hashlib
 import json
 import multiprocessing
 import platform
+import signal
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from concurrent.futures import CancelledError, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -124,6 +127,20 @@ def _reuse(out: Path, index: int, params: dict[str, float]) -> dict[str, Any] | 
     return rec
 
 
+@contextmanager
+def _sigint_blocked() -> Iterator[None]:
+    """SIGINT blocked in this thread for the block (delivered, if it came, when it ends); a no-op off POSIX."""
+    mask = getattr(signal, "pthread_sigmask", None)
+    if mask is None:  # pragma: no cover - not POSIX
+        yield
+        return
+    old = mask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        mask(signal.SIG_SETMASK, old)
+
+
 class _Local:
     """Designs on local processes (spawned: a clean interpreter each, whatever the parent holds)."""
 
@@ -132,7 +149,11 @@ class _Local:
         self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
 
     def submit(self, *args: Any) -> Any:
-        return self.pool.submit(evaluate_design, *args)
+        # the worker processes start with SIGINT blocked (a spawned process inherits its parent thread's signal
+        # mask): a Ctrl-C sent to the process group, as a terminal sends it, reaches this process alone, which
+        # stops them; before, workers still importing printed tracebacks and left semaphores behind
+        with _sigint_blocked():
+            return self.pool.submit(evaluate_design, *args)
 
     def close(self, cancel: bool) -> None:
         if cancel:
@@ -140,6 +161,13 @@ class _Local:
             self.pool.shutdown(wait=False, cancel_futures=True)
             for p in procs:  # a design in progress is lost either way: stop it now
                 p.terminate()
+            for p in procs:
+                p.join(timeout=2.0)
+            # let the pool's queues go now, their named semaphores unlinked by their finalizers: an interrupted
+            # command leaves at once (os._exit), and the resource tracker would warn of them as leaked
+            self.pool.shutdown(wait=True)
+            self.pool = None
+            gc.collect()
         else:
             self.pool.shutdown(wait=True)
 
