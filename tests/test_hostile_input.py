@@ -257,6 +257,15 @@ def test_a_design_study_resumes_over_files_that_are_not_records_and_retries_memo
         assert again["status"] == "ok" and again["rows"] == first[name]["rows"], name
 
 
+def _as_from_a_terminal() -> None:
+    """In the child before it runs: SIGINT delivered and handled by default, as a shell starts a command (the test
+    process may have inherited another mask or disposition from its own parent or an earlier test)."""
+    import signal
+
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @pytest.mark.slow
 def test_ctrl_c_to_the_process_group_stops_a_design_study_in_one_line(tmp_path):
     import os
@@ -269,7 +278,7 @@ def test_ctrl_c_to_the_process_group_stops_a_design_study_in_one_line(tmp_path):
     example = str(Path(__file__).resolve().parents[1] / "examples" / "design_study_small.toml")
     proc = subprocess.Popen([sys.executable, "-m", "pytdcr.cli", "designs", example, "--out", str(tmp_path / "d"),
                              "--no-figures"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+                            start_new_session=True, preexec_fn=_as_from_a_terminal)
     time.sleep(3.0)  # the worker processes are starting (importing): a terminal's Ctrl-C reaches them all
     os.killpg(proc.pid, signal.SIGINT)
     _, err = proc.communicate(timeout=120)
