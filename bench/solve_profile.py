@@ -33,7 +33,7 @@ from pytdcr.statics import PATH_NAMES, SolverOptions, solve_batch, warmup
 from pytdcr.statics.kernels import pcc as K
 from pytdcr.statics.kernels import solver as SV
 from pytdcr.statics.pcc import PCC
-from pytdcr.statics.solver import kernel_settings
+from pytdcr.statics.solver import case_tolerances, kernel_settings
 
 
 @njit(cache=False)
@@ -74,14 +74,16 @@ def kernel_costs(eq, q: np.ndarray) -> dict[str, float]:
             "inverse_us": _per_call(lambda reps: _invert(J, reps), 500), "unknowns": n}
 
 
-def cold(eq, T: np.ndarray) -> tuple[dict, np.ndarray]:
-    """Solve every row of ``T`` on one thread; returns the summary and the per-solve table."""
-    settings = kernel_settings(SolverOptions())
+def cold(eq, T: np.ndarray, tols: np.ndarray) -> tuple[dict, np.ndarray]:
+    """Solve every row of ``T`` on one thread, each to its tolerances ``tols`` (B, 2) [N m] as the library would;
+    returns the summary and the per-solve table."""
+    base = kernel_settings(SolverOptions())
     work = K.make_work(eq.n_disks, eq.packed.holes.shape[0])
     q0 = np.zeros(eq.n_unknowns)
     rows = []
-    for t in T:
+    for t, (tol, step) in zip(T, tols, strict=True):
         m = K.with_tension(eq.packed, t)
+        settings = base._replace(atol=float(tol), step_atol=float(step))
         t0 = time.perf_counter()
         o = SV.solve_one(q0, m, settings, work)
         rows.append((time.perf_counter() - t0, o.path if o.converged else -1, o.iterations, o.jacobians))
@@ -139,7 +141,7 @@ def main() -> None:
     robot, loads = paper_robot(), paper_loads()
     eq = PCC.equations(robot, loads)
     T = np.random.default_rng(args.seed).uniform(0.0, 20.0, (args.samples, robot.n_tendons))
-    summary, table = cold(eq, T)
+    summary, table = cold(eq, T, case_tolerances(robot, loads, T, SolverOptions().atol))
     ok = table[:, 1] == PATH_NAMES.index("loading")
     cases = solve_batch(robot, T, loads)  # the same cold solves, for the unknowns and tips
     q_mid = cases.q[int(np.flatnonzero(ok)[0])].ravel()

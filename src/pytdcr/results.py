@@ -236,6 +236,8 @@ class BatchSolution:
         Disk centres in the base frame [m], row 0 the base; NaN where not converged.
     disk_rotations : ndarray, shape (B, N+1, 3, 3), or None
         Disk orientations in the base frame; NaN where not converged.
+    atol : ndarray, shape (B,), or None
+        The tolerance each case was judged by [N m] (:mod:`pytdcr.statics.tolerance`).
     """
 
     tensions: np.ndarray
@@ -250,6 +252,7 @@ class BatchSolution:
     _stability_fn: Callable[[], Sequence[Stability | None]] | None = None
     disk_positions: np.ndarray | None = None
     disk_rotations: np.ndarray | None = None
+    atol: np.ndarray | None = None
 
     @cached_property
     def stability(self) -> tuple[Stability | None, ...]:
@@ -272,7 +275,8 @@ class BatchSolution:
             seconds=self.seconds, path=self.path[pick], model=self.model,
             _stability_fn=None if stab is None else partial(_known, tuple(stab[k] for k in pick)),
             disk_positions=None if self.disk_positions is None else self.disk_positions[pick],
-            disk_rotations=None if self.disk_rotations is None else self.disk_rotations[pick])
+            disk_rotations=None if self.disk_rotations is None else self.disk_rotations[pick],
+            atol=None if self.atol is None else self.atol[pick])
 
     @property
     def stable(self) -> np.ndarray:
@@ -295,7 +299,7 @@ class BatchSolution:
                    iterations=np.array([s.iterations for s in solutions], dtype=np.int64),
                    q=np.array([s.q for s in solutions]), tip_position=tips, seconds=seconds,
                    path=np.array([s.path for s in solutions], dtype=object), model=model, disk_positions=pos,
-                   disk_rotations=rot)
+                   disk_rotations=rot, atol=np.array([s.atol for s in solutions], dtype=float))
 
     @property
     def reach(self) -> np.ndarray:

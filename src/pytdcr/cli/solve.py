@@ -21,7 +21,8 @@ def add_parser(sub: Any) -> None:
     add_model(s)
     s.add_argument("--tensions", required=True, metavar="T1,...,Tn", help="actuator tensions [N]")
     s.add_argument("--atol", type=real_type, default=DEFAULT_ATOL,
-                   help=f"convergence tolerance on max |residual| [N m] [{DEFAULT_ATOL:g}]")
+                   help=f"convergence tolerance on max |residual| [N m], held within 1e-12..1e-8 of the "
+                        f"problem's moment scale (docs/models.md) [{DEFAULT_ATOL:g}]")
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.add_argument("--plot", metavar="FILE", help="write a 3D figure of the robot (PNG, PDF, SVG)")
     s.set_defaults(func=run)

@@ -41,6 +41,7 @@ from .kernels import cosserat as CK
 from .kernels.pcc import Packed
 from .options import PATH_DIRECT, PATH_FALLBACK, PATH_LOADING, PATH_NAMES, PATH_SELF_CONTACT, PATH_SNAP, CosseratOptions
 from .pcc import PCCEquations
+from .tolerance import RELATIVE, tolerances
 
 __all__ = ["COSSERAT", "CosseratModel", "CosseratOptions", "CosseratShooting"]
 
@@ -206,24 +207,23 @@ class _Ramp(NamedTuple):
     load_factor: float  # the last load factor reached
 
 
-def _ramp(problem: CosseratShooting, opts: CosseratOptions) -> _Ramp:
-    """Follow the loading path from load factor 0."""
+def _ramp(problem: CosseratShooting, opts: CosseratOptions, tol: float, step_atol: float) -> _Ramp:
+    """Follow the loading path from load factor 0, to ``tol`` at full load and ``step_atol`` before [N m]."""
     lam = 0.0
     x = np.zeros(3)
     x_prev, lam_prev = None, None
     dlam = 0.25
     count = steps = 0
-    step_atol = max(opts.atol, 1e-8)
     res = 0.0
     while lam < 1.0:
         target = min(1.0, lam + dlam)
         guess = x if x_prev is None else x + (x - x_prev) * (target - lam) / (lam - lam_prev)
-        tol = opts.atol if target == 1.0 else step_atol
+        this_tol = tol if target == 1.0 else step_atol
         # intermediate steps only track the branch: a looser step tolerance
-        m0, res, c = problem.root(target, guess, tol, opts.max_eval, 1e-13 if target == 1.0 else 1e-7)
+        m0, res, c = problem.root(target, guess, this_tol, opts.max_eval, 1e-13 if target == 1.0 else 1e-7)
         count += c
         steps += 1
-        if res <= tol:
+        if res <= this_tol:
             x_prev, lam_prev = x, lam
             x, lam = m0, target
             dlam = min(0.5, dlam * 1.5)
@@ -234,8 +234,10 @@ def _ramp(problem: CosseratShooting, opts: CosseratOptions) -> _Ramp:
     return _Ramp(x, res, count, steps, lam)
 
 
-def _solve_shooting(problem: CosseratShooting, m0: np.ndarray | None, opts: CosseratOptions) -> StaticSolution:
-    """Solve the shooting problem; the result has the same type as the PCC solver's.
+def _solve_shooting(problem: CosseratShooting, m0: np.ndarray | None, opts: CosseratOptions,
+                    loads: Loads) -> StaticSolution:
+    """Solve the shooting problem (``loads``: its loads) to the tolerance of :mod:`pytdcr.statics.tolerance`; the
+    result has the same type as the PCC solver's.
 
     ``q`` is the base moment (3,) [N m]; ``iterations`` counts shooting
     integrations. ``path`` as for the PCC solver, except that at a fold
@@ -253,23 +255,25 @@ def _solve_shooting(problem: CosseratShooting, m0: np.ndarray | None, opts: Coss
                              f"got shape {np.shape(m0)}")
     else:
         x0 = problem.straight_guess()
+    tols, steps_tol = tolerances(problem.robot, loads, problem.packed.tension[None, :], opts.atol, RELATIVE)
+    tol = float(tols[0])
     x, res = x0, math.inf
     if opts.load_stepping in ("auto", "never") or warm:
-        x, res, count = problem.root(1.0, x0, opts.atol, opts.max_eval)
-    if res > opts.atol and opts.load_stepping != "never":
-        ramp = _ramp(problem, opts)
+        x, res, count = problem.root(1.0, x0, tol, opts.max_eval)
+    if res > tol and opts.load_stepping != "never":
+        ramp = _ramp(problem, opts, tol, float(steps_tol[0]))
         x, res, steps = ramp.m0, ramp.residual, ramp.steps
         count += ramp.integrations
         path = PATH_LOADING
-        if res > opts.atol and ramp.load_factor > 0.0:  # a fold of the loading path: jump to full load from there
-            x, res, c = problem.root(1.0, x, opts.atol, opts.max_eval)
+        if res > tol and ramp.load_factor > 0.0:  # a fold of the loading path: jump to full load from there
+            x, res, c = problem.root(1.0, x, tol, opts.max_eval)
             count += c
             path = PATH_SNAP
-        if res > opts.atol:
-            x, res, c = problem.root(1.0, x0, opts.atol, opts.max_eval)
+        if res > tol:
+            x, res, c = problem.root(1.0, x0, tol, opts.max_eval)
             count += c
             path = PATH_FALLBACK
-    converged = bool(res <= opts.atol and np.all(np.isfinite(x)))
+    converged = bool(res <= tol and np.all(np.isfinite(x)))
     shot = problem.shoot(x, record=True)
     failure = ""
     if converged and shot.curve is not None:
@@ -281,7 +285,7 @@ def _solve_shooting(problem: CosseratShooting, m0: np.ndarray | None, opts: Coss
     tensions = np.where(pieces[None, :] <= p.anchor[:, None], p.tension[:, None], 0.0)
     return StaticSolution(
         converged=converged and not failure, residual=float(res), iterations=int(count), load_steps=int(steps),
-        path=name, q=np.array(x, dtype=float), tensions=tensions, seconds=seconds, atol=opts.atol,
+        path=name, q=np.array(x, dtype=float), tensions=tensions, seconds=seconds, atol=tol,
         _positions=shot.positions, _rotations=shot.rotations, model=COSSERAT.name, _curve=shot.curve,
         failure=failure,
     )
@@ -309,7 +313,7 @@ class CosseratModel:
     def solve(self, robot: Robot, loads: Loads, q0: np.ndarray | None, options: CosseratOptions) -> StaticSolution:
         """One equilibrium; see :func:`pytdcr.solve`."""
         check_cancelled()
-        return _solve_shooting(CosseratShooting.build(robot, loads, options), q0, options)
+        return _solve_shooting(CosseratShooting.build(robot, loads, options), q0, options, loads)
 
     def solve_batch(self, robot: Robot, tensions: np.ndarray, loads: Loads, q0: np.ndarray | None,
                     options: CosseratOptions, threads: int | None = None) -> BatchSolution:
@@ -326,7 +330,8 @@ class CosseratModel:
         def chunk(start: int, stop: int) -> None:
             for b in range(start, stop):
                 check_cancelled()
-                sols[b] = _solve_shooting(problem.with_tensions(tensions[b]), None if q0 is None else Q0[b], options)
+                sols[b] = _solve_shooting(problem.with_tensions(tensions[b]), None if q0 is None else Q0[b], options,
+                                          loads)
 
         t0 = time.perf_counter()
         run_in_chunks(chunk, nb, threads)

@@ -24,6 +24,7 @@ from ..runtime import MAX_CHUNK, check_cancelled, run_in_chunks
 from .kernels import solver as SV
 from .options import FOLDS, LOAD_STEPPING, PATH_NAMES, PATH_SELF_CONTACT, SolverOptions
 from .stability import Stability, conjugate_stiffness, stability_of
+from .tolerance import tolerances
 
 __all__ = ["CompiledModel", "Equations", "Evaluation", "PackedEquations", "kernel_settings"]
 
@@ -101,7 +102,14 @@ def kernel_settings(options: SolverOptions, warm: bool = False) -> SV.Settings:
     if warm and mode == LOAD_STEPPING["always"]:
         mode = LOAD_STEPPING["auto"]
     return SV.Settings(float(options.atol), int(options.max_iter), float(options.max_dtheta), mode,
-                       int(options.step_iter), FOLDS[options.fold])
+                       int(options.step_iter), FOLDS[options.fold], float(options.atol))
+
+
+def case_tolerances(robot: Robot, loads: Loads, tensions: np.ndarray, atol: float) -> np.ndarray:
+    """Each row of ``tensions`` (B, nt) [N]: its convergence and load-step tolerance [N m], shape (B, 2), C-ordered
+    (:func:`pytdcr.statics.tolerance.tolerances`)."""
+    tol, step = tolerances(robot, loads, tensions, atol)
+    return np.ascontiguousarray(np.stack([tol, step], axis=1))
 
 
 def _start_points(eq: Equations, q0: np.ndarray | None, nb: int) -> np.ndarray:
@@ -130,16 +138,16 @@ class _BatchOut(NamedTuple):
     path: np.ndarray
 
 
-def _solve_rows(eq: Equations, Q0: np.ndarray, T: np.ndarray, settings: SV.Settings,
+def _solve_rows(eq: Equations, Q0: np.ndarray, T: np.ndarray, settings: SV.Settings, tols: np.ndarray,
                 threads: int | None, max_chunk: int = MAX_CHUNK) -> _BatchOut:
-    """Every row of ``T`` (B, nt) from ``Q0`` (B, m), in chunks of at most ``max_chunk`` rows over ``threads``
-    threads (the GIL released)."""
+    """Every row of ``T`` (B, nt) from ``Q0`` (B, m), each to its tolerances ``tols`` (B, 2) [N m], in chunks of
+    at most ``max_chunk`` rows over ``threads`` threads (the GIL released)."""
     nb = T.shape[0]
     out = _BatchOut(np.empty((nb, eq.n_unknowns)), np.empty(nb, dtype=np.bool_), np.empty(nb),
                     np.empty(nb, dtype=np.int64), np.empty(nb, dtype=np.int64), np.empty(nb, dtype=np.int64))
 
     def chunk(start: int, stop: int) -> None:
-        SV.solve_range(Q0, eq.packed, T, settings, start, stop, *out)
+        SV.solve_range(Q0, eq.packed, T, settings, tols, start, stop, *out)
 
     run_in_chunks(chunk, nb, threads, max_chunk=max_chunk)
     return out
@@ -216,9 +224,11 @@ class CompiledModel:
         eq = self.equations(robot, loads, options)
         Q0 = _start_points(eq, q0, 1)
         t0 = time.perf_counter()
-        out = _solve_rows(eq, Q0, eq.packed.tension[None, :], kernel_settings(options, q0 is not None), 1)
+        T = eq.packed.tension[None, :]
+        tols = case_tolerances(robot, loads, T, options.atol)
+        out = _solve_rows(eq, Q0, T, kernel_settings(options, q0 is not None), tols, 1)
         seconds = time.perf_counter() - t0
-        sol = self.solution(eq, out, 0, seconds, options.atol)
+        sol = self.solution(eq, out, 0, seconds, float(tols[0, 0]))
         failure = self._contact(robot, eq.shape(sol.q)) if sol.converged else ""
         return replace(sol, converged=False, path=PATH_SELF_CONTACT, failure=failure) if failure else sol
 
@@ -256,7 +266,8 @@ class CompiledModel:
         Q0 = _start_points(eq, q0, nb)
         t0 = time.perf_counter()
         per_solve = self.resources(robot, options).seconds
-        out = _solve_rows(eq, Q0, tensions, kernel_settings(options, q0 is not None), threads,
+        tols = case_tolerances(robot, loads, tensions, options.atol)
+        out = _solve_rows(eq, Q0, tensions, kernel_settings(options, q0 is not None), tols, threads,
                           max(1, min(MAX_CHUNK, int(CHUNK_SECONDS / max(per_solve, 1e-9)))))
         seconds = time.perf_counter() - t0
         ok = out.converged & np.all(np.isfinite(out.q), axis=1)
@@ -287,7 +298,7 @@ class CompiledModel:
         return BatchSolution(tensions=tensions, converged=ok, residual=out.residual, iterations=out.iterations,
                              q=out.q.reshape(nb, eq.n_disks, -1), tip_position=tips, seconds=seconds,
                              path=paths, model=self.name, _stability_fn=stabilities, disk_positions=pos,
-                             disk_rotations=rot)
+                             disk_rotations=rot, atol=tols[:, 0].copy())
 
     def equilibrium_residual(self, robot: Robot, loads: Loads, q: np.ndarray, options: Any) -> float:
         """max |residual| [N m] of ``robot`` under ``loads`` at the unknowns ``q`` (ValueError for a wrong shape)."""

@@ -26,7 +26,6 @@ __all__ = ["FOLD_ARCLENGTH", "FOLD_RELAX", "Outcome", "Settings", "arclength", "
            "model_with_tension", "model_work", "newton", "relax", "solve_one", "solve_range"]
 
 _STALL = 15  # Newton gives up after this many iterations without halving the residual
-_STEP_ATOL = 1e-6  # tolerance [N m] of intermediate load steps (they only track the branch)
 _MAX_DLAM = 0.25  # largest load step
 _STEP_TARGET = 0.05  # [rad] bend/twist change of a subsegment that a load step aims at
 _MAX_STEP_CHANGE = 0.1  # [rad] largest bend/twist change of a subsegment in one load step (else: a branch jump)
@@ -36,7 +35,9 @@ _ARC_STEPS = 300  # pseudo-arclength steps allowed through a fold
 
 class Settings(NamedTuple):
     """Solver settings: tolerance [N m], Newton iterations, step limit [rad], load-stepping code, iterations per
-    load step, what to do at a fold."""
+    load step, what to do at a fold, tolerance of intermediate load steps [N m] (they only track the branch).
+
+    :func:`solve_range` replaces both tolerances by each case's own (:mod:`pytdcr.statics.tolerance`)."""
 
     atol: float
     max_iter: int
@@ -44,6 +45,7 @@ class Settings(NamedTuple):
     stepping: int
     step_iter: int  # Newton iterations allowed per load step
     fold: int  # at a fold of the loading path: FOLD_RELAX or FOLD_ARCLENGTH
+    step_atol: float
 
 
 
@@ -500,7 +502,7 @@ def solve_one(q0, m, settings, work):
                 qs[u] = q[u] + w * (q[u] - qprev[u])
         else:
             qs[:] = q
-        tol = atol if lt >= 1.0 else max(atol, _STEP_ATOL)
+        tol = atol if lt >= 1.0 else max(atol, settings.step_atol)
         ok, res, it, ne = newton(qs, lt, m, tol, step_iter, max_dtheta, work, H, have_h)
         if not ok and lam > lprev:  # retry without the predictor, from a fresh Jacobian
             qs[:] = q
@@ -561,18 +563,22 @@ def solve_one(q0, m, settings, work):
 
 
 @njit(cache=True, nogil=True)
-def solve_range(q0, m, tensions, settings, start, stop, out_q, out_ok, out_res, out_it, out_steps, out_path):
+def solve_range(q0, m, tensions, settings, tols, start, stop, out_q, out_ok, out_res, out_it, out_steps,
+                out_path):
     """Solve the cases ``start <= b < stop`` of a batch, one after the other (the GIL released).
 
     ``q0`` (B, 3N) start points, ``tensions`` (B, nt) actuator tensions [N]; ``m`` gives every other
-    load. Writes ``out_q`` (B, 3N), ``out_ok``, ``out_res``, ``out_it``, ``out_steps`` and ``out_path`` (B,) for those
-    cases. Callers run disjoint ranges in threads: each case is solved by the same compiled code
+    load. ``tols`` (B, 2): each case's tolerance and load-step tolerance [N m], in place of ``settings``'.
+    Writes ``out_q`` (B, 3N), ``out_ok``, ``out_res``, ``out_it``, ``out_steps`` and ``out_path`` (B,) for
+    those cases. Callers run disjoint ranges in threads: each case is solved by the same compiled code
     whatever the thread, so a batch's results do not depend on how it is split.
     """
     work = model_work(m)
     for b in range(start, stop):
         mb = model_with_tension(m, tensions[b])
-        o = solve_one(q0[b], mb, settings, work)
+        sb = Settings(tols[b, 0], settings.max_iter, settings.max_dtheta, settings.stepping, settings.step_iter,
+                      settings.fold, tols[b, 1])
+        o = solve_one(q0[b], mb, sb, work)
         out_q[b, :] = o.q
         out_ok[b] = o.converged
         out_res[b] = o.residual
