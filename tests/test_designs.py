@@ -116,7 +116,11 @@ def test_local_and_dask_runs_give_one_table_and_resume(tmp_path):
     failed = t[t["status"] == "failed"]
     assert list(failed["design"]) == [2] and "must exceed" in failed["reason"].iloc[0]  # (0.003, 0.002)
     ok = t[t["status"] == "ok"]
-    assert np.all(ok["volume_m3"] > 0) and np.all(ok["largest_reach_m"] <= ok["arc_length_m"] + 1e-12)
+    # the 3 mm backbone bends by about 0.01 rad at 10 N: its tips span less than a voxel, so it has no volume
+    thin = ok["backbone_radius"] == 0.0007
+    assert np.all(ok[thin]["volume_m3"] > 0) and np.all(ok[thin]["fsw_dimension"] == 3)
+    assert np.all(ok[~thin]["volume_m3"] == 0) and np.all(ok[~thin]["fsw_dimension"] < 3)
+    assert np.all(ok["largest_reach_m"] <= ok["arc_length_m"] + 1e-12)
     assert np.all(ok["h_up_m"] <= ok["largest_reach_m"] + 1e-12) and np.all(ok["peak_stress_pa"] > 0)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         remote = run_designs(study, robot, tmp_path / "dask",

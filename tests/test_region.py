@@ -160,7 +160,7 @@ def test_tdcr_workspace_writes_the_named_files(capsys, tmp_path):
                  "support_map.png", "boundary_3d.pdf"):
         assert (out / name).is_file(), name
     assert json.loads((out / "manifest.json").read_text())["status"] == "complete"
-    assert "FSW: volume" in text and "cm^3" in text
+    assert "FSW: volume" in text and "cm³" in text
     code = main(["workspace", "--voxel", "5", "--out", str(tmp_path / "bad")])
     assert code == 2 and "--voxel = 5: must be in" in capsys.readouterr().err
 
@@ -295,7 +295,9 @@ def test_the_largest_reach_follows_its_rule():
     numbers = far.to_dict()
     assert numbers["largest_reach_m"] == far.largest_reach.reach
     assert numbers["largest_reach"] == far.reach_search.to_dict() and numbers["voxel_m"] == robot.length / 8
-    assert set(numbers) == {"volume_m3", "volume_err_m3", "largest_reach_m", "points", "volume", "realisable",
+    assert numbers["dimension"] == 3 and numbers["measure"] == "volume"
+    assert set(numbers) == {"volume_m3", "volume_err_m3", "dimension", "measure", "largest_reach_m", "points",
+                            "volume", "realisable",
                             "voxel_m", "counts", "warm_start", "boundary_sources", "boundary_search", "support",
                             "largest_reach", "seconds_sampling"}
     plain = workspace_study(robot, loads, b, WorkspaceSettings(**base, directions=0, reach="samples"))
@@ -303,3 +305,69 @@ def test_the_largest_reach_follows_its_rule():
     assert plain.largest_reach.reach == sample_reach  # the same samples: the same seed and plan
     k = int(np.argmax(np.where(s.feasible, np.linalg.norm(s.tip_position, axis=1), -1.0)))
     np.testing.assert_array_equal(plain.largest_reach.tensions, s.tensions[k])
+
+
+def test_the_dimension_of_point_sets_of_known_shape():
+    """A cloud filling a cube is 3-D, a square of points in a tilted plane 2-D with its area, points on a line 1-D
+    with its length, one point 0-D; a slab thinner than a voxel counts as flat."""
+    from pytdcr.region import region_dimension
+
+    rng = np.random.default_rng(0)
+    voxel = 0.01
+    cube = rng.uniform(0.0, 0.1, (4000, 3))
+    assert region_dimension(cube, voxel).dimension == 3
+    u, v = np.array([1.0, 1.0, 0.0]) / 2**0.5, np.array([0.0, 0.6, 0.8])
+    v = v - u * (u @ v)
+    v /= np.linalg.norm(v)
+    ab = rng.uniform(0.0, 0.2, (20000, 2))
+    square = ab[:, :1] * u + ab[:, 1:] * v + 0.05
+    d = region_dimension(square, voxel)
+    assert d.dimension == 2 and d.measure == "area" and d.extents_m[2] < 1e-12
+    assert abs(d.area_m2 - 0.04) <= d.area_err_m2 and d.area_err_m2 < 0.1 * 0.04
+    assert region_dimension(np.array([[0.0, 0.0, 0.0], [0.0, 0.1, 0.0]]), voxel).dimension == 1
+    assert abs(abs(np.dot(np.cross(d.axes[0], d.axes[1]), np.cross(u, v))) - 1.0) < 1e-9
+    slab = np.column_stack([rng.uniform(0, 0.2, 5000), rng.uniform(0, 0.2, 5000), rng.uniform(0, 0.5 * voxel, 5000)])
+    assert region_dimension(slab, voxel).dimension == 2
+    line = np.outer(rng.uniform(0.0, 0.3, 50), [0.0, 0.6, 0.8])
+    d = region_dimension(np.vstack([line, [np.nan] * 3]), voxel)
+    assert d.dimension == 1 and d.measure == "length" and d.length_m == pytest.approx(np.ptp(line @ [0, 0.6, 0.8]))
+    assert region_dimension(np.zeros((5, 3)), voxel).dimension == 0
+    assert region_dimension(np.empty((0, 3)), voxel).measure == "none"
+
+
+def test_a_planar_robot_has_a_planar_workspace_with_no_volume(tmp_path):
+    """Tendons at 0 and 180 deg in both segments, gravity along the axis: every tip lies in the x-z plane. The
+    workspace is 2-D (volume 0, its area measured, no mesh written), whatever the budget; the paper robot's is
+    3-D."""
+    import json
+
+    from pytdcr.cli import main
+    from pytdcr.design import Tendon
+    from pytdcr.io import write_robot
+    from pytdcr.region import workspace_study
+
+    paper = paper_robot()
+    tendons = tuple(Tendon(segment=s, radius=0.01, angle_deg=a) for s in (1, 2) for a in (0.0, 180.0))
+    planar = paper.model_copy(update={"tendons": tendons, "name": "planar"})
+    b = TensionBounds.uniform(4, 0.0, 10.0)
+    loads = Loads(np.zeros(4))
+    for budget in (0, 200):
+        ws = workspace_study(planar, loads, b, WorkspaceSettings(n=64, seed=0, budget=budget, directions=0,
+                                                                   reach="samples"))
+        numbers = ws.to_dict()
+        assert numbers["dimension"] == 2 and numbers["measure"] == "area"
+        assert numbers["volume_m3"] == 0.0 and numbers["volume_err_m3"] == 0.0
+        assert numbers["area_m2"] > 0.003 and numbers["realisable"]["dimension"] == 2  # tens of cm², not a line
+        tips = ws.samples.tip_position[ws.samples.feasible]
+        assert np.max(np.abs(tips[:, 1])) < 1e-9  # the tips do lie in the x-z plane
+    path = tmp_path / "planar.toml"
+    write_robot(planar, path)
+    out = tmp_path / "ws"
+    code = main(["workspace", "--robot", str(path), "--n", "64", "--no-search", "--directions", "0",
+                 "--bounds", "0,10", "--out", str(out)])
+    assert code == 0
+    summary = json.loads((out / "workspace.json").read_text())
+    assert summary["dimension"] == 2 and summary["volume_m3"] == 0.0 and summary["mesh"] is None
+    assert not (out / "fsw.ply").exists() and "fsw.ply" not in summary["files"]
+    assert any("span 2 dimensions" in w and "area" in w for w in summary["warnings"])
+    assert summary["volume"]["dimension"]["extents_m"][2] < 1e-9

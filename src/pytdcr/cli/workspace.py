@@ -55,11 +55,12 @@ def add_parser(sub: Any) -> None:
 
 
 def _workspace_lines(name: str, s: dict[str, Any]) -> list[str]:
+    from ..study import format_measure_of
+
     out = [f"  {name}:"]
     for label, d in (("FSW", s), ("realisable", s["realisable"])):
         reach = f"{d['largest_reach_m']:.4f} m" if d["largest_reach_m"] is not None else "none"
-        out.append(f"    {label}: volume {d['volume_m3'] * 1e6:.0f} ± {d['volume_err_m3'] * 1e6:.0f} cm^3, largest "
-                   f"reach {reach}")
+        out.append(f"    {label}: {format_measure_of(d)}, largest reach {reach}")
     c = s["counts"]
     search = s.get("boundary_search") or {}
     out.append(f"    {c['converged']} of {c['solved']} converged, {c['unstable']} unstable; warm starts: "
@@ -103,6 +104,8 @@ def run(args: argparse.Namespace) -> int:
     for case in res.cases:
         for w in case.summary["warnings"]:
             print(f"tdcr: {case.name}: {w}", file=sys.stderr)
-    if any(c.summary["mesh"] is None for c in res.cases):
+    from ..region import MIN_MESH_POINTS
+
+    if any(c.summary["points"] < MIN_MESH_POINTS for c in res.cases):  # too few converged samples for a region
         return EXIT_NOT_CONVERGED
     return EXIT_OK

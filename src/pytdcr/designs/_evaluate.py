@@ -52,6 +52,7 @@ def _case_row(study: DesignStudy, settings: WorkspaceSettings, robot: Any, loads
         "volume_m3": ws.region.fsw.volume_m3, "volume_err_m3": ws.region.fsw.error_m3,
         "realisable_volume_m3": ws.region.realisable.volume_m3,
         "realisable_volume_err_m3": ws.region.realisable.error_m3,
+        "fsw_dimension": 3 if ws.region.fsw.dimension is None else ws.region.fsw.dimension.dimension,
         "fraction_converged": float(ok.mean()),
         "fraction_realisable": float(s.realisable.sum() / max(int(ok.sum()), 1)),
         "peak_stress_pa": (float(robot.backbone.youngs_modulus * np.nanmax(s.curvature)

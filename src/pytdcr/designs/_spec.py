@@ -66,6 +66,7 @@ MEASURES = {
     "volume_err_m3": "its error [m^3]",
     "realisable_volume_m3": "volume of the realisable region (no disk below the base, no disks touching) [m^3]",
     "realisable_volume_err_m3": "its error [m^3]",
+    "fsw_dimension": "dimensions the FSW's tips span at the voxel's resolution (0-3); below 3 its volume is 0",
     "largest_reach_m": "largest ||tip|| over the feasible samples and the tips attaining h (searched when "
                        "budget.reach_search) [m]",
     "fraction_converged": "converged samples / samples solved",

@@ -24,12 +24,12 @@ from ._support import (
     largest_reach,
     support_function,
 )
-from ._volume import VolumeEstimate, estimate_volume, nested_stages
+from ._volume import MEASURES, RegionDimension, VolumeEstimate, estimate_volume, nested_stages, region_dimension
 
-__all__ = ["AGREEMENT_REQUIRED", "MIN_MESH_POINTS", "REACH_RULES", "SOURCES", "VOXELS_PER_LENGTH", "BoundarySearch",
-           "GrowthSettings", "LargestReach", "Reach", "Region", "RegionSamples", "SearchRound", "SearchState",
-           "SupportFunction", "SupportSettings", "TensionPlan", "VolumeEstimate", "WarmStartCheck", "WarmStarts",
-           "WorkspaceHooks", "WorkspaceRegion", "WorkspaceSettings", "WorkspaceStudy", "estimate_volume",
-           "fibonacci_directions", "grow_region", "inside", "largest_reach", "nested_stages", "plan_tensions",
-           "region_from_points", "search_budget", "solve_plan", "solves_needed", "support_function",
-           "tension_step", "workspace_region", "workspace_study"]
+__all__ = ["AGREEMENT_REQUIRED", "MEASURES", "MIN_MESH_POINTS", "REACH_RULES", "SOURCES", "VOXELS_PER_LENGTH",
+           "BoundarySearch", "GrowthSettings", "LargestReach", "Reach", "Region", "RegionDimension", "RegionSamples",
+           "SearchRound", "SearchState", "SupportFunction", "SupportSettings", "TensionPlan", "VolumeEstimate",
+           "WarmStartCheck", "WarmStarts", "WorkspaceHooks", "WorkspaceRegion", "WorkspaceSettings", "WorkspaceStudy",
+           "estimate_volume", "fibonacci_directions", "grow_region", "inside", "largest_reach", "nested_stages",
+           "plan_tensions", "region_dimension", "region_from_points", "search_budget", "solve_plan", "solves_needed",
+           "support_function", "tension_step", "workspace_region", "workspace_study"]

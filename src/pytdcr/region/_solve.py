@@ -214,7 +214,9 @@ class _Solver:
             parts.append(self.keep(self.batch(tensions[start:stop], None if q0 is None else q0[start:stop])))
             if self.progress is not None:
                 self.progress(stop - start)
-        return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]} if parts else {}
+        if not parts:  # no rows: the same keys, empty (a search round whose steps all left the box)
+            return self.keep(self.batch(tensions, q0))
+        return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
 def _agree(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> np.ndarray:

@@ -105,8 +105,18 @@ def _by_rule(rule: str, far: Reach, support: SupportFunction | None, search: Lar
 
 
 def _region_numbers(est: VolumeEstimate, mask: np.ndarray, reach: float | None) -> dict[str, Any]:
-    return {"volume_m3": est.volume_m3, "volume_err_m3": est.error_m3, "largest_reach_m": reach,
-            "points": int(mask.sum()), "volume": est.to_dict()}
+    """A region's numbers: its volume (0 below three dimensions), the dimension and the measure that applies
+    (with its value: ``area_m2`` or ``length_m`` and their errors, for a 2- or 1-D region), largest reach,
+    points and the whole estimate."""
+    dim = est.dimension
+    out: dict[str, Any] = {"volume_m3": est.volume_m3, "volume_err_m3": est.error_m3,
+                           "dimension": 3 if dim is None else dim.dimension,
+                           "measure": "volume" if dim is None else dim.measure}
+    if dim is not None and dim.dimension == 2:
+        out.update(area_m2=dim.area_m2, area_err_m2=dim.area_err_m2)
+    if dim is not None and dim.dimension == 1:
+        out.update(length_m=dim.length_m, length_err_m=dim.length_err_m)
+    return {**out, "largest_reach_m": reach, "points": int(mask.sum()), "volume": est.to_dict()}
 
 
 @dataclass(frozen=True, eq=False)

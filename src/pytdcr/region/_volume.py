@@ -1,4 +1,5 @@
-"""The volume of a region with an error a user can trust: two estimators at three sample sizes."""
+"""The volume of a region with an error a user can trust: two estimators at three sample sizes; and the
+region's dimension, so that a flat region is measured by its area, not given a volume."""
 
 from __future__ import annotations
 
@@ -6,10 +7,100 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from scipy import ndimage
 
 from ._grid import Region, region_from_points
 
-__all__ = ["VolumeEstimate", "estimate_volume", "nested_stages"]
+__all__ = ["MEASURES", "RegionDimension", "VolumeEstimate", "estimate_volume", "nested_stages", "region_dimension"]
+
+#: the measure that applies to a region of each dimension 0..3
+MEASURES = ("none", "length", "area", "volume")
+
+
+@dataclass(frozen=True)
+class RegionDimension:
+    """How many dimensions the sampled tips span, at the voxel's resolution, and the measure that applies.
+
+    The tips' principal axes (singular vectors of their spread about their mean); along each, the extent
+    (largest minus smallest coordinate). A dimension counts when its extent is at least one voxel edge: a region
+    thinner than a voxel has no volume at that resolution (a robot whose tendons all lie in one plane has a planar
+    workspace, whatever the budget). The test is affine: a curved surface spans three axes and counts as 3-D.
+
+    Attributes
+    ----------
+    dimension : int
+        0 (a point or no tips), 1 (a segment), 2 (a plane region) or 3.
+    extents_m : tuple of float
+        The extent along each principal axis, largest first [m] (zeros without tips).
+    axes : tuple of tuple of float
+        The principal axes (unit vectors, base frame), in the order of ``extents_m``.
+    length_m, length_err_m : float or None
+        For dimension 1: the segment's length [m] and its resolution (a voxel edge).
+    area_m2, area_err_m2 : float or None
+        For dimension 2: the region's area in its plane [m^2] on pixels of the voxel's edge (closed over gaps as
+        the voxels are): the interior pixels and half the boundary ones; half the boundary pixels' area is the
+        error.
+    """
+
+    dimension: int
+    extents_m: tuple[float, float, float]
+    axes: tuple[tuple[float, ...], ...]
+    length_m: float | None = None
+    length_err_m: float | None = None
+    area_m2: float | None = None
+    area_err_m2: float | None = None
+
+    @property
+    def measure(self) -> str:
+        """``"volume"``, ``"area"``, ``"length"`` or ``"none"``: what measures a region of this dimension."""
+        return MEASURES[self.dimension]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form."""
+        return {"dimension": self.dimension, "measure": self.measure, "extents_m": list(self.extents_m),
+                "axes": [list(a) for a in self.axes], "length_m": self.length_m, "length_err_m": self.length_err_m,
+                "area_m2": self.area_m2, "area_err_m2": self.area_err_m2}
+
+
+def _plane_area(coords: np.ndarray, voxel: float, closing: int) -> tuple[float, float]:
+    """Area [m^2] of the region of the 2-D points ``coords`` (K, 2) on pixels of edge ``voxel``, closed as the
+    voxels are: the interior pixels and half the boundary ones (the boundary crosses them, on average halfway),
+    and half the boundary pixels' area as the error (the band the boundary lies in)."""
+    origin = coords.min(axis=0) - (closing + 1) * voxel
+    idx = np.floor((coords - origin) / voxel).astype(np.int64)
+    occ = np.zeros(tuple(int(x) for x in idx.max(axis=0) + closing + 2), dtype=bool)
+    occ[idx[:, 0], idx[:, 1]] = True
+    cross = ndimage.generate_binary_structure(2, 1)
+    if closing:
+        occ = ndimage.binary_closing(occ, structure=cross, iterations=closing)
+    boundary = occ & ~ndimage.binary_erosion(occ, structure=cross)
+    band = 0.5 * float(boundary.sum()) * voxel**2
+    return float(occ.sum()) * voxel**2 - band, band
+
+
+def region_dimension(points: np.ndarray, voxel: float, closing: int = 1) -> RegionDimension:
+    """The dimension of the region of tip ``points`` (K, 3) [m] (NaN rows left out) at voxel edge ``voxel`` [m],
+    and its length or area when it is 1- or 2-D (:class:`RegionDimension`)."""
+    p = np.asarray(points, dtype=float).reshape(-1, 3)
+    p = p[np.all(np.isfinite(p), axis=1)]
+    if p.shape[0] == 0:
+        return RegionDimension(0, (0.0, 0.0, 0.0), tuple(tuple(float(x) for x in row) for row in np.eye(3)))
+    centred = p - p.mean(axis=0)
+    # zero rows make at least three (they leave the singular vectors as they are): vt is always (3, 3)
+    _, _, vt = np.linalg.svd(np.vstack([centred, np.zeros((3, 3))]), full_matrices=False)
+    coords = centred @ vt.T
+    extents = coords.max(axis=0) - coords.min(axis=0)
+    order = np.argsort(-extents, kind="stable")
+    extents, vt, coords = extents[order], vt[order], coords[:, order]
+    dim = int(np.sum(extents >= voxel))
+    axes = tuple(tuple(float(x) for x in row) for row in vt)
+    ext = (float(extents[0]), float(extents[1]), float(extents[2]))
+    if dim == 1:
+        return RegionDimension(1, ext, axes, length_m=ext[0], length_err_m=float(voxel))
+    if dim == 2:
+        area, err = _plane_area(coords[:, :2], voxel, closing)
+        return RegionDimension(2, ext, axes, area_m2=area, area_err_m2=err)
+    return RegionDimension(dim, ext, axes)
 
 
 @dataclass(frozen=True)
@@ -37,6 +128,9 @@ class VolumeEstimate:
     search_m3 : float
         The growth still expected of a boundary search stopped before it converged (its budget spent), added
         to the error [m^3]: its last round's growth continued geometrically (0 when it converged).
+    dimension : RegionDimension or None
+        The dimension of the region at n (:func:`region_dimension`). Below 3 the volume and its errors are 0 and
+        ``scales`` is empty: the region's measure is its area or length there.
     """
 
     volume_m3: float
@@ -46,17 +140,27 @@ class VolumeEstimate:
     ratio: float
     scales: tuple[dict[str, float], ...]
     search_m3: float = 0.0
+    dimension: RegionDimension | None = None
+
+    @property
+    def has_volume(self) -> bool:
+        """Whether the region is 3-D, so that its volume is its measure."""
+        return self.dimension is None or self.dimension.dimension == 3
 
     def with_search_tail(self, tail_m3: float) -> VolumeEstimate:
-        """This estimate with ``tail_m3`` [m^3] of unfinished search growth added to its error."""
+        """This estimate with ``tail_m3`` [m^3] of unfinished search growth added to its error (none to a region
+        without volume)."""
+        if not self.has_volume:
+            return self
         return VolumeEstimate(self.volume_m3, self.error_m3 + tail_m3, self.discretisation_m3, self.sampling_m3,
-                              self.ratio, self.scales, tail_m3)
+                              self.ratio, self.scales, tail_m3, self.dimension)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form."""
         return {"volume_m3": self.volume_m3, "error_m3": self.error_m3, "discretisation_m3": self.discretisation_m3,
                 "sampling_m3": self.sampling_m3, "search_m3": self.search_m3, "ratio": self.ratio,
-                "scales": list(self.scales)}
+                "scales": list(self.scales),
+                "dimension": None if self.dimension is None else self.dimension.to_dict()}
 
 
 def _both(region: Region) -> tuple[float, float]:
@@ -82,9 +186,14 @@ def estimate_volume(points: np.ndarray, stage: np.ndarray, n_base: int, voxel: f
     """The volume of the region of ``points`` (K, 3) [m] and the region at n.
 
     ``stage`` (K,) says from which nested size each point counts (:func:`nested_stages`): the sizes are n/4,
-    n/2 and n base samples (``n_base``), and a point of stage s counts at size s and above.
+    n/2 and n base samples (``n_base``), and a point of stage s counts at size s and above. A region of
+    dimension below 3 at n (:func:`region_dimension`) gets volume 0 (its voxels, a slab one voxel thick,
+    are not a volume).
     """
     stage = np.asarray(stage)
+    dimension = region_dimension(points, voxel, closing)
+    if dimension.dimension < 3:
+        return VolumeEstimate(0.0, 0.0, 0.0, 0.0, 1.0, (), 0.0, dimension), region_from_points(points, voxel, closing)
     scales = []
     region = None
     for k, n in enumerate((max(1, n_base // 4), max(1, n_base // 2), n_base)):
@@ -98,6 +207,6 @@ def estimate_volume(points: np.ndarray, stage: np.ndarray, n_base: int, voxel: f
     ratio = float(np.clip(d2 / d1, 0.5, 1.5)) if d1 > 0 and d2 > 0 else 1.0
     sampling = abs(d2) * (ratio + ratio**2)
     disc = 0.5 * abs(scales[-1]["voxel_m3"] - scales[-1]["centre_m3"])
-    est = VolumeEstimate(e[-1], disc + sampling, disc, sampling, ratio, tuple(scales))
+    est = VolumeEstimate(e[-1], disc + sampling, disc, sampling, ratio, tuple(scales), 0.0, dimension)
     assert region is not None
     return est, region

@@ -24,11 +24,18 @@ from ._runs import OptimizeRun, SampleRun, run_optimize, run_sample, sample_into
 from ._settings import AccuracySettings, CompareSettings, OptimizeSettings, SampleSettings, SolveSettings, read_cases
 from ._solve import SolveRun, check_figure_path, run_solve
 from ._specs import MAX_FRICTION, BoundsSpec, LoadSpec, ModelSpec, RobotSpec, RunInputs
-from ._workspace import WorkspaceCase, WorkspaceRun, WorkspaceRunOptions, run_workspace, run_workspace_compare
+from ._workspace import (
+                         WorkspaceCase,
+                         WorkspaceRun,
+                         WorkspaceRunOptions,
+                         format_measure_of,
+                         run_workspace,
+                         run_workspace_compare,
+)
 
 __all__ = ["MAX_FRICTION", "AccuracyRun", "AccuracySettings", "BoundsSpec", "CompareRun",
            "CompareSettings", "LoadSpec", "ModelSpec", "OptimizeRun", "OptimizeSettings", "ReproduceRun",
            "ReproduceSettings", "RobotSpec", "RunInputs", "SampleRun", "SampleSettings", "SolveRun", "SolveSettings",
-           "WorkspaceCase", "WorkspaceRun", "WorkspaceRunOptions", "check_figure_path", "inputs_record", "read_cases",
-           "run_accuracy", "run_compare", "run_optimize", "run_reproduce", "run_sample", "run_solve", "run_workspace",
-           "run_workspace_compare", "sample_into", "write_optimize"]
+           "WorkspaceCase", "WorkspaceRun", "WorkspaceRunOptions", "check_figure_path", "format_measure_of",
+           "inputs_record", "read_cases", "run_accuracy", "run_compare", "run_optimize", "run_reproduce", "run_sample",
+           "run_solve", "run_workspace", "run_workspace_compare", "sample_into", "write_optimize"]

@@ -32,7 +32,8 @@ from ..runtime import atomic_write, atomic_write_text, output_folder, write_csv,
 from ..statics import Model, options_record, saving, solve
 from ._output import inputs_record
 
-__all__ = ["WorkspaceCase", "WorkspaceRun", "WorkspaceRunOptions", "run_workspace", "run_workspace_compare"]
+__all__ = ["WorkspaceCase", "WorkspaceRun", "WorkspaceRunOptions", "format_measure_of", "run_workspace",
+           "run_workspace_compare"]
 
 #: ``progress(stage, total)`` returns a callable advanced by the work done (total None: unknown)
 Progress = Callable[[str, "int | None"], Callable[[int], None]]
@@ -99,13 +100,25 @@ class WorkspaceRun:
 
 def _with_mesh(numbers: dict[str, Any], mesh: str) -> dict[str, Any]:
     """A region's numbers with the name of its mesh file after the largest reach; None when it has too few
-    points to mesh (:data:`MIN_MESH_POINTS`)."""
+    points to mesh (:data:`MIN_MESH_POINTS`) or no volume to enclose (dimension below 3)."""
     out: dict[str, Any] = {}
     for key, value in numbers.items():
         out[key] = value
         if key == "largest_reach_m":
-            out["mesh"] = mesh if numbers["points"] >= MIN_MESH_POINTS else None
+            out["mesh"] = mesh if numbers["points"] >= MIN_MESH_POINTS and numbers["dimension"] == 3 else None
     return out
+
+
+def format_measure_of(d: dict[str, Any]) -> str:
+    """A region's measure in words from its numbers (``workspace.json``'s region): its volume with error in
+    cm³, or, below three dimensions, what it is and its area or length."""
+    if d["dimension"] == 3:
+        return f"volume {d['volume_m3'] * 1e6:.0f} ± {d['volume_err_m3'] * 1e6:.0f} cm³"
+    if d["dimension"] == 2:
+        return f"planar (dimension 2, volume 0): area {d['area_m2'] * 1e4:.1f} ± {d['area_err_m2'] * 1e4:.1f} cm²"
+    if d["dimension"] == 1:
+        return f"a segment (dimension 1, volume 0): length {d['length_m']:.4f} ± {d['length_err_m']:.4f} m"
+    return "a point or nothing (dimension 0, volume 0)"
 
 
 def _warnings(summary: dict[str, Any]) -> list[str]:
@@ -120,7 +133,12 @@ def _warnings(summary: dict[str, Any]) -> list[str]:
                    f"({vol['search_m3'] * 1e6:.0f} cm³); raise --budget for a measurement")
     for label, d, name in (("FSW", summary, "fsw.ply"), ("realisable region", summary["realisable"],
                                                          "fsw_realisable.ply")):
-        if d["mesh"] is None:
+        if d["dimension"] < 3 and d["points"]:
+            extents = ", ".join(f"{e:.2g}" for e in d["volume"]["dimension"]["extents_m"])
+            out.append(f"the {label}'s tips span {d['dimension']} dimension{'s' * (d['dimension'] != 1)} at the "
+                       f"voxel's resolution (extents {extents} m along their principal axes): it is "
+                       f"{format_measure_of(d)}; {name} is not written")
+        elif d["mesh"] is None:
             out.append(f"the {label} holds {d['points']} converged sample{'s' * (d['points'] != 1)}, fewer than "
                        f"the {MIN_MESH_POINTS} a boundary needs: {name} is not written and its volume is that of "
                        f"the occupied voxels alone")
@@ -375,7 +393,7 @@ def _write_comparison(out: Path, cases: list[WorkspaceCase], robot: Robot, comma
     rows = _comparison(cases)
     files = save_figure(plot_region_slices({c.name: c.region.fsw_region for c in cases}, robot.length,
                                            f"robot '{robot.name}': FSW under each load"), out, "slices_compare")
-    meshes = {c.name: c.region.fsw_region.mesh() for c in cases}
+    meshes = {c.name: c.region.fsw_region.mesh() for c in cases if c.region.fsw.has_volume}
     files += save_figure(plot_region_3d(meshes, None, f"robot '{robot.name}': FSW boundaries"), out,
                          "boundaries_compare")
     write_region_html(out / "comparison.html", meshes, None, None, f"robot '{robot.name}': FSW under each load")
@@ -404,7 +422,7 @@ def workspace_section(robot: Robot, bounds: TensionBounds, s: Any, seed: int, ou
                                  reach="search" if s.workspace_directions else "samples")
     done = [_case(name, r, loads, bounds, settings, "pcc", None, WorkspaceHooks()) for name, (r, loads) in
             cases.items()]
-    for case in done:
+    for case in (c for c in done if c.region.fsw.has_volume):
         name = f"workspace_fsw_{_slug(case.name)}.ply"
         case.region.fsw_region.mesh().export(out / name, file_type="ply")
         files.append(name)
