@@ -23,7 +23,7 @@ import numpy as np
 
 from .design import Robot
 from .loads import Loads, check_tensions
-from .paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT, PAYLOAD_MASS
+from .paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT, PAYLOAD_MASS, STANDARD_GRAVITY, payload_gravity
 from .results import StaticSolution
 from .statics import (
     MODELS,
@@ -52,15 +52,19 @@ class LoadGroup:
     ----------
     name : str
     gravity : bool
-        Gravity on (the robot's own, or -9.81 m/s^2 along base z if it has none) or off.
+        Gravity on (the robot's own, or :data:`~pytdcr.paper.STANDARD_GRAVITY` if it has none) or off.
     tip_force, tip_moment : tuple of 3 floats
         Base frame [N], [N m].
+    payload_kg : float
+        A mass hanging at the tip [kg]: its weight along the robot's gravity
+        (:func:`~pytdcr.paper.payload_gravity`) adds to ``tip_force``.
     """
 
     name: str
     gravity: bool
     tip_force: tuple[float, float, float] = (0.0, 0.0, 0.0)
     tip_moment: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    payload_kg: float = 0.0
 
     def apply(self, robot: Robot) -> Robot:
         """The robot with this group's gravity."""
@@ -68,11 +72,13 @@ class LoadGroup:
             return robot.with_gravity(None)
         if np.any(robot.gravity):
             return robot
-        return robot.with_gravity((0.0, 0.0, -9.81))
+        return robot.with_gravity(STANDARD_GRAVITY)
 
-    def loads(self, tensions: np.ndarray) -> Loads:
-        """This group's loads with ``tensions`` [N]."""
-        return Loads(tensions, tip_force=self.tip_force, tip_moment=self.tip_moment)
+    def loads(self, tensions: np.ndarray, robot: Robot) -> Loads:
+        """This group's loads with ``tensions`` [N] on ``robot`` (as :meth:`apply` made it: its gravity carries
+        the payload)."""
+        force = np.asarray(self.tip_force, dtype=float) + self.payload_kg * payload_gravity(robot)
+        return Loads(tensions, tip_force=force, tip_moment=self.tip_moment)
 
 
 def default_groups(payload_kg: float = 2 * PAYLOAD_MASS) -> tuple[LoadGroup, ...]:
@@ -81,7 +87,7 @@ def default_groups(payload_kg: float = 2 * PAYLOAD_MASS) -> tuple[LoadGroup, ...
         LoadGroup("tendons", gravity=False),
         LoadGroup("+gravity", gravity=True),
         LoadGroup("+tip wrench", gravity=True, tip_force=PAPER_TIP_FORCE, tip_moment=PAPER_TIP_MOMENT),
-        LoadGroup(f"+payload {payload_kg * 1e3:g} g", gravity=True, tip_force=(0.0, 0.0, -9.81 * payload_kg)),
+        LoadGroup(f"+payload {payload_kg * 1e3:g} g", gravity=True, payload_kg=payload_kg),
     )
 
 
@@ -190,7 +196,7 @@ class AccuracyStudy:
 
 
 def _solve_all(model: Model, opts: Any, robot: Robot, group: LoadGroup, T: np.ndarray) -> list[StaticSolution]:
-    return [model.solve(robot, group.loads(t), None, opts) for t in T]
+    return [model.solve(robot, group.loads(t, robot), None, opts) for t in T]
 
 
 def model_accuracy(robot: Robot, tensions: np.ndarray, *, groups: Sequence[LoadGroup] | None = None,
@@ -219,7 +225,7 @@ def model_accuracy(robot: Robot, tensions: np.ndarray, *, groups: Sequence[LoadG
             progress(f"{group.name}: reference")
         for m in chosen:
             try:
-                _, opts = resolve(m, r, group.loads(T[0]))
+                _, opts = resolve(m, r, group.loads(T[0], r))
             except UnsupportedFeatureError as err:
                 results.append(ModelAccuracy(m.name, group.name, len(T), int(ok_ref.sum()), 0, np.zeros(0),
                                              float("nan"), unsupported=str(err)))
@@ -277,7 +283,7 @@ def order_study(robot: Robot, tensions: np.ndarray, group: LoadGroup, *, disks: 
         ref_model, ref_opts = resolve(REFERENCE, r, None, reference_options(n, reference_steps))
         ref = _solve_all(ref_model, ref_opts, r, group, T)
         for name in models:
-            m, opts = resolve(name, r, group.loads(T[0]))
+            m, opts = resolve(name, r, group.loads(T[0], r))
             sols = _solve_all(m, opts, r, group, T)
             e = [np.linalg.norm(s.tip_position - q.tip_position) * 1e3
                  for s, q in zip(sols, ref, strict=True) if s.converged and q.converged]

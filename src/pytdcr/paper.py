@@ -132,8 +132,8 @@ COMPARE_PAYLOADS = (0.0, 0.005, 0.010, 0.020)
 
 def workspace_load_cases(robot: Robot, given: Loads | None = None) -> dict[str, tuple[Robot, Loads]]:
     """The load cases ``tdcr workspace --compare-loads`` compares on ``robot``: no load (no gravity, no tip
-    wrench); gravity with tip payloads of 0, 5, 10 and 20 g (force (0, 0, -m |g|) [N], base frame); the
-    paper's tip wrench (with gravity); and ``given`` when it carries a tip wrench."""
+    wrench); gravity with tip payloads of 0, 5, 10 and 20 g (force m g [N] along the robot's gravity,
+    :func:`payload_loads`); the paper's tip wrench (with gravity); and ``given`` when it carries a tip wrench."""
     n = robot.n_tendons
     heavy = robot if np.any(np.asarray(robot.gravity)) else robot.with_gravity(STANDARD_GRAVITY)
     cases = {"no load": (robot.with_gravity((0.0, 0.0, 0.0)), Loads(np.zeros(n)))}
