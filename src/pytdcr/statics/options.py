@@ -18,7 +18,7 @@ import numpy as np
 from ..validate import show_number
 
 __all__ = ["DEFAULT_ATOL", "FOLDS", "FOLD_ARCLENGTH", "FOLD_RELAX", "LOAD_STEPPING", "MAX_ATOL", "MIN_ATOL",
-           "PATH_DIRECT", "PATH_FALLBACK", "PATH_LOADING", "PATH_NAMES", "PATH_SELF_CONTACT", "PATH_SNAP",
+           "MIN_STEP_SCALE", "PATH_DIRECT", "PATH_FALLBACK", "PATH_LOADING", "PATH_NAMES", "PATH_SELF_CONTACT", "PATH_SNAP",
            "TIGHT_ATOL", "CosseratOptions", "SSCROptions", "SolverOptions", "check_common_options"]
 
 #: Newton from the start point at full load
@@ -53,6 +53,8 @@ FOLDS = {"relax": FOLD_RELAX, "arclength": FOLD_ARCLENGTH}
 MAX_ATOL = 1e-4
 #: the tightest [N m]: below it the rounding of the moment balance itself decides convergence
 MIN_ATOL = 1e-14
+#: the finest load steps, as a fraction of the default ones (SolverOptions.step_scale)
+MIN_STEP_SCALE = 1e-3
 
 
 def check_common_options(atol: float, load_stepping: str) -> None:
@@ -90,6 +92,9 @@ class SolverOptions:
         last equilibrium (pseudo-transient continuation: the snap-through),
         or 'arclength': follow the equilibrium curve through its turning
         points (pseudo-arclength continuation) to full load.
+    step_scale : float
+        Scales the loading path's steps: the bend or twist a load step aims at and the largest step
+        (default 1; 0.25 takes steps four times finer: the reference the solver's path is checked against).
     """
 
     atol: float = DEFAULT_ATOL
@@ -98,6 +103,7 @@ class SolverOptions:
     load_stepping: Literal["always", "auto", "never"] = "always"
     step_iter: int = 8
     fold: Literal["relax", "arclength"] = "relax"
+    step_scale: float = 1.0
 
     def __post_init__(self) -> None:
         check_common_options(self.atol, self.load_stepping)
@@ -109,6 +115,11 @@ class SolverOptions:
             raise ValueError(f"step_iter must be an integer >= 1, got {self.step_iter!r}")
         if self.fold not in FOLDS:
             raise ValueError(f"fold must be one of {sorted(FOLDS)}, got {self.fold!r}")
+        if isinstance(self.step_scale, bool) or not isinstance(self.step_scale, (int, float, np.floating)):
+            raise TypeError(f"step_scale must be a real number, got {type(self.step_scale).__name__}")
+        if not (np.isfinite(self.step_scale) and MIN_STEP_SCALE <= self.step_scale <= 1.0):
+            raise ValueError(f"step_scale must be in [{MIN_STEP_SCALE:g}, 1] (a fraction of the default load "
+                             f"steps), got {show_number(self.step_scale, MIN_STEP_SCALE, 1.0)}")
 
 
 @dataclass(frozen=True)

@@ -102,7 +102,7 @@ def kernel_settings(options: SolverOptions, warm: bool = False) -> SV.Settings:
     if warm and mode == LOAD_STEPPING["always"]:
         mode = LOAD_STEPPING["auto"]
     return SV.Settings(float(options.atol), int(options.max_iter), float(options.max_dtheta), mode,
-                       int(options.step_iter), FOLDS[options.fold], float(options.atol))
+                       int(options.step_iter), FOLDS[options.fold], float(options.atol), float(options.step_scale))
 
 
 def case_tolerances(robot: Robot, loads: Loads, tensions: np.ndarray, atol: float) -> np.ndarray:

@@ -46,6 +46,7 @@ class Settings(NamedTuple):
     step_iter: int  # Newton iterations allowed per load step
     fold: int  # at a fold of the loading path: FOLD_RELAX or FOLD_ARCLENGTH
     step_atol: float
+    step_scale: float  # scales the loading path's step target and largest step
 
 
 
@@ -487,7 +488,9 @@ def solve_one(q0, m, settings, work):
     lprev = 0.0
     qs = np.zeros(nq)
     lam = 0.0
-    dlam = 0.25
+    max_dlam = _MAX_DLAM * settings.step_scale
+    target = _STEP_TARGET * settings.step_scale
+    dlam = max_dlam
     steps = 0
     ok = False
     res = np.inf
@@ -522,7 +525,7 @@ def solve_one(q0, m, settings, work):
             lam = lt
             # next step from the secant rate of change: aim at _STEP_TARGET per subsegment
             rate = _change(q, qprev, m) / (lam - lprev)
-            dlam = min(2.0 * dlam, _MAX_DLAM, _STEP_TARGET / rate if rate > 0.0 else _MAX_DLAM)
+            dlam = min(2.0 * dlam, max_dlam, target / rate if rate > 0.0 else max_dlam)
         else:
             dlam *= 0.5
             if dlam < 1.0 / 128.0:
@@ -577,7 +580,7 @@ def solve_range(q0, m, tensions, settings, tols, start, stop, out_q, out_ok, out
     for b in range(start, stop):
         mb = model_with_tension(m, tensions[b])
         sb = Settings(tols[b, 0], settings.max_iter, settings.max_dtheta, settings.stepping, settings.step_iter,
-                      settings.fold, tols[b, 1])
+                      settings.fold, tols[b, 1], settings.step_scale)
         o = solve_one(q0[b], mb, sb, work)
         out_q[b, :] = o.q
         out_ok[b] = o.converged
