@@ -70,11 +70,12 @@ def main() -> None:
     result = {"samples": args.samples, "seed": args.seed, "model": args.model, "same_tip_m": SAME_TIP,
               "seconds_per_solve": t_fast, "reference_seconds_per_solve": t_ref, **compare(fast, ref)}
     r = result
-    print(f"{args.model}, {args.samples} random vectors: converged {r['converged']} (reference {r['reference_converged']}); "
-          f"of {r['both']} converged both ways, {r['agree']} agree ({100 * r['agreement']:.2f} %)")
+    print(f"{args.model}, {args.samples} random vectors: converged {r['converged']} "
+          f"(reference {r['reference_converged']}); of {r['both']} converged both ways, {r['agree']} agree "
+          f"({100 * r['agreement']:.2f} %)")
     print(f"  {r['differ']} differ ({r['differ_within_tolerance']} both within tolerance), "
-          f"{r['unstable_where_reference_stable']} unstable where the reference is stable; paths (solver / reference): "
-          f"{r['differ_paths_solver_reference']}")
+          f"{r['unstable_where_reference_stable']} unstable where the reference is stable; "
+          f"paths (solver / reference): {r['differ_paths_solver_reference']}")
     print(f"  mean time per solve, one thread: {t_fast * 1e3:.2f} ms (reference {t_ref * 1e3:.2f} ms)")
     write_result(f"solve_agreement_{args.model}", result, args.json)
 

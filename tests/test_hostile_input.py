@@ -285,3 +285,33 @@ def test_ctrl_c_to_the_process_group_stops_a_design_study_in_one_line(tmp_path):
     assert proc.returncode == 130
     assert "Traceback" not in err and "KeyboardInterrupt" not in err and "leaked" not in err, err[-1500:]
     assert "tdcr: interrupted; saved" in err
+
+
+def _closed_stderr_run(*args, timeout=240):
+    import os
+    import subprocess
+    import sys
+
+    r, w = os.pipe()
+    os.close(r)  # the reader of the messages (and progress bars) is gone before the command starts
+    try:
+        proc = subprocess.run([sys.executable, "-m", "pytdcr.cli", *args], stdout=subprocess.DEVNULL, stderr=w,
+                              timeout=timeout, check=False)
+    finally:
+        os.close(w)
+    return proc
+
+
+@pytest.mark.parametrize(("args", "code", "writes"), [
+    (("sample", "--n", "4", "--out", "{out}"), 141, "samples.csv"),  # the progress bar meets the closed pipe
+    (("workspace", "--n", "8", "--budget", "10", "--directions", "1", "--out", "{out}"), 141, "workspace.json"),
+    (("solve", "--tensions", "1"), 2, None),  # bad input stays bad input, said to nobody
+])
+def test_a_closed_stderr_neither_hangs_nor_loses_the_run(tmp_path, args, code, writes):
+    """``tdcr ... 2>&1 | head -1``: the run finishes, writes its files and ends with 141 (2 for bad input), where
+    the first progress bar used to fail inside a worker thread and hang the run or leave no files."""
+    out = tmp_path / "out"
+    proc = _closed_stderr_run(*(a.format(out=out) for a in args))
+    assert proc.returncode == code
+    if writes:
+        assert (out / writes).is_file() and (out / "manifest.json").is_file()

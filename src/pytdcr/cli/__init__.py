@@ -19,7 +19,17 @@ from collections.abc import Sequence
 
 from . import compare, designs, optimize, reproduce, robot, sample, solve, workspace
 from ._args import FLAGS, Parser, glue_negative_values
-from ._runtime import EXIT_INTERRUPTED, pipe_closed, run, speak_the_terminals_encoding, terminate
+from ._runtime import (
+    EXIT_INTERRUPTED,
+    EXIT_NOT_CONVERGED,
+    EXIT_OK,
+    EXIT_PIPE_CLOSED,
+    StderrGuard,
+    pipe_closed,
+    run,
+    speak_the_terminals_encoding,
+    terminate,
+)
 
 __all__ = ["build_parser", "entry", "main"]
 
@@ -46,7 +56,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     os.environ.setdefault("MPLBACKEND", "Agg")
     speak_the_terminals_encoding()
     args = sys.argv[1:] if argv is None else argv
-    return run(lambda: build_parser().parse_args(glue_negative_values(args)), FLAGS)
+    guard = StderrGuard.install()
+    try:
+        code = run(lambda: build_parser().parse_args(glue_negative_values(args)), FLAGS)
+        sys.stderr.flush()
+    finally:
+        guard.uninstall()
+    # the reader of the messages went away: a run that finished says so as one whose output's reader did
+    return EXIT_PIPE_CLOSED if guard.lost and code in (EXIT_OK, EXIT_NOT_CONVERGED) else code
 
 
 def entry() -> None:

@@ -186,6 +186,60 @@ def speak_the_terminals_encoding() -> None:
                 pass
 
 
+class StderrGuard:
+    """Standard error that outlives its reader: a write or flush that finds the pipe closed (``tdcr ... 2>&1 |
+    head -1``) points the descriptor at ``os.devnull`` and goes on, so the run finishes and writes its files
+    instead of failing inside a progress bar; :attr:`lost` says it happened (the exit status is then
+    :data:`EXIT_PIPE_CLOSED` for a run that would have returned 0 or 1)."""
+
+    def __init__(self, stream: Any) -> None:
+        self.stream = stream
+        self.lost = False
+
+    @classmethod
+    def install(cls) -> StderrGuard:
+        """Put a guard in place of ``sys.stderr`` (:meth:`uninstall` puts it back)."""
+        guard = cls(sys.stderr)
+        sys.stderr = guard  # type: ignore[assignment]
+        return guard
+
+    def uninstall(self) -> None:
+        """Restore the stream this guard replaced."""
+        if sys.stderr is self:
+            sys.stderr = self.stream
+
+    def _closed(self) -> None:
+        self.lost = True
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, self.stream.fileno())
+            os.close(devnull)
+        except (OSError, ValueError, AttributeError):  # not a file descriptor (a test's capture)
+            pass
+
+    def write(self, text: str) -> int:
+        """Write ``text``; nothing when the reader is gone."""
+        if self.lost:
+            return len(text)
+        try:
+            return self.stream.write(text)
+        except BrokenPipeError:
+            self._closed()
+            return len(text)
+
+    def flush(self) -> None:
+        """Flush; nothing when the reader is gone."""
+        if self.lost:
+            return
+        try:
+            self.stream.flush()
+        except BrokenPipeError:
+            self._closed()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.stream, name)
+
+
 def pipe_closed() -> int:
     """Standard output's reader went away: say nothing more there (what is buffered goes nowhere, so the
     interpreter's last flush cannot fail too) and return :data:`EXIT_PIPE_CLOSED`."""

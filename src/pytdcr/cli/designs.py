@@ -67,6 +67,7 @@ def run(args: argparse.Namespace) -> int:
         print("  warning: at this budget the volumes are a screening index, not a measurement: their errors exceed "
               "the margins between the leading designs (see report.md)")
     figures = ", figures" if s.get("figures") else ""
-    print(f"wrote designs.parquet, designs.csv, timings.csv, summary.json, report.md, best/{figures} in "
+    best = ", best/" if s.get("best") else ""  # no design measured: no best robot file
+    print(f"wrote designs.parquet, designs.csv, timings.csv, summary.json, report.md{best}{figures} in "
           f"{escape_controls(str(res.path))}")
     return EXIT_OK if s["designs_failed"] < s["designs"] else EXIT_NOT_CONVERGED

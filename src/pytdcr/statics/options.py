@@ -18,7 +18,8 @@ import numpy as np
 from ..validate import show_number
 
 __all__ = ["DEFAULT_ATOL", "FOLDS", "FOLD_ARCLENGTH", "FOLD_RELAX", "LOAD_STEPPING", "MAX_ATOL", "MIN_ATOL",
-           "MIN_STEP_SCALE", "PATH_DIRECT", "PATH_FALLBACK", "PATH_LOADING", "PATH_NAMES", "PATH_SELF_CONTACT", "PATH_SNAP",
+           "MIN_STEP_SCALE",
+           "PATH_DIRECT", "PATH_FALLBACK", "PATH_LOADING", "PATH_NAMES", "PATH_SELF_CONTACT", "PATH_SNAP",
            "TIGHT_ATOL", "CosseratOptions", "SSCROptions", "SolverOptions", "check_common_options"]
 
 #: Newton from the start point at full load

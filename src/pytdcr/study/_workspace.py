@@ -109,6 +109,13 @@ def _with_mesh(numbers: dict[str, Any], mesh: str) -> dict[str, Any]:
     return out
 
 
+def _cell(value: float | None, fmt: str = ".4f", scale: float = 1.0) -> str:
+    """A table cell: ``value`` times ``scale`` in ``fmt``, or "—" where there is none (None or NaN)."""
+    if value is None or not np.isfinite(value):
+        return "—"
+    return format(value * scale, fmt)
+
+
 def format_measure_of(d: dict[str, Any]) -> str:
     """A region's measure in words from its numbers (``workspace.json``'s region): its volume with error in
     cm³, or, below three dimensions, what it is and its area or length."""
@@ -126,11 +133,13 @@ def _warnings(summary: dict[str, Any]) -> list[str]:
     boundary search ran out of budget before the region converged (the volume is then a lower bound)."""
     out = []
     search, vol = summary.get("boundary_search"), summary["volume"]
-    if search is not None and search["stop"] == "budget" and summary["points"]:
+    if search is not None and search["stop"] == "budget" and summary["points"] and summary["dimension"] == 3:
+        why = (f"is mostly the growth the last rounds point to ({vol['search_m3'] * 1e6:.0f} cm³)"
+               if vol["search_m3"] >= 0.5 * vol["error_m3"] else
+               f"holds {vol['search_m3'] * 1e6:.0f} cm³ of growth the last rounds point to")
         out.append(f"the boundary search stopped at its budget ({search['solves']} solves) before the region "
                    f"converged: the volume {vol['volume_m3'] * 1e6:.0f} cm³ is close to a lower bound and its error "
-                   f"(± {vol['error_m3'] * 1e6:.0f} cm³) is mostly the growth the last rounds point to "
-                   f"({vol['search_m3'] * 1e6:.0f} cm³); raise --budget for a measurement")
+                   f"(± {vol['error_m3'] * 1e6:.0f} cm³) {why}; raise --budget for a measurement")
     for label, d, name in (("FSW", summary, "fsw.ply"), ("realisable region", summary["realisable"],
                                                          "fsw_realisable.ply")):
         if d["dimension"] < 3 and d["points"]:
@@ -139,7 +148,8 @@ def _warnings(summary: dict[str, Any]) -> list[str]:
                        f"voxel's resolution (extents {extents} m along their principal axes): it is "
                        f"{format_measure_of(d)}; {name} is not written")
         elif d["mesh"] is None:
-            out.append(f"the {label} holds {d['points']} converged sample{'s' * (d['points'] != 1)}, fewer than "
+            plural = "s" * (d["points"] != 1)
+            out.append(f"the {label} holds {d['points']} converged, stable sample{plural}, fewer than "
                        f"the {MIN_MESH_POINTS} a boundary needs: {name} is not written and its volume is that of "
                        f"the occupied voxels alone")
     return out
@@ -266,9 +276,9 @@ def _report(summary: dict[str, Any], command: str) -> str:
              *([""] if summary.get("warnings") else []),
              "| region | volume [cm³] | error [cm³] | largest reach [m] | points |", "|---|---|---|---|---|",
              f"| FSW (converged, stable) | {f['volume_m3'] * 1e6:.0f} | {f['volume_err_m3'] * 1e6:.0f}{pct(f)} | "
-             f"{f['largest_reach_m'] or 0:.4f} | {f['points']} |",
+             f"{_cell(f['largest_reach_m'])} | {f['points']} |",
              f"| realisable (no disk below the base, no disks touching) | {r['volume_m3'] * 1e6:.0f} | "
-             f"{r['volume_err_m3'] * 1e6:.0f}{pct(r)} | {r['largest_reach_m'] or 0:.4f} | {r['points']} |", "",
+             f"{r['volume_err_m3'] * 1e6:.0f}{pct(r)} | {_cell(r['largest_reach_m'])} | {r['points']} |", "",
              "Convergence with the base samples (FSW): "
              + ", ".join(f"n = {s['n_base']}: {s['estimate_m3'] * 1e6:.0f} cm³" for s in f["volume"]["scales"])
              + ".", ""]
@@ -343,8 +353,8 @@ def _compare_report(rows: list[dict[str, Any]], cases: list[WorkspaceCase], comm
         sh = np.asarray(r["centroid_shift_m"]) * 1e3
         lines.append(f"| {r['case']} | {r['volume_m3'] * 1e6:.0f} | {r['volume_err_m3'] * 1e6:.0f} | "
                      f"{r['realisable_m3'] * 1e6:.0f} | {r['realisable_err_m3'] * 1e6:.0f} | "
-                     f"{r['largest_reach_m'] or 0:.4f} | {r['volume_ratio'] or 0:.2f} | "
-                     f"({sh[0]:.0f}, {sh[1]:.0f}, {sh[2]:.0f}) |")
+                     f"{_cell(r['largest_reach_m'])} | {_cell(r['volume_ratio'], '.2f')} | "
+                     + ("—" if not np.all(np.isfinite(sh)) else f"({sh[0]:.0f}, {sh[1]:.0f}, {sh[2]:.0f})") + " |")
     short = [c.name for c in cases if c.summary["boundary_search"] and c.summary["boundary_search"]["stop"] == "budget"]
     if short:
         lines += ["", f"**Warning:** the boundary search ran out of budget before the region converged under "
@@ -445,5 +455,5 @@ def workspace_text(ws: dict[str, Any], s: Any) -> list[str]:
     for r in ws["cases"]:
         lines.append(f"| {r['case']} | {r['volume_m3'] * 1e6:.0f} | {r['volume_err_m3'] * 1e6:.0f} | "
                      f"{r['realisable_m3'] * 1e6:.0f} | {r['realisable_err_m3'] * 1e6:.0f} | "
-                     f"{r['largest_reach_m'] or 0:.4f} |")
+                     f"{_cell(r['largest_reach_m'])} |")
     return [*lines, ""]
