@@ -371,3 +371,25 @@ def test_a_planar_robot_has_a_planar_workspace_with_no_volume(tmp_path):
     assert not (out / "fsw.ply").exists() and "fsw.ply" not in summary["files"]
     assert any("span 2 dimensions" in w and "area" in w for w in summary["warnings"])
     assert summary["volume"]["dimension"]["extents_m"][2] < 1e-9
+
+
+def test_one_free_tendon_traces_a_curve_not_an_area():
+    """One tendon free (the others held at a fixed tension by their bounds): the tips lie on a curve, bent in
+    its plane and, under the paper's wrench, out of it; the region is 1-D (volume 0, no area), whatever its
+    affine extents, and its length is measured along the curve."""
+    from pytdcr.paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT
+    from pytdcr.region import workspace_study
+
+    robot = paper_robot()
+    lower = np.zeros(8)
+    upper = np.zeros(8)
+    upper[0] = 10.0
+    b = TensionBounds(lower, upper)
+    for loads in (Loads(np.zeros(8)), Loads(np.zeros(8), tip_force=PAPER_TIP_FORCE, tip_moment=PAPER_TIP_MOMENT)):
+        ws = workspace_study(robot, loads, b, WorkspaceSettings(n=64, seed=0, search=False, directions=0,
+                                                                 reach="samples"))
+        numbers = ws.to_dict()
+        assert numbers["dimension"] == 1 and numbers["measure"] == "length" and numbers["volume_m3"] == 0.0
+        ext = numbers["volume"]["dimension"]["extents_m"]
+        assert ext[1] >= ws.region.voxel  # the arc spans a plane: by its extents alone it would be 2-D
+        assert numbers["length_m"] >= ext[0] and "area_m2" not in numbers

@@ -122,10 +122,12 @@ def workspace_region(robot: Robot, loads: Loads, bounds: TensionBounds, settings
         solver = _Solver(robot, loads.with_tensions(np.zeros(robot.n_tendons)), m, opts, s.threads, None, stability)
         growth = GrowthSettings(tol=s.tol, budget=s.search_budget, warm=False, seed=s.seed)
         samples, record = _search(solver, samples, bounds, voxel, growth, hooks)
+    # the tip is a smooth function of the tensions: k free tensions span at most k dimensions
+    free = min(3, int(np.sum(bounds.upper > bounds.lower)))
     estimates = []
     for mask, key in ((samples.feasible, "voxels"), (samples.realisable, "voxels_realisable")):
         est, region = estimate_volume(np.where(mask[:, None], samples.tip_position, np.nan), samples.stage, s.n,
-                                      voxel)
+                                      voxel, max_dimension=free)
         if record is not None and record.stop != "converged" and record.rounds:
             est = est.with_search_tail(_tail(list(record.rounds), key, voxel))
         estimates.append((est, region))

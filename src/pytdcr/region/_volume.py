@@ -78,9 +78,24 @@ def _plane_area(coords: np.ndarray, voxel: float, closing: int) -> tuple[float, 
     return float(occ.sum()) * voxel**2 - band, band
 
 
-def region_dimension(points: np.ndarray, voxel: float, closing: int = 1) -> RegionDimension:
+def _curve_length(coords: np.ndarray) -> float:
+    """Length [m] of the polyline through the points ``coords`` (K, 3) in the order of their first coordinate
+    (a curve that runs along its principal axis, as one tendon's arc of tips does)."""
+    if coords.shape[0] < 2:
+        return 0.0
+    c = coords[np.argsort(coords[:, 0], kind="stable")]
+    return float(np.sum(np.linalg.norm(np.diff(c, axis=0), axis=1)))
+
+
+def region_dimension(points: np.ndarray, voxel: float, closing: int = 1,
+                     max_dimension: int = 3) -> RegionDimension:
     """The dimension of the region of tip ``points`` (K, 3) [m] (NaN rows left out) at voxel edge ``voxel`` [m],
-    and its length or area when it is 1- or 2-D (:class:`RegionDimension`)."""
+    and its length or area when it is 1- or 2-D (:class:`RegionDimension`).
+
+    ``max_dimension``: what the tips can span at most, whatever their extents: the tip is a smooth function of
+    the tensions, so a region with k tensions free (the others fixed by their bounds) has dimension at most k
+    (a curved arc of tips for one free tendon, which spans a plane, is 1-D; its length is then measured along
+    the curve, as :func:`_curve_length` orders it)."""
     p = np.asarray(points, dtype=float).reshape(-1, 3)
     p = p[np.all(np.isfinite(p), axis=1)]
     if p.shape[0] == 0:
@@ -92,11 +107,11 @@ def region_dimension(points: np.ndarray, voxel: float, closing: int = 1) -> Regi
     extents = coords.max(axis=0) - coords.min(axis=0)
     order = np.argsort(-extents, kind="stable")
     extents, vt, coords = extents[order], vt[order], coords[:, order]
-    dim = int(np.sum(extents >= voxel))
+    dim = min(int(np.sum(extents >= voxel)), int(max_dimension))
     axes = tuple(tuple(float(x) for x in row) for row in vt)
     ext = (float(extents[0]), float(extents[1]), float(extents[2]))
     if dim == 1:
-        return RegionDimension(1, ext, axes, length_m=ext[0], length_err_m=float(voxel))
+        return RegionDimension(1, ext, axes, length_m=max(ext[0], _curve_length(coords)), length_err_m=float(voxel))
     if dim == 2:
         area, err = _plane_area(coords[:, :2], voxel, closing)
         return RegionDimension(2, ext, axes, area_m2=area, area_err_m2=err)
@@ -182,16 +197,16 @@ def nested_stages(base_index: np.ndarray, n_base: int) -> np.ndarray:
 
 
 def estimate_volume(points: np.ndarray, stage: np.ndarray, n_base: int, voxel: float,
-                    closing: int = 1) -> tuple[VolumeEstimate, Region]:
+                    closing: int = 1, max_dimension: int = 3) -> tuple[VolumeEstimate, Region]:
     """The volume of the region of ``points`` (K, 3) [m] and the region at n.
 
     ``stage`` (K,) says from which nested size each point counts (:func:`nested_stages`): the sizes are n/4,
     n/2 and n base samples (``n_base``), and a point of stage s counts at size s and above. A region of
-    dimension below 3 at n (:func:`region_dimension`) gets volume 0 (its voxels, a slab one voxel thick,
-    are not a volume).
+    dimension below 3 at n (:func:`region_dimension`, at most ``max_dimension``) gets volume 0 (its voxels, a
+    slab one voxel thick, are not a volume).
     """
     stage = np.asarray(stage)
-    dimension = region_dimension(points, voxel, closing)
+    dimension = region_dimension(points, voxel, closing, max_dimension)
     if dimension.dimension < 3:
         return VolumeEstimate(0.0, 0.0, 0.0, 0.0, 1.0, (), 0.0, dimension), region_from_points(points, voxel, closing)
     scales = []
