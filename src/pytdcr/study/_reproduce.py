@@ -72,7 +72,7 @@ class ReproduceSettings:
     verdict_ga_pop: int = 0
     verdict_polish_iter: int = 8
     workspace_n: int = 128
-    workspace_budget: int = 600
+    workspace_budget: int = 300
     workspace_voxels: int = 10
     workspace_directions: int = 0
 
