@@ -12,6 +12,7 @@ import numpy as np
 
 from .design import Robot
 from .kinematics import backbone_curve
+from .loads import Loads
 
 __all__ = ["BatchSolution", "NotConvergedError", "Stability", "StaticSolution"]
 
@@ -110,6 +111,8 @@ class StaticSolution:
     failure : str
         Why a solve whose residual is small is still not converged (empty otherwise): the rod models
         refuse an equilibrium whose backbone passes through itself (``path = "self-contact"``).
+    loads : Loads or None
+        The loads it was solved under (what ``solve(..., start=solution)`` continues from).
     """
 
     converged: bool
@@ -127,6 +130,7 @@ class StaticSolution:
     _curve: np.ndarray | None = None
     _stability_fn: Callable[[], Stability | None] | None = None
     failure: str = ""
+    loads: Loads | None = None
 
     def _require(self) -> None:
         if self.failure:
@@ -238,6 +242,9 @@ class BatchSolution:
         Disk orientations in the base frame; NaN where not converged.
     atol : ndarray, shape (B,), or None
         The tolerance each case was judged by [N m] (:mod:`pytdcr.statics.tolerance`).
+    loads : Loads or None
+        The external loads every case was solved under (their tensions are the rows of ``tensions``): what
+        ``solve_batch(..., start=batch)`` continues from.
     """
 
     tensions: np.ndarray
@@ -253,6 +260,7 @@ class BatchSolution:
     disk_positions: np.ndarray | None = None
     disk_rotations: np.ndarray | None = None
     atol: np.ndarray | None = None
+    loads: Loads | None = None
 
     @cached_property
     def stability(self) -> tuple[Stability | None, ...]:
@@ -276,7 +284,7 @@ class BatchSolution:
             _stability_fn=None if stab is None else partial(_known, tuple(stab[k] for k in pick)),
             disk_positions=None if self.disk_positions is None else self.disk_positions[pick],
             disk_rotations=None if self.disk_rotations is None else self.disk_rotations[pick],
-            atol=None if self.atol is None else self.atol[pick])
+            atol=None if self.atol is None else self.atol[pick], loads=self.loads)
 
     @property
     def stable(self) -> np.ndarray:

@@ -57,12 +57,16 @@ class Capabilities:
         The model tests an equilibrium's static stability (the eigenvalues of
         its tangent stiffness, :mod:`pytdcr.statics.stability`); without it,
         ``StaticSolution.stable`` is None.
+    continuation : bool
+        The model continues a solved equilibrium to other loads along its branch
+        (``solve(..., start=solution)``, :func:`pytdcr.statics.solve`).
     """
 
     friction: bool
     point_wrenches: bool
     gradient: Literal["exact", "finite differences"] | None
     stability: bool = False
+    continuation: bool = False
 
 
 @runtime_checkable

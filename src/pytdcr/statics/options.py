@@ -18,9 +18,9 @@ import numpy as np
 from ..validate import show_number
 
 __all__ = ["DEFAULT_ATOL", "FOLDS", "FOLD_ARCLENGTH", "FOLD_RELAX", "LOAD_STEPPING", "MAX_ATOL", "MIN_ATOL",
-           "MIN_STEP_SCALE",
-           "PATH_DIRECT", "PATH_FALLBACK", "PATH_LOADING", "PATH_NAMES", "PATH_SELF_CONTACT", "PATH_SNAP",
-           "TIGHT_ATOL", "CosseratOptions", "SSCROptions", "SolverOptions", "check_common_options"]
+           "MIN_STEP_SCALE", "PATH_CONTINUED", "PATH_DIRECT", "PATH_FALLBACK", "PATH_LOADING", "PATH_NAMES",
+           "PATH_NO_START", "PATH_SELF_CONTACT", "PATH_SNAP", "STEP_CONTINUE", "TIGHT_ATOL", "CosseratOptions",
+           "SSCROptions", "SolverOptions", "check_common_options"]
 
 #: Newton from the start point at full load
 PATH_DIRECT = 0
@@ -30,13 +30,19 @@ PATH_LOADING = 1
 PATH_SNAP = 2
 #: the loading path failed; another equilibrium at full load
 PATH_FALLBACK = 3
+#: continuation from a solved state along the straight path of the loads to the new ones
+PATH_CONTINUED = 4
 #: ``StaticSolution.path`` by path code
-PATH_NAMES = ("direct", "loading", "snap", "fallback")
+PATH_NAMES = ("direct", "loading", "snap", "fallback", "continued")
 #: ``path`` of an equilibrium refused because the backbone passes through itself (:mod:`pytdcr.contact`)
 PATH_SELF_CONTACT = "self-contact"
+#: ``path`` of a batch row not continued because its start did not converge (``solve_batch(..., start=batch)``)
+PATH_NO_START = "no start"
 
 #: load-stepping modes by name, as the kernels take them
 LOAD_STEPPING = {"never": 0, "auto": 1, "always": 2}
+#: the kernels' stepping code of a continuation from a solved state (``solve(..., start=solution)``)
+STEP_CONTINUE = 3
 
 #: default convergence tolerance on max |residual| [N m] (MODEL.md)
 DEFAULT_ATOL = 1e-9

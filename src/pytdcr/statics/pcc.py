@@ -160,7 +160,8 @@ class PCCModel(CompiledModel):
     description = "the paper's piecewise constant curvature model (balance about each subsegment's base, MODEL.md)"
     balance = K.BALANCE_BASE
     options_type = SolverOptions
-    capabilities = Capabilities(friction=True, point_wrenches=True, gradient="exact", stability=True)
+    capabilities = Capabilities(friction=True, point_wrenches=True, gradient="exact", stability=True,
+                                continuation=True)
     unknowns = "q: (N, 3), (beta [1/m], gamma [1/m], eps [rad]) per subsegment"
 
     def equations(self, robot: Robot, loads: Loads, options: SolverOptions | None = None) -> PCCEquations:

@@ -100,7 +100,7 @@ def configure(model: str | Model, options: Any = None, **overrides: Any) -> Any:
 
 
 def resolve(model: str | Model, robot: Robot, loads: Loads | None = None, options: Any = None, *,
-            gradient: bool = False, stability: bool = False) -> tuple[Model, Any]:
+            gradient: bool = False, stability: bool = False, continuation: bool = False) -> tuple[Model, Any]:
     """Check a request against the model's capabilities; return the model and its options.
 
     Parameters
@@ -114,6 +114,8 @@ def resolve(model: str | Model, robot: Robot, loads: Loads | None = None, option
         The caller needs :meth:`Model.tip_gradient`.
     stability : bool
         The caller needs the static stability test.
+    continuation : bool
+        The caller continues a solved state (``start=``).
 
     Raises
     ------
@@ -141,6 +143,9 @@ def resolve(model: str | Model, robot: Robot, loads: Loads | None = None, option
         raise UnsupportedFeatureError(m.name, "a tip gradient (needed by the gradient search)")
     if stability and not caps.stability:
         raise UnsupportedFeatureError(m.name, "the static stability test")
+    if continuation and not caps.continuation:
+        raise UnsupportedFeatureError(m.name, "continuation from a solved state (start=)",
+                                      "solve from rest, or with q0= as a start point at full load")
     check_resources(m, robot, opts)
     return m, opts
 

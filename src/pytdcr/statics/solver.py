@@ -22,7 +22,7 @@ from ..loads import Loads
 from ..results import BatchSolution, StaticSolution
 from ..runtime import MAX_CHUNK, check_cancelled, run_in_chunks
 from .kernels import solver as SV
-from .options import FOLDS, LOAD_STEPPING, PATH_NAMES, PATH_SELF_CONTACT, SolverOptions
+from .options import FOLDS, LOAD_STEPPING, PATH_NAMES, PATH_NO_START, PATH_SELF_CONTACT, STEP_CONTINUE, SolverOptions
 from .stability import Stability, conjugate_stiffness, stability_of
 from .tolerance import tolerances
 
@@ -138,18 +138,47 @@ class _BatchOut(NamedTuple):
     path: np.ndarray
 
 
+def _empty_out(nb: int, m: int) -> _BatchOut:
+    return _BatchOut(np.empty((nb, m)), np.empty(nb, dtype=np.bool_), np.empty(nb), np.empty(nb, dtype=np.int64),
+                     np.empty(nb, dtype=np.int64), np.empty(nb, dtype=np.int64))
+
+
 def _solve_rows(eq: Equations, Q0: np.ndarray, T: np.ndarray, settings: SV.Settings, tols: np.ndarray,
                 threads: int | None, max_chunk: int = MAX_CHUNK) -> _BatchOut:
     """Every row of ``T`` (B, nt) from ``Q0`` (B, m), each to its tolerances ``tols`` (B, 2) [N m], in chunks of
     at most ``max_chunk`` rows over ``threads`` threads (the GIL released)."""
-    nb = T.shape[0]
-    out = _BatchOut(np.empty((nb, eq.n_unknowns)), np.empty(nb, dtype=np.bool_), np.empty(nb),
-                    np.empty(nb, dtype=np.int64), np.empty(nb, dtype=np.int64), np.empty(nb, dtype=np.int64))
+    out = _empty_out(T.shape[0], eq.n_unknowns)
 
     def chunk(start: int, stop: int) -> None:
         SV.solve_range(Q0, eq.packed, T, settings, tols, start, stop, *out)
 
-    run_in_chunks(chunk, nb, threads, max_chunk=max_chunk)
+    run_in_chunks(chunk, T.shape[0], threads, max_chunk=max_chunk)
+    return out
+
+
+class _Path(NamedTuple):
+    """Continuations along the straight path of the loads: from the equilibria ``Q0`` (B, m) of ``start`` at the
+    actuator tensions ``T0`` (B, nt) [N] to ``end`` at ``T1`` (B, nt) [N]."""
+
+    start: Equations
+    end: Equations
+    Q0: np.ndarray
+    T0: np.ndarray
+    T1: np.ndarray
+
+
+def _continue_rows(path: _Path, settings: SV.Settings, tols: np.ndarray, threads: int | None,
+                   max_chunk: int = MAX_CHUNK) -> _BatchOut:
+    """Every continuation of ``path``, each to its tolerances ``tols`` (B, 2) [N m], in chunks over ``threads``
+    threads (:func:`pytdcr.statics.kernels.solver.continue_range`)."""
+    out = _empty_out(path.T1.shape[0], path.end.n_unknowns)
+    settings = settings._replace(stepping=STEP_CONTINUE)
+
+    def chunk(start: int, stop: int) -> None:
+        SV.continue_range(path.Q0, path.start.packed, path.end.packed, path.T0, path.T1, settings, tols, start,
+                          stop, *out)
+
+    run_in_chunks(chunk, path.T1.shape[0], threads, max_chunk=max_chunk)
     return out
 
 
@@ -227,8 +256,23 @@ class CompiledModel:
         T = eq.packed.tension[None, :]
         tols = case_tolerances(robot, loads, T, options.atol)
         out = _solve_rows(eq, Q0, T, kernel_settings(options, q0 is not None), tols, 1)
-        seconds = time.perf_counter() - t0
-        sol = self.solution(eq, out, 0, seconds, float(tols[0, 0]))
+        return self._single(robot, eq, out, time.perf_counter() - t0, float(tols[0, 0]))
+
+    def solve_from(self, robot: Robot, loads: Loads, start: StaticSolution, options: Any) -> StaticSolution:
+        """Continue the equilibrium ``start`` (checked by the caller: of this model and robot, under
+        ``start.loads``) along its branch to ``loads``; see :func:`pytdcr.solve`."""
+        check_cancelled()
+        eq = self.equations(robot, loads, options)
+        path = _Path(self.equations(robot, start.loads, options), eq, _start_points(eq, start.q, 1),
+                     np.array(start.loads.tensions, dtype=float)[None, :], eq.packed.tension[None, :])
+        t0 = time.perf_counter()
+        tols = case_tolerances(robot, loads, path.T1, options.atol)
+        out = _continue_rows(path, kernel_settings(options), tols, 1)
+        return self._single(robot, eq, out, time.perf_counter() - t0, float(tols[0, 0]))
+
+    def _single(self, robot: Robot, eq: Equations, out: _BatchOut, seconds: float, atol: float) -> StaticSolution:
+        """The one solution of ``out``, refused where the backbone passes through itself."""
+        sol = self.solution(eq, out, 0, seconds, atol)
         failure = self._contact(robot, eq.shape(sol.q)) if sol.converged else ""
         return replace(sol, converged=False, path=PATH_SELF_CONTACT, failure=failure) if failure else sol
 
@@ -256,22 +300,53 @@ class CompiledModel:
                               load_steps=int(out.load_steps[row]), path=PATH_NAMES[out.path[row]],
                               q=q.reshape(eq.n_disks, -1), tensions=eq.evaluate(q).tensions, seconds=seconds,
                               atol=atol, _positions=pos, _rotations=rot, model=self.name, _curve=curve,
-                              _stability_fn=lambda: self.stability_at(eq, q))
+                              _stability_fn=lambda: self.stability_at(eq, q), loads=eq.loads)
 
     def solve_batch(self, robot: Robot, tensions: np.ndarray, loads: Loads, q0: np.ndarray | None,
                     options: Any, threads: int | None = None) -> BatchSolution:
         """Every row of ``tensions`` (B, n_tendons) [N], on ``threads`` threads (default: all cores)."""
         eq = self.equations(robot, loads.with_tensions(np.zeros(robot.n_tendons)), options)
-        nb = tensions.shape[0]
-        Q0 = _start_points(eq, q0, nb)
+        Q0 = _start_points(eq, q0, tensions.shape[0])
         t0 = time.perf_counter()
-        per_solve = self.resources(robot, options).seconds
         tols = case_tolerances(robot, loads, tensions, options.atol)
         out = _solve_rows(eq, Q0, tensions, kernel_settings(options, q0 is not None), tols, threads,
-                          max(1, min(MAX_CHUNK, int(CHUNK_SECONDS / max(per_solve, 1e-9)))))
-        seconds = time.perf_counter() - t0
+                          self._chunk(robot, options))
+        return self._batch(robot, eq, tensions, out, (time.perf_counter() - t0, tols, threads))
+
+    def solve_batch_from(self, robot: Robot, tensions: np.ndarray, loads: Loads, start: BatchSolution,
+                         options: Any, threads: int | None = None) -> BatchSolution:
+        """Continue row b of ``start`` (checked by the caller: this model and robot, the same rows) along its
+        branch to the tensions ``tensions[b]`` (B, n_tendons) [N] under ``loads``' external wrenches. Rows whose
+        start did not converge are not solved (path ``"no start"``)."""
+        eq = self.equations(robot, loads.with_tensions(np.zeros(robot.n_tendons)), options)
+        eq0 = self.equations(robot, start.loads.with_tensions(np.zeros(robot.n_tendons)), options)
+        nb = tensions.shape[0]
+        rows = np.flatnonzero(start.converged)
+        path = _Path(eq0, eq, np.array(start.q.reshape(nb, -1)[rows], dtype=float, order="C"),
+                     np.ascontiguousarray(start.tensions[rows], dtype=float), np.ascontiguousarray(tensions[rows]))
+        t0 = time.perf_counter()
+        tols = case_tolerances(robot, loads, tensions, options.atol)
+        part = _continue_rows(path, kernel_settings(options), np.ascontiguousarray(tols[rows]), threads,
+                              self._chunk(robot, options))
+        out = _empty_out(nb, eq.n_unknowns)
+        out.q[:], out.converged[:], out.residual[:] = np.nan, False, np.nan
+        out.iterations[:], out.load_steps[:], out.path[:] = 0, 0, -1
+        for full, got in zip(out, part, strict=True):
+            full[rows] = got
+        return self._batch(robot, eq, tensions, out, (time.perf_counter() - t0, tols, threads))
+
+    def _chunk(self, robot: Robot, options: Any) -> int:
+        """Cases per chunk of a batch: about :data:`CHUNK_SECONDS` of work by the time estimate."""
+        per_solve = self.resources(robot, options).seconds
+        return max(1, min(MAX_CHUNK, int(CHUNK_SECONDS / max(per_solve, 1e-9))))
+
+    def _batch(self, robot: Robot, eq: Equations, tensions: np.ndarray, out: _BatchOut,
+               run: tuple[float, np.ndarray, int | None]) -> BatchSolution:
+        """The batch of ``out``: ``run`` = (its seconds, the tolerances (B, 2) [N m], the threads)."""
+        seconds, tols, threads = run
+        nb = tensions.shape[0]
         ok = out.converged & np.all(np.isfinite(out.q), axis=1)
-        paths = np.array(PATH_NAMES, dtype=object)[out.path]
+        paths = np.array([*PATH_NAMES, PATH_NO_START], dtype=object)[out.path]  # code -1: no start
         pos = np.full((nb, eq.n_disks + 1, 3), np.nan)
         rot = np.full((nb, eq.n_disks + 1, 3, 3), np.nan)
         for b in np.flatnonzero(ok):
@@ -298,7 +373,7 @@ class CompiledModel:
         return BatchSolution(tensions=tensions, converged=ok, residual=out.residual, iterations=out.iterations,
                              q=out.q.reshape(nb, eq.n_disks, -1), tip_position=tips, seconds=seconds,
                              path=paths, model=self.name, _stability_fn=stabilities, disk_positions=pos,
-                             disk_rotations=rot, atol=tols[:, 0].copy())
+                             disk_rotations=rot, atol=tols[:, 0].copy(), loads=eq.loads)
 
     def equilibrium_residual(self, robot: Robot, loads: Loads, q: np.ndarray, options: Any) -> float:
         """max |residual| [N m] of ``robot`` under ``loads`` at the unknowns ``q`` (ValueError for a wrong shape)."""

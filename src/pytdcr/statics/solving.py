@@ -18,11 +18,11 @@ from ..runtime import default_threads
 from .base import Model
 from .registry import MODELS, check_resources, resolve
 
-__all__ = ["SAME_EQUILIBRIUM", "check_solution", "solve", "solve_batch", "tip_gradient", "warmup"]
+__all__ = ["SAME_EQUILIBRIUM", "check_solution", "check_start", "solve", "solve_batch", "tip_gradient", "warmup"]
 
 
 def solve(robot: Robot, loads: Loads, *, model: str | Model = "pcc", q0: np.ndarray | None = None,
-          options: Any = None) -> StaticSolution:
+          options: Any = None, start: StaticSolution | None = None) -> StaticSolution:
     """Static equilibrium of ``robot`` under ``loads``.
 
     Parameters
@@ -38,6 +38,16 @@ def solve(robot: Robot, loads: Loads, *, model: str | Model = "pcc", q0: np.ndar
     options : the model's options type, optional
         ``SolverOptions`` for ``pcc``, ``CosseratOptions`` for ``cosserat``;
         default: the model's defaults.
+    start : StaticSolution, optional
+        Continuation: a converged equilibrium of this robot and model (under
+        its own ``start.loads``), followed along its branch as every load
+        (tensions, gravity, wrenches) moves on the straight path from
+        ``start.loads`` to ``loads``, with the loading path's step control and
+        fold handling. ``path`` is ``"continued"``, or ``"snap"`` where the
+        branch folded and the robot snapped. Where the robot has several
+        equilibria, this is the one it reaches from ``start``'s state (the
+        loading path, without ``start``, is the one it reaches from rest).
+        Not with ``q0``; the friction direction (``release``) must match.
 
     Returns
     -------
@@ -48,26 +58,54 @@ def solve(robot: Robot, loads: Loads, *, model: str | Model = "pcc", q0: np.ndar
     Raises
     ------
     UnsupportedFeatureError
-        When the model does not model something the robot or loads need.
+        When the model does not model something the robot or loads need (or cannot continue).
+    ValueError
+        When ``start`` is not an equilibrium of this robot and model.
     """
     if not isinstance(loads, Loads):
         raise TypeError(f"loads must be a pytdcr.Loads (tensions and external wrenches), got {type(loads).__name__}")
-    m, opts = resolve(model, robot, loads, options)
-    return m.solve(robot, loads, q0, opts)
+    m, opts = resolve(model, robot, loads, options, continuation=start is not None)
+    if start is None:
+        return m.solve(robot, loads, q0, opts)
+    if q0 is not None:
+        raise ValueError("give q0 (a start point at full load) or start (a solved state to continue), not both")
+    check_start(m, robot, loads, start, opts)
+    return m.solve_from(robot, loads, start, opts)
+
+
+def check_start(model: Model, robot: Robot, loads: Loads, start: StaticSolution, options: Any) -> None:
+    """Refuse a ``start`` that cannot be continued to ``loads``: not a converged equilibrium of ``model`` for
+    ``robot`` under its own loads (:func:`check_solution`), or with the other friction direction."""
+    if not isinstance(start, StaticSolution):
+        raise TypeError(f"start must be a pytdcr.StaticSolution, got {type(start).__name__}")
+    if not start.converged:
+        raise ValueError(f"start: the solve did not converge (max |residual| {start.residual:.3g} N m): there is no "
+                         "state to continue from")
+    if start.loads is None:
+        raise ValueError("start: the solution does not carry the loads it was solved under")
+    if start.loads.release != loads.release:
+        raise ValueError(f"start: solved with release={start.loads.release}, loads have release={loads.release}: "
+                         "the friction direction cannot change along a continuation; solve from rest instead")
+    check_solution(model, robot, start.loads, start, options, "start")
 
 
 def solve_batch(robot: Robot, tensions: np.ndarray, loads: Loads | None = None, *, model: str | Model = "pcc",
-                q0: np.ndarray | None = None, options: Any = None, threads: int | None = None) -> BatchSolution:
+                q0: np.ndarray | None = None, options: Any = None, threads: int | None = None,
+                start: BatchSolution | None = None) -> BatchSolution:
     """Solve every row of ``tensions`` (B, n_tendons) [N], on all cores.
 
     ``loads`` gives the external wrenches and friction direction shared by all
     cases (its own tensions are ignored). ``q0`` is one warm start or one per
     case. ``threads`` (default: the cores this process may use) does not
     change the results, only the time. ``model`` and ``options`` as for
-    :func:`solve`.
+    :func:`solve`. ``start``: a batch of the same number of rows solved by
+    this model for this robot; row b is continued from ``start``'s row b (its
+    tensions and loads) to ``tensions[b]`` under ``loads``, as
+    :func:`solve` continues one solution; rows whose start did not converge
+    are not solved (``path`` ``"no start"``).
     """
     base = loads if loads is not None else Loads(tensions=np.zeros(robot.n_tendons))
-    m, opts = resolve(model, robot, base, options)
+    m, opts = resolve(model, robot, base, options, continuation=start is not None)
     T = check_tensions(tensions, robot.n_tendons)  # a fresh C-ordered copy
     if T.ndim != 2:
         raise ValueError(f"tensions must have shape (B, {robot.n_tendons}), got {T.shape}")
@@ -77,9 +115,35 @@ def solve_batch(robot: Robot, tensions: np.ndarray, loads: Loads | None = None, 
                     f"a batch of {T.shape[0]:,} '{m.name}' solves of robot '{robot.name}' ({robot.n_disks} disks, "
                     f"{workers} threads)")
     unloaded = base.with_tensions(np.zeros(robot.n_tendons))
+    if start is not None:
+        _check_batch_start(m, robot, base, T, start, q0)
     if T.shape[0] == 0:  # an empty batch with the model's shapes: those of one solve of the unloaded robot, no rows
         return m.solve_batch(robot, np.zeros((1, robot.n_tendons)), unloaded, None, opts, 1).rows(slice(0, 0))
+    if start is not None:
+        return m.solve_batch_from(robot, T, unloaded, start, opts, threads)
     return m.solve_batch(robot, T, unloaded, q0, opts, threads)
+
+
+def _check_batch_start(model: Model, robot: Robot, loads: Loads, tensions: np.ndarray, start: BatchSolution,
+                       q0: np.ndarray | None) -> None:
+    """Refuse a batch ``start`` that cannot be continued row by row to ``tensions`` (B, n_tendons) under ``loads``:
+    another model, another number of rows or unknowns, no loads, or the other friction direction."""
+    if not isinstance(start, BatchSolution):
+        raise TypeError(f"start must be a pytdcr.BatchSolution, got {type(start).__name__}")
+    if q0 is not None:
+        raise ValueError("give q0 (start points at full load) or start (solved states to continue), not both")
+    if start.model != model.name:
+        raise ValueError(f"start: solved by model '{start.model}', not '{model.name}'")
+    if start.tensions.shape != tensions.shape:
+        raise ValueError(f"start: {start.tensions.shape[0]} rows of {start.tensions.shape[1]} tensions, tensions "
+                         f"has shape {tensions.shape}: continue row by row from a batch of the same shape")
+    if start.loads is None:
+        raise ValueError("start: the batch does not carry the loads it was solved under")
+    if start.loads.release != loads.release:
+        raise ValueError(f"start: solved with release={start.loads.release}, loads have release={loads.release}: "
+                         "the friction direction cannot change along a continuation; solve from rest instead")
+    if start.q.shape[0] != tensions.shape[0] or start.q[0].size != robot.n_disks * model.unknowns_per_disk:
+        raise ValueError(f"start: its unknowns (shape {start.q.shape}) are not those of robot '{robot.name}'")
 
 
 def tip_gradient(robot: Robot, loads: Loads, solution: StaticSolution, *, model: str | Model = "pcc",
@@ -102,7 +166,8 @@ def tip_gradient(robot: Robot, loads: Loads, solution: StaticSolution, *, model:
 SAME_EQUILIBRIUM = 100.0
 
 
-def check_solution(model: Model, robot: Robot, loads: Loads, solution: StaticSolution, options: Any) -> None:
+def check_solution(model: Model, robot: Robot, loads: Loads, solution: StaticSolution, options: Any,
+                   name: str = "solution") -> None:
     """Refuse a solution that is not an equilibrium of ``model`` for ``robot`` under ``loads``.
 
     Raises
@@ -118,15 +183,15 @@ def check_solution(model: Model, robot: Robot, loads: Loads, solution: StaticSol
         raise TypeError(f"solution must be a pytdcr.StaticSolution, got {type(solution).__name__}")
     solution.tip_position  # noqa: B018 - raises NotConvergedError when there is no equilibrium
     if solution.model != model.name:
-        raise ValueError(f"solution: solved by model '{solution.model}', not '{model.name}'; pass "
+        raise ValueError(f"{name}: solved by model '{solution.model}', not '{model.name}'; pass "
                          f"model='{solution.model}' or solve again with '{model.name}'")
     try:
         r = model.equilibrium_residual(robot, loads, solution.q, options)
     except ValueError as err:
-        raise ValueError(f"solution: not a solution of robot '{robot.name}' ({err})") from None
+        raise ValueError(f"{name}: not a solution of robot '{robot.name}' ({err})") from None
     limit = SAME_EQUILIBRIUM * max(solution.residual, solution.atol)
     if not r <= limit:
-        raise ValueError(f"solution: not an equilibrium of robot '{robot.name}' under these loads (max |residual| "
+        raise ValueError(f"{name}: not an equilibrium of robot '{robot.name}' under these loads (max |residual| "
                          f"{r:.3g} N m there, {solution.residual:.3g} N m when it was solved): pass the robot and "
                          "loads it was solved with")
 
@@ -141,6 +206,10 @@ def warmup() -> float:
     for name, model in MODELS.items():
         sol = solve(robot, loads, model=name)
         solve(robot, loads, model=name, q0=sol.q)  # the warm-start path
+        if model.capabilities.continuation:
+            solve(robot, loads.with_tensions(np.full(robot.n_tendons, 1.5)), model=name, start=sol)
+            batch = solve_batch(robot, np.ones((2, robot.n_tendons)), loads, model=name, threads=1)
+            solve_batch(robot, np.full((2, robot.n_tendons), 1.5), loads, model=name, threads=1, start=batch)
         solve_batch(robot, np.ones((2, robot.n_tendons)), loads, model=name, threads=1)
         tip_gradient(robot, loads, sol, model=name)
         if "shear_extension" in model.options_type.__dataclass_fields__:

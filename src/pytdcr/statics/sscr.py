@@ -111,7 +111,7 @@ class SSCRModel(CompiledModel):
     description = ("subsegment Cosserat rod: a rod between each pair of disks, tendons as chords, friction "
                    "(the reference)")
     options_type = SSCROptions
-    capabilities = Capabilities(friction=True, point_wrenches=True, gradient="exact")
+    capabilities = Capabilities(friction=True, point_wrenches=True, gradient="exact", continuation=True)
     unknowns = ("q: (N, 6), per subsegment the internal force times the subsegment's length and the internal "
                 "moment at its base, world frame [N m]")
     unknowns_per_disk = 6

@@ -39,7 +39,7 @@ from ...kinematics import frames, subsegment
 # differently (other FMA contractions), so a result depended on what the process had solved before; IEEE
 # arithmetic makes every copy compute the same bits (tests/test_repeatable.py).
 
-__all__ = ["BALANCE_BASE", "BALANCE_MIDPOINT", "Packed", "Work", "evaluate", "frames", "largest_angle",
+__all__ = ["BALANCE_BASE", "BALANCE_MIDPOINT", "Packed", "Work", "blend", "evaluate", "frames", "largest_angle",
            "make_model_work", "make_work", "subsegment", "tendon_unit_load_jvp", "with_tension"]
 
 
@@ -711,3 +711,17 @@ def largest_angle(dq, model):
 def with_tension(m, tension):
     """The packed model with other actuator tensions (nt,) [N]."""
     return Packed(m.sub, m.holes, m.anchor, m.fric, tension, m.grav, m.pforce, m.pmoment, m.balance)
+
+
+@njit(cache=True)
+def blend(ma, mb, s):
+    """The packed model ``mb`` under the loads ``(1 - s) ma + s mb``: actuator tensions, gravity and point wrenches
+    (both the same robot). Exactly ``ma`` at s = 0 and ``mb`` at s = 1; the equations are affine in the loads,
+    so the residual is too."""
+    if s == 1.0:
+        return mb
+    if s == 0.0:
+        return ma
+    return Packed(mb.sub, mb.holes, mb.anchor, mb.fric, ma.tension + s * (mb.tension - ma.tension),
+                  ma.grav + s * (mb.grav - ma.grav), ma.pforce + s * (mb.pforce - ma.pforce),
+                  ma.pmoment + s * (mb.pmoment - ma.pmoment), mb.balance)

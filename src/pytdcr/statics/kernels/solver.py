@@ -20,10 +20,20 @@ import numpy as np
 from numba import njit
 from numba.extending import overload
 
-from ..options import FOLD_ARCLENGTH, FOLD_RELAX, PATH_DIRECT, PATH_FALLBACK, PATH_LOADING, PATH_SNAP
+from ..options import (
+    FOLD_ARCLENGTH,
+    FOLD_RELAX,
+    PATH_CONTINUED,
+    PATH_DIRECT,
+    PATH_FALLBACK,
+    PATH_LOADING,
+    PATH_SNAP,
+    STEP_CONTINUE,
+)
 
-__all__ = ["FOLD_ARCLENGTH", "FOLD_RELAX", "Outcome", "Settings", "arclength", "model_angle", "model_evaluate",
-           "model_with_tension", "model_work", "newton", "relax", "solve_one", "solve_range"]
+__all__ = ["FOLD_ARCLENGTH", "FOLD_RELAX", "Homotopy", "Outcome", "Settings", "arclength", "continue_range",
+           "model_angle", "model_evaluate", "model_with_tension", "model_work", "newton", "relax", "solve_one",
+           "solve_range"]
 
 _STALL = 15  # Newton gives up after this many iterations without halving the residual
 _MAX_DLAM = 0.25  # largest load step
@@ -65,6 +75,15 @@ class Outcome(NamedTuple):
 
 
 
+class Homotopy(NamedTuple):
+    """Two packed models of one robot under two sets of loads: the load factor ``lam`` of the solver goes from
+    ``start`` (lam = 0) to ``end`` (lam = 1) along the straight path between their loads (the kernel module's
+    ``blend``). Continuation from an equilibrium of ``start`` follows its branch to ``end``."""
+
+    start: object
+    end: object
+
+
 # ------------------------------------------------------------------ dispatch on the packed model's type
 #: packed-model type -> the kernel module that implements it; filled by the registry
 #: (:func:`pytdcr.statics.registry.register`) from each compiled model's ``kernels``
@@ -80,6 +99,13 @@ def register_kernels(packed_type, module) -> None:
 def _module_for(model):
     cls = getattr(model, "instance_class", None)
     return KERNELS.get(cls)
+
+
+def _homotopy_module(model):
+    """The kernel module of a :class:`Homotopy`'s packed models (None for any other type)."""
+    if getattr(model, "instance_class", None) is not Homotopy:
+        return None
+    return _module_for(model.types[1])
 
 
 def model_evaluate(q, lam, model, want_jac, r, J, work):  # pragma: no cover - compiled code only
@@ -108,6 +134,11 @@ def _evaluate_impl(q, lam, model, want_jac, r, J, work):
     if mod is not None:
         kernel = mod.evaluate
         return lambda q, lam, model, want_jac, r, J, work: kernel(q, lam, model, want_jac, r, J, work)
+    mod = _homotopy_module(model)
+    if mod is not None:  # every load at its blend: the load factor moves along the path, not from zero
+        kernel, blend = mod.evaluate, mod.blend
+        return lambda q, lam, model, want_jac, r, J, work: kernel(q, 1.0, blend(model.start, model.end, lam),
+                                                                  want_jac, r, J, work)
     return None
 
 
@@ -117,6 +148,10 @@ def _work_impl(model):
     if mod is not None:
         kernel = mod.make_model_work
         return lambda model: kernel(model)
+    mod = _homotopy_module(model)
+    if mod is not None:
+        kernel = mod.make_model_work
+        return lambda model: kernel(model.end)
     return None
 
 
@@ -126,6 +161,10 @@ def _angle_impl(dq, model):
     if mod is not None:
         kernel = mod.largest_angle
         return lambda dq, model: kernel(dq, model)
+    mod = _homotopy_module(model)
+    if mod is not None:
+        kernel = mod.largest_angle
+        return lambda dq, model: kernel(dq, model.end)
     return None
 
 
@@ -456,13 +495,36 @@ def arclength(q, lam, m, atol, max_iter, max_dtheta, work):
     return False, res, iters, njac, _ARC_STEPS, turned
 
 
+@njit(cache=True)
+def _tangent(q, m, work, H, tan):
+    """The path's tangent ``tan`` = dq/dlam (in place) at ``q``, an equilibrium at lam = 0: ``-J^-1 dr/dlam`` with
+    the exact Jacobian, whose inverse is left in ``H``. The residual is affine in lam (every load is), so
+    dr/dlam = r(q, 1) - r(q, 0) exactly. False (and ``tan`` zero) where J is singular."""
+    nq = q.shape[0]
+    r0 = np.empty(nq)
+    r1 = np.empty(nq)
+    J = np.empty((nq, nq))
+    model_evaluate(q, 1.0, m, False, r1, J, work)
+    model_evaluate(q, 0.0, m, True, r0, J, work)
+    try:
+        H[:, :] = np.linalg.inv(J)
+    except Exception:
+        tan[:] = 0.0
+        return False
+    tan[:] = -(H @ (r1 - r0))
+    return np.all(np.isfinite(tan))
+
+
 @njit(cache=True, nogil=True)
 def solve_one(q0, m, settings, work):
     """Solve at full load.
 
     ``stepping``: 0 Newton from ``q0`` only; 1 Newton from ``q0``, then the
     loading path if that fails; 2 the loading path from the unloaded,
-    straight robot. The loading path ramps every load by a factor lam from 0
+    straight robot; ``STEP_CONTINUE`` (3) continuation: ``q0`` is an
+    equilibrium at lam = 0 (``m`` a :class:`Homotopy`) followed to lam = 1,
+    the first step predicted along the path's tangent (path code
+    ``PATH_CONTINUED``). The loading path ramps every load by a factor lam from 0
     to 1 (secant predictor, adaptive steps): the branch quasi-static loading
     follows. Where it stalls at a fold it relaxes at full load from the last
     equilibrium (the snap-through); if that fails too, Newton at full load
@@ -476,26 +538,37 @@ def solve_one(q0, m, settings, work):
     H = np.zeros((nq, nq))
     iters = 0
     nj = 0
-    if stepping != 2:
+    cont = stepping == STEP_CONTINUE
+    if stepping != 2 and not cont:
         ok, res, it, ne = newton(q, 1.0, m, atol, max_iter, max_dtheta, work, H, False)
         iters += it
         nj += ne
         if ok or stepping == 0:
             return Outcome(q, ok, res, iters, nj, 0, PATH_DIRECT)
-    path = PATH_LOADING
-    q[:] = 0.0
+    path = PATH_CONTINUED if cont else PATH_LOADING
+    if not cont:
+        q[:] = 0.0
     qprev = np.zeros(nq)
     lprev = 0.0
     qs = np.zeros(nq)
     lam = 0.0
-    max_dlam = _MAX_DLAM * settings.step_scale
     target = _STEP_TARGET * settings.step_scale
+    # a continuation may cross its whole path in one step; the loading path from rest takes at least four
+    max_dlam = 1.0 if cont else _MAX_DLAM * settings.step_scale
     dlam = max_dlam
+    tan = np.zeros(nq)
+    use_tan = False  # the first step of a continuation: a tangent predictor (there is no secant yet)
+    if cont:
+        use_tan = _tangent(q, m, work, H, tan)
+        nj += 1
+        rate = model_angle(tan, m)
+        if use_tan and rate > 0.0:
+            dlam = min(1.0, target / rate)
     steps = 0
     ok = False
     res = np.inf
     step_iter = min(max_iter, settings.step_iter)
-    have_h = False  # an inverse Jacobian from the last converged load step
+    have_h = use_tan  # an inverse Jacobian from the last converged load step (or the start's, for the tangent)
     while lam < 1.0 and steps < 400:
         lt = min(1.0, lam + dlam)
         # secant predictor from the last two equilibria
@@ -503,11 +576,14 @@ def solve_one(q0, m, settings, work):
             w = (lt - lam) / (lam - lprev)
             for u in range(nq):
                 qs[u] = q[u] + w * (q[u] - qprev[u])
+        elif use_tan:
+            for u in range(nq):
+                qs[u] = q[u] + (lt - lam) * tan[u]
         else:
             qs[:] = q
         tol = atol if lt >= 1.0 else max(atol, settings.step_atol)
         ok, res, it, ne = newton(qs, lt, m, tol, step_iter, max_dtheta, work, H, have_h)
-        if not ok and lam > lprev:  # retry without the predictor, from a fresh Jacobian
+        if not ok and (lam > lprev or use_tan):  # retry without the predictor, from a fresh Jacobian
             qs[:] = q
             ok, res, it2, ne2 = newton(qs, lt, m, tol, step_iter, max_dtheta, work, H, False)
             it += it2
@@ -544,7 +620,7 @@ def solve_one(q0, m, settings, work):
                 if ok:
                     q[:] = qs
                     lam = 1.0
-                    path = PATH_SNAP if turned else PATH_LOADING
+                    path = PATH_SNAP if turned else path
                 break
     if lam < 1.0:
         # last resort: any equilibrium at full load, from the last equilibrium, then from q0
@@ -579,12 +655,39 @@ def solve_range(q0, m, tensions, settings, tols, start, stop, out_q, out_ok, out
     work = model_work(m)
     for b in range(start, stop):
         mb = model_with_tension(m, tensions[b])
-        sb = Settings(tols[b, 0], settings.max_iter, settings.max_dtheta, settings.stepping, settings.step_iter,
-                      settings.fold, tols[b, 1], settings.step_scale)
-        o = solve_one(q0[b], mb, sb, work)
-        out_q[b, :] = o.q
-        out_ok[b] = o.converged
-        out_res[b] = o.residual
-        out_it[b] = o.iterations
-        out_steps[b] = o.load_steps
-        out_path[b] = o.path
+        o = solve_one(q0[b], mb, _case_settings(settings, tols, b), work)
+        _store(o, b, out_q, out_ok, out_res, out_it, out_steps, out_path)
+
+
+@njit(cache=True, nogil=True)
+def continue_range(q0, ma, mb, t_start, t_end, settings, tols, start, stop, out_q, out_ok, out_res, out_it,
+                   out_steps, out_path):
+    """Continue the cases ``start <= b < stop`` from their solved states, one after the other (the GIL released).
+
+    Case b starts from ``q0[b]`` (B, m), an equilibrium of ``ma`` at the actuator tensions ``t_start[b]``
+    (B, nt) [N], and follows its branch along the straight path of the loads to ``mb`` at ``t_end[b]``
+    (a :class:`Homotopy`); ``settings.stepping`` must be ``STEP_CONTINUE``. The outputs as :func:`solve_range`.
+    """
+    work = model_work(mb)
+    for b in range(start, stop):
+        h = Homotopy(model_with_tension(ma, t_start[b]), model_with_tension(mb, t_end[b]))
+        o = solve_one(q0[b], h, _case_settings(settings, tols, b), work)
+        _store(o, b, out_q, out_ok, out_res, out_it, out_steps, out_path)
+
+
+@njit(cache=True, inline="always")
+def _case_settings(settings, tols, b):
+    """``settings`` with case b's tolerance and load-step tolerance from ``tols`` (B, 2) [N m]."""
+    return Settings(tols[b, 0], settings.max_iter, settings.max_dtheta, settings.stepping, settings.step_iter,
+                    settings.fold, tols[b, 1], settings.step_scale)
+
+
+@njit(cache=True, inline="always")
+def _store(o, b, out_q, out_ok, out_res, out_it, out_steps, out_path):
+    """Write the :class:`Outcome` ``o`` into row b of the outputs."""
+    out_q[b, :] = o.q
+    out_ok[b] = o.converged
+    out_res[b] = o.residual
+    out_it[b] = o.iterations
+    out_steps[b] = o.load_steps
+    out_path[b] = o.path

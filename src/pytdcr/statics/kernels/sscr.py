@@ -49,7 +49,7 @@ from numba import njit
 
 from .pcc import tendon_unit_load_jvp
 
-__all__ = ["SSCRPacked", "SSCRWork", "evaluate", "largest_angle", "make_model_work", "record_shape",
+__all__ = ["SSCRPacked", "SSCRWork", "blend", "evaluate", "largest_angle", "make_model_work", "record_shape",
            "with_tension"]
 
 #: lanes of one disk's tendon loads: (dp, dtheta) of the disks before it, itself and after it
@@ -110,6 +110,18 @@ def make_model_work(model):
 def with_tension(m, tension):
     """The packed model with other actuator tensions (nt,) [N]."""
     return SSCRPacked(m.sub, m.holes, m.anchor, m.fric, tension, m.grav, m.pforce, m.pmoment, m.rod)
+
+
+@njit(cache=True)
+def blend(ma, mb, s):
+    """The packed rod ``mb`` under the loads ``(1 - s) ma + s mb`` (see :func:`pytdcr.statics.kernels.pcc.blend`)."""
+    if s == 1.0:
+        return mb
+    if s == 0.0:
+        return ma
+    return SSCRPacked(mb.sub, mb.holes, mb.anchor, mb.fric, ma.tension + s * (mb.tension - ma.tension),
+                      ma.grav + s * (mb.grav - ma.grav), ma.pforce + s * (mb.pforce - ma.pforce),
+                      ma.pmoment + s * (mb.pmoment - ma.pmoment), mb.rod)
 
 
 @njit(cache=True)
