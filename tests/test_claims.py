@@ -165,3 +165,67 @@ def test_the_axial_payload_sentence_is_said_only_where_it_holds(paper, rao):
     assert _antagonistic_pairs(odd) == []
     assert "pair" not in _payload_text(odd, _reach_result(0.4, n_tendons=4))
 
+
+# ---------------------------------------------------------------- tdcr accuracy with nothing to compare
+def _study_of(results, robot, n: int = 3, reference_steps: int = 160):
+    from pytdcr.accuracy import AccuracyStudy, default_groups
+
+    groups = default_groups()
+    return AccuracyStudy(robot=robot, tensions=np.zeros((n, robot.n_tendons)), groups=groups,
+                         models=tuple(dict.fromkeys(r.model for r in results)), results=tuple(results),
+                         reference_steps=reference_steps, seconds=0.0)
+
+
+def test_an_accuracy_study_says_when_nothing_could_be_compared(paper):
+    from pytdcr.accuracy import ModelAccuracy, default_groups
+    from pytdcr.study._accuracy import accuracy_markdown
+
+    names = [g.name for g in default_groups()]
+    empty = np.zeros(0)
+    dead = [ModelAccuracy(m, g, 3, 0, 0, empty, 1.0) for g in names for m in ("pcc", "pcc2")]
+    study = _study_of(dead, paper)
+    assert study.compared == 0
+    assert study.nothing_compared() == ("the reference sscr converged on none of the 3 tension vectors under any "
+                                        "load group")
+    assert accuracy_markdown(study, [], "x").splitlines()[2].startswith("**Nothing could be compared:** the reference")
+    unsupported = [ModelAccuracy("cosserat", g, 3, 3, 0, empty, float("nan"), unsupported="friction") for g in names]
+    assert _study_of(unsupported, paper).nothing_compared() == "every model is unsupported under every load group"
+    mixed = [ModelAccuracy("pcc", names[0], 3, 0, 0, empty, 1.0),
+             *[ModelAccuracy("pcc", g, 3, 2, 0, empty, 1.0) for g in names[1:]]]
+    assert _study_of(mixed, paper).nothing_compared() == (
+        "the reference sscr converged on none of the 3 tension vectors under tendons; no model converged where the "
+        "reference did under the other groups")
+    some = [*dead[:-1], ModelAccuracy("pcc2", names[-1], 3, 2, 1, np.array([0.5]), 1.0)]
+    study = _study_of(some, paper)
+    assert study.compared == 1 and study.nothing_compared() == ""
+    assert "Nothing could be compared" not in accuracy_markdown(study, [], "x")
+
+
+@pytest.mark.parametrize(("disks", "per_sub", "per_segment"), [(10, 16, 160), (3, 54, 162), (80, 4, 320)])
+def test_accuracy_md_states_the_reference_steps_it_used(paper, disks, per_sub, per_segment):
+    """160 steps asked for per segment: ceil(160 / disks) per subsegment, at least 4 (80 disks: 320 per segment,
+    not the 160 asked for)."""
+    from pytdcr.study._accuracy import accuracy_markdown
+
+    study = _study_of([], paper.with_disks(disks))
+    assert study.reference_steps_per_subsegment == per_sub
+    md = accuracy_markdown(study, [], "x")
+    assert f"with {per_sub} Runge-Kutta steps per subsegment between its disks ({per_segment} per segment" in md
+
+
+def test_tdcr_accuracy_exits_1_when_nothing_could_be_compared(capsys, tmp_path):
+    """Every model unsupported (the smeared rod and the paper robot's friction): one line says so, exit 1, and no
+    table of NaN is printed."""
+    import json
+
+    from pytdcr.cli import main
+
+    out = tmp_path / "acc"
+    code = main(["accuracy", "--models", "cosserat", "--n", "1", "--order-cases", "0", "--out", str(out)])
+    text, err = capsys.readouterr()
+    assert code == 1
+    lines = [line for line in err.splitlines() if line.startswith("tdcr:")]
+    assert lines == ["tdcr: accuracy: nothing could be compared: every model is unsupported under every load group"]
+    assert "nan" not in text.lower() and "unsupported" not in text
+    assert "**Nothing could be compared:**" in (out / "accuracy.md").read_text()
+    assert json.loads((out / "accuracy.json").read_text())["summary"]["compared"] == 0
