@@ -127,7 +127,7 @@ def test_the_report_says_whether_each_optimum_is_stable(paper):
                        bounds_study=[(10.0, _reach_result(0.37, True)), (20.0, _reach_result(0.39, None))],
                        verdicts=[])
     report = reproduce_report(heavy, run, paper_bounds(8), ReproduceSettings())
-    assert ("**Warning:** the optimum of GA population 10, payload is flagged unstable" in report)
+    assert "**Warning:** optimum flagged unstable: GA population 10, payload." in report
     assert "bounds [0, 10] N" not in report.split("**Warning:**")[1].split("\n")[0]  # a stable one is not named
     rows = [line for line in report.splitlines() if line.startswith("| population")]
     assert [row.split(" | ")[5] for row in rows] == ["yes", "**no**"]

@@ -159,10 +159,10 @@ def _unstable_warning(run: ReproduceRun) -> list[str]:
     bad = [label for label, r in named if r.stable is False]
     if not bad:
         return []
-    return [f"**Warning:** the optimum of {', '.join(bad)} is flagged unstable: the tangent stiffness there has a "
-            "real eigenvalue <= 0 (the loading path crossed a fold or a bifurcation), so a small disturbance "
-            "leaves that equilibrium and the robot cannot hold it. `tdcr optimize --stable-only` makes unstable "
-            "equilibria infeasible.", ""]
+    return [f"**Warning:** optimum flagged unstable: {', '.join(bad)}. The tangent stiffness there has a real "
+            "eigenvalue <= 0 (the loading path crossed a fold or a bifurcation): a small disturbance can leave that "
+            "equilibrium, so the robot may not hold it. `tdcr optimize --stable-only` makes unstable equilibria "
+            "infeasible.", ""]
 
 
 def _antagonistic_pairs(robot: Robot) -> list[tuple[int, int]]:
