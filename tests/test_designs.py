@@ -406,3 +406,63 @@ def test_tdcr_designs_exits_75_when_the_compute_goes_away(tmp_path, capsys, monk
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 75 and err[-1].startswith("tdcr: the compute stopped") and "saved 3 of 4" in err[-1]
     assert "Traceback" not in "\n".join(err)
+
+
+def test_planar_designs_name_no_best_by_volume_and_leak_no_warnings(tmp_path, capfd):
+    """Every design's region planar (tendons at 0 and 180 deg in both segments: volume 0): no design is named
+    best by the volume (report, output, summary; no robot file), the figures draw none as best by it, and no
+    NumPy warning (e.g. "Mean of empty slice") reaches the terminal, from this process or its workers."""
+    import warnings
+
+    from pytdcr.cli import main
+    from pytdcr.design import Tendon
+    from pytdcr.io import write_robot
+
+    paper = paper_robot()
+    tendons = tuple(Tendon(segment=s, radius=0.01, angle_deg=a) for s in (1, 2) for a in (0.0, 180.0))
+    write_robot(paper.model_copy(update={"tendons": tendons, "name": "planar"}), tmp_path / "planar.toml")
+    (tmp_path / "study.toml").write_text('name = "planar"\nrobot = "planar.toml"\nseed = 1\nbounds = [0.0, 10.0]\n'
+                                         '[parameters]\nrouting_radius_2 = { values = [0.006, 0.010] }\n'
+                                         '[budget]\nsamples = 16\nsearch = 0\n[loads]\ncases = ["no load"]\n')
+    out = tmp_path / "out"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        code = main(["designs", str(tmp_path / "study.toml"), "--workers", "1", "--out", str(out)])
+    text, err = capfd.readouterr()
+    assert code == 0, err
+    assert "Warning" not in err and "Mean of empty slice" not in err
+    summary = json.loads((out / "summary.json").read_text())
+    import pandas as pd
+
+    t = pd.read_csv(out / "designs.csv")
+    assert (t["volume_m3"] == 0.0).all() and (t["fsw_dimension"] == 2).all()  # the case is what it claims
+    assert summary["best"] == [] and not (out / "best").exists()
+    [u] = summary["unranked"]
+    assert u["load_case"] == "no load" and u["measure"] == "volume_m3" and "volume_m3 is 0" in u["reason"]
+    assert "FSW dimension 2" in u["reason"]
+    assert "no load: no best by max volume_m3: every design's volume_m3 is 0" in text and "best by max" not in (
+        text.replace("no best by max", ""))
+    report = (out / "report.md").read_text()
+    assert "## No best under 'no load' (max volume_m3, the first objective)" in report
+    assert "## Best under" not in report and "Best: design" not in report
+
+
+def test_the_volume_error_warning_skips_regions_without_volume():
+    """A ranking by volume where some designs are planar (volume 0): the median relative error is taken over
+    the designs with a volume (no 0/0 and no warning)."""
+    import warnings
+
+    import pandas as pd
+
+    from pytdcr.designs import measures_nothing
+    from pytdcr.designs._run import _screening_note
+
+    study, _ = study_from_dict(_study())
+    t = pd.DataFrame({"design": [-1, 0, 1, 2], "load_case": ["c"] * 4, "volume_m3": [0.0, 0.05, 0.0, 0.04],
+                      "volume_err_m3": [0.0, 0.03, 0.0, 0.03]})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        note = " ".join(_screening_note(study, t, "c", 0, "f.toml"))
+    assert "the median error is 68 % of the volume" in note  # (0.6 + 0.75) / 2 over the two with a volume
+    assert measures_nothing([0.0, 0.0, np.nan]) and not measures_nothing([0.0, 1e-9])
+    assert not measures_nothing([np.nan])  # nothing measured is not "0 for every design"

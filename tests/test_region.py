@@ -296,15 +296,48 @@ def test_the_largest_reach_follows_its_rule():
     assert numbers["largest_reach_m"] == far.largest_reach.reach
     assert numbers["largest_reach"] == far.reach_search.to_dict() and numbers["voxel_m"] == robot.length / 8
     assert numbers["dimension"] == 3 and numbers["measure"] == "volume"
-    assert set(numbers) == {"volume_m3", "volume_err_m3", "dimension", "measure", "largest_reach_m", "points",
-                            "volume", "realisable",
+    assert set(numbers) == {"volume_m3", "volume_err_m3", "dimension", "measure", "largest_reach_m", "reach_rule",
+                            "points", "volume", "realisable",
                             "voxel_m", "counts", "warm_start", "boundary_sources", "boundary_search", "support",
                             "largest_reach", "seconds_sampling"}
+    # each largest reach says what it is: searched only where the search gave it
+    searched = {"search": "the reach search's optimum",
+                "support": "the farthest tip attaining h(d), farther than the reach search's optimum",
+                "samples": "the farthest feasible sample, farther than the reach search's optimum"}
+    assert numbers["reach_rule"] == searched[far.largest_reach.source]
     plain = workspace_study(robot, loads, b, WorkspaceSettings(**base, directions=0, reach="samples"))
     assert plain.support is None and plain.reach_search is None and plain.largest_reach.source == "samples"
     assert plain.largest_reach.reach == sample_reach  # the same samples: the same seed and plan
     k = int(np.argmax(np.where(s.feasible, np.linalg.norm(s.tip_position, axis=1), -1.0)))
     np.testing.assert_array_equal(plain.largest_reach.tensions, s.tensions[k])
+    assert plain.to_dict()["reach_rule"] == "the farthest feasible sample (not searched)"
+
+
+def test_the_realisable_reach_is_labelled_the_farthest_realisable_sample():
+    """``realisable.largest_reach_m`` is the farthest realisable sample, never searched, and says so; it can be
+    below the FSW's searched optimum even when that optimum is itself realisable (checked here)."""
+    from pytdcr.region import workspace_study
+    from pytdcr.study._workspace import _reach_note
+
+    robot, loads, b = paper_robot().with_gravity(None), Loads(np.zeros(8)), TensionBounds.uniform(8, 0, 4)
+    ws = workspace_study(robot, loads, b, WorkspaceSettings(n=32, seed=2, voxel=robot.length / 8, search=False,
+                                                            directions=3, reach="search"))
+    numbers, s = ws.to_dict(), ws.samples
+    real = numbers["realisable"]
+    assert real["reach_rule"] == "the farthest realisable sample (not searched)"
+    assert real["largest_reach_m"] == np.linalg.norm(s.tip_position[s.realisable], axis=1).max()
+    assert numbers["reach_rule"] == "the reach search's optimum" and ws.largest_reach.source == "search"
+    assert real["largest_reach_m"] < numbers["largest_reach_m"]
+    optimum = solve(robot, loads.with_tensions(ws.largest_reach.tensions))
+    pos, rot, r = optimum.disk_positions[None], optimum.disk_rotations[None], robot.disks_radius
+    assert not disks_below_base(pos, rot, r)[0] and not disks_touch(pos, rot, r)[0]  # realisable, yet unsearched
+    note = _reach_note(numbers, real)
+    assert "the realisable region's is the farthest realisable sample (not searched)" in note
+    assert "may be below the FSW's" in note
+    # both from the samples: the realisable one is below only where the farthest feasible sample is not realisable
+    plain = workspace_study(robot, loads, b, WorkspaceSettings(n=32, seed=2, voxel=robot.length / 8, search=False,
+                                                               directions=0, reach="samples")).to_dict()
+    assert "may be below" not in _reach_note(plain, plain["realisable"])
 
 
 def test_the_dimension_of_point_sets_of_known_shape():

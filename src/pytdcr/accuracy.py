@@ -1,7 +1,8 @@
 """Which model to trust: every model against the subsegment Cosserat rod, by load group, and the order study.
 
 The reference is ``sscr`` of the same robot with a fine integration between the
-disks (``reference_steps`` Runge-Kutta steps per subsegment). Every registered
+disks (``reference_steps`` Runge-Kutta steps per segment of the robot's most disks, at least 4 per
+subsegment: :func:`reference_options`). Every registered
 model solves the same tension vectors under cumulative load groups (tendons
 only; + gravity; + the paper's tip wrench; + a payload); each model's tip error
 is its distance from the reference's tip. A model that cannot honour a group
@@ -40,7 +41,7 @@ from .validate import SettingsError
 __all__ = ["AccuracyStudy", "LoadGroup", "ModelAccuracy", "OrderStudy", "check_accuracy_plan", "default_groups",
            "model_accuracy", "order_study"]
 
-#: the reference model and its integration steps per subsegment
+#: the reference model
 REFERENCE = "sscr"
 
 
@@ -193,6 +194,36 @@ class AccuracyStudy:
     def rows(self) -> list[dict[str, Any]]:
         """One row per model and group."""
         return [r.row() for r in self.results]
+
+    @property
+    def compared(self) -> int:
+        """Tip errors computed, over every model and group (0: nothing could be compared)."""
+        return sum(r.errors_mm.size for r in self.results)
+
+    @property
+    def reference_steps_per_subsegment(self) -> int:
+        """The reference's Runge-Kutta steps per subsegment, as used: ``reference_steps`` per segment of the
+        robot's most disks, and at least 4 (:func:`reference_options`)."""
+        per = max(s.n_disks for s in self.robot.segments)
+        return reference_options(per, self.reference_steps).steps_per_subsegment
+
+    def nothing_compared(self) -> str:
+        """Why no tip error could be computed, in one line ("" when some was)."""
+        if self.compared:
+            return ""
+        dead = [g.name for g in self.groups if all(r.reference_converged == 0 for r in self.results
+                                                     if r.group == g.name)]
+        live = [r for r in self.results if r.group not in dead]
+        parts = []
+        if dead:
+            where = "any load group" if len(dead) == len(self.groups) else ", ".join(dead)
+            parts.append(f"the reference sscr converged on none of the {len(self.tensions)} tension vectors under "
+                         f"{where}")
+        if live and all(r.unsupported for r in live):
+            parts.append(f"every model is unsupported under {'the other groups' if dead else 'every load group'}")
+        elif live:
+            parts.append("no model converged where the reference did" + (" under the other groups" if dead else ""))
+        return "; ".join(parts)
 
 
 def _solve_all(model: Model, opts: Any, robot: Robot, group: LoadGroup, T: np.ndarray) -> list[StaticSolution]:

@@ -4,6 +4,7 @@ model against ``sscr``, by load group, and the order study)."""
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from typing import Any
 
@@ -105,7 +106,7 @@ def add_accuracy_parser(sub: Any) -> None:
     a.add_argument("--order-cases", type=count0_type, default=3,
                    help="tension vectors of the order study (0: none) [3]")
     a.add_argument("--reference-steps", type=count_type, default=160,
-                   help="Runge-Kutta steps per segment of the reference sscr [160]")
+                   help="Runge-Kutta steps per segment of the reference sscr, at least 4 per subsegment [160]")
     a.add_argument("--payload-g", type=real_type, default=10.0, help="payload of the last load group [10 g]")
     add_out(a, "out/accuracy")
     a.set_defaults(func=run_accuracy_command)
@@ -133,16 +134,23 @@ def run_accuracy_command(args: argparse.Namespace) -> int:
     with Bar("accuracy", settings.steps, "step") as bar:
         res = run_accuracy(settings, out, progress=lambda label: bar.step(1, label))
     study = res.study
+    why = study.nothing_compared()
     print(f"{args.n} tension vectors on robot '{study.robot.name}', {len(study.groups)} load groups, "
-          f"{len(study.models)} models against sscr ({study.seconds:.1f} s):")
-    for r in study.rows():
+          f"{len(study.models)} models against sscr ({study.seconds:.1f} s)" + ("." if why else ":"))
+    for r in [] if why else study.rows():
         if r["unsupported"]:
             print(f"  {r['group']:>18s}  {r['model']:9s} unsupported")
-            continue
-        print(f"  {r['group']:>18s}  {r['model']:9s} median {r['median_error_mm']:9.3f} mm, 95th pct "
-              f"{r['p95_error_mm']:9.3f} mm, converged {r['converged']}/{r['reference_converged']}, "
-              f"{r['median_ms']:.2f} ms")
-    for st in res.orders:
-        print(f"  order ({st.group}): " + ", ".join(f"{m} {o:.2f}" for m, o in st.order.items()))
+        elif not r["converged"]:
+            print(f"  {r['group']:>18s}  {r['model']:9s} nothing compared: converged 0/{r['reference_converged']}")
+        else:
+            print(f"  {r['group']:>18s}  {r['model']:9s} median {r['median_error_mm']:9.3f} mm, 95th pct "
+                  f"{r['p95_error_mm']:9.3f} mm, converged {r['converged']}/{r['reference_converged']}, "
+                  f"{r['median_ms']:.2f} ms")
+    for st in [] if why else res.orders:
+        print(f"  order ({st.group}): " + ", ".join(f"{m} {o:.2f}" if math.isfinite(o) else f"{m} -"
+                                                     for m, o in st.order.items()))
     print(f"wrote {', '.join(res.files)} in {escape_controls(str(out))}")
+    if why:
+        print(f"tdcr: accuracy: nothing could be compared: {why}", file=sys.stderr)
+        return EXIT_NOT_CONVERGED
     return EXIT_OK

@@ -63,6 +63,8 @@ def run(args: argparse.Namespace) -> int:
         versus = f" (base robot {format_measure(ref[m].iloc[0], m)})" if not ref.empty else ""
         print(f"  {escape_controls(b['load_case'])}: best by {b['goal']} {m}: design {b['design']}, "
               f"{format_measure(b['value'], m)}{err}{versus}")
+    for u in s.get("unranked", []):
+        print(f"  {escape_controls(u['load_case'])}: no best by {u['goal']} {u['measure']}: {u['reason']}")
     if s.get("warnings"):
         print("  warning: at this budget the volumes are a screening index, not a measurement: their errors exceed "
               "the margins between the leading designs (see report.md)")

@@ -59,7 +59,8 @@ def _workspace_lines(name: str, s: dict[str, Any]) -> list[str]:
 
     out = [f"  {name}:"]
     for label, d in (("FSW", s), ("realisable", s["realisable"])):
-        reach = f"{d['largest_reach_m']:.4f} m" if d["largest_reach_m"] is not None else "none"
+        reach = (f"{d['largest_reach_m']:.4f} m ({d['reach_rule']})" if d["largest_reach_m"] is not None
+                 else "none")
         out.append(f"    {label}: {format_measure_of(d)}, largest reach {reach}")
     c = s["counts"]
     search = s.get("boundary_search") or {}

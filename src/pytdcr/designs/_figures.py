@@ -11,6 +11,7 @@ import numpy as np
 
 from ..design import Robot
 from ..plotting import pyplot, save_figure, set_equal_aspect
+from ._optimize import measures_nothing
 from ._spec import DesignStudy
 
 __all__ = ["write_design_figures"]
@@ -107,12 +108,13 @@ def _measures_figure(study: DesignStudy, table: Any) -> Any:
 
 
 def _picked(study: DesignStudy, table: Any) -> list[int]:
-    """The designs drawn: the best for each objective among the Pareto front (at most 3), reference first."""
+    """The designs drawn: the best for each objective among the Pareto front (at most 3), reference first; none
+    for an objective that is 0 for every design (:func:`measures_nothing`: it names no best)."""
     wide, cols = _objective_values(study, table)
     front = wide[wide["pareto"] & (wide.index >= 0)]
     picked = [-1] if -1 in wide.index and wide.loc[-1, "status"] == "ok" else []
     for o, col in zip(study.objectives, cols, strict=True):
-        if not front.empty:
+        if not front.empty and not measures_nothing(front[col]):
             k = int(front[col].idxmax() if o.goal == "max" else front[col].idxmin())
             if k not in picked:
                 picked.append(k)

@@ -18,7 +18,7 @@ import numpy as np
 from ._space import from_unit
 from ._spec import DesignStudy
 
-__all__ = ["DesignSearch", "objective_matrix", "pareto_front"]
+__all__ = ["DesignSearch", "measures_nothing", "objective_matrix", "pareto_front"]
 
 #: a batch of new designs: (generation, [(design index, parameter values)])
 Batch = tuple[int, list[tuple[int, dict[str, float]]]]
@@ -40,6 +40,14 @@ def objective_matrix(study: DesignStudy, records: list[dict[str, Any]]) -> tuple
             F[i, j] = -v if o.goal == "max" else v
     F[~ok] = 0.0
     return F, ok
+
+
+def measures_nothing(values: Any) -> bool:
+    """True when a measure is 0 for every design that has it (the volume of designs whose regions are all planar,
+    dimension below 3): it ranks nothing, and no design is named best by it."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    return v.size > 0 and bool(np.all(v == 0.0))
 
 
 def pareto_front(F: np.ndarray, ok: np.ndarray) -> np.ndarray:

@@ -33,7 +33,7 @@ from ..statics import check_cancelled, mark_saving
 from ..validate import check_count
 from ._evaluate import evaluate_design
 from ._figures import write_design_figures
-from ._optimize import design_batches, objective_matrix, pareto_front
+from ._optimize import design_batches, measures_nothing, objective_matrix, pareto_front
 from ._space import apply_parameters, choose_designs, read_parameter
 from ._spec import MEASURES, DesignStudy, StudyError
 
@@ -316,7 +316,8 @@ def _screening_note(study: DesignStudy, ok: Any, case: str, index: int, robot_fi
     if err is None:
         return []
     sub = ok[ok["load_case"] == case]
-    rel = (sub[err] / sub[measure]).median()
+    measured = sub[sub[measure] > 0]  # a region without volume (planar) has no relative error
+    rel = (measured[err] / measured[measure]).median() if len(measured) else np.nan
     ranked = sub[sub["design"] >= 0][measure].dropna().sort_values(ascending=goal == "min").to_numpy()
     best = sub[sub["design"] == index].iloc[0]
     margin = abs(ranked[0] - ranked[1]) if len(ranked) > 1 else np.inf
@@ -377,6 +378,10 @@ def _report(study: DesignStudy, table: Any, summary: dict[str, Any], best: list[
                          f"{r['largest_reach_m'] * 1e3:.1f} | {r['peak_stress_pa'] / 1e6:.0f} |"
                          + "".join(f" {format_measure(r[m], m)} |" for m in extra))
         lines += [*_versus_reference(study, ok, case, index), *_screening_note(study, ok, case, index, robot_file), ""]
+    for u in summary.get("unranked", []):
+        lines += [f"## No best under '{u['load_case']}' ({u['goal']} {u['measure']}, the first objective)", "",
+                  f"No design is named best: {u['reason']}. Rank by a measure that differs between them (the "
+                  "study's `[[objectives]]`, e.g. `largest_reach_m` or an `h_<name>_m`).", ""]
     goals = ", ".join(f"{o.goal} {o.measure} under '{study.objective_case(o)}'" for o in study.objectives)
     lines += [f"## Pareto front ({goals})", "", *_front_table(study, ok), ""]
     lines += [f"![{f}]({f})" for f in figures if f.endswith(".png")] + [""]
@@ -387,15 +392,37 @@ def _report(study: DesignStudy, table: Any, summary: dict[str, Any], best: list[
     return "\n".join(lines)
 
 
-def _write_best(out: Path, study: DesignStudy, robot: Robot, table: Any,
-                records: dict[int, dict[str, Any]]) -> list[tuple[str, int, str]]:
-    """The robot file of the best design (by the first objective's measure and goal) under each load case, in
-    ``best/``; returns (load case, design, file name) for each."""
-    (out / "best").mkdir(exist_ok=True)
+def _unranked(study: DesignStudy, table: Any) -> list[dict[str, Any]]:
+    """The load cases under which the first objective's measure is 0 for every design (:func:`measures_nothing`:
+    the volume of designs that are all planar): no design is named best there. Each with its reason."""
+    measure, goal = _ranked_by(study)
+    ok = table[(table["status"] == "ok") & (table["design"] >= 0)].dropna(subset=[measure])
+    out = []
+    for case in dict.fromkeys(ok["load_case"]):
+        sub = ok[ok["load_case"] == case]
+        if not measures_nothing(sub[measure]):
+            continue
+        reason = f"every design's {measure} is 0"
+        if measure.endswith("volume_m3"):
+            dims = ", ".join(str(int(d)) for d in sorted(set(sub["fsw_dimension"].dropna())))
+            reason += (f" (FSW dimension {dims}: no region of these designs has a volume; their areas or lengths "
+                       "are in workspace studies of each, not ranked here)")
+        out.append({"load_case": case, "measure": measure, "goal": goal, "reason": reason})
+    return out
+
+
+def _write_best(out: Path, study: DesignStudy, robot: Robot, table: Any, records: dict[int, dict[str, Any]],
+                skip: set[str]) -> list[tuple[str, int, str]]:
+    """The robot file of the best design (by the first objective's measure and goal) under each load case but
+    those in ``skip`` (where the measure ranks nothing), in ``best/``; returns (load case, design, file name)
+    for each."""
     measure, goal = _ranked_by(study)
     ok = table[(table["status"] == "ok") & (table["design"] >= 0)].dropna(subset=[measure])
     best = []
     for case in dict.fromkeys(ok["load_case"]):
+        if case in skip:
+            continue
+        (out / "best").mkdir(exist_ok=True)
         sub = ok[ok["load_case"] == case]
         k = int(sub.loc[sub[measure].idxmax() if goal == "max" else sub[measure].idxmin(), "design"])
         name = f"best/design_{k:06d}.toml"
@@ -426,7 +453,10 @@ def _finish(out: Path, study: DesignStudy, robot: Robot, records: dict[int, dict
     timing = [{"design": k, **records[k]["timing"]} for k in sorted(records)]
     atomic_write_text(out / "timings.csv", pd.DataFrame(timing).to_csv(index=False))
     ok = (table["status"] == "ok") & (table["design"] >= 0)
-    best = _write_best(out, study, robot, table, records) if ok.any() else []
+    unranked = _unranked(study, table)
+    summary["unranked"] = unranked
+    skip = {u["load_case"] for u in unranked}
+    best = _write_best(out, study, robot, table, records, skip) if ok.any() else []
     written = write_design_figures(out, study, robot, table, records) if figures and ok.any() else []
     summary["figures"] = written
     measure, goal = _ranked_by(study)

@@ -104,10 +104,22 @@ def _by_rule(rule: str, far: Reach, support: SupportFunction | None, search: Lar
     return best
 
 
-def _region_numbers(est: VolumeEstimate, mask: np.ndarray, reach: float | None) -> dict[str, Any]:
+def _reach_rule(source: str, searched: bool, region: str = "feasible") -> str:
+    """What a region's largest reach is, in words (``workspace.json``'s ``reach_rule``): from its
+    :attr:`Reach.source`, whether the reach search ran (``searched``) and the samples it is taken from
+    (``region``: ``"feasible"`` or ``"realisable"``). Only ``"search"`` is a searched optimum."""
+    if source == "none":
+        return f"none: no {region} sample"
+    if source == "search":
+        return "the reach search's optimum"
+    what = "the farthest tip attaining h(d)" if source == "support" else f"the farthest {region} sample"
+    return what + (", farther than the reach search's optimum" if searched else " (not searched)")
+
+
+def _region_numbers(est: VolumeEstimate, mask: np.ndarray, reach: float | None, rule: str) -> dict[str, Any]:
     """A region's numbers: its volume (0 below three dimensions), the dimension and the measure that applies
-    (with its value: ``area_m2`` or ``length_m`` and their errors, for a 2- or 1-D region), largest reach,
-    points and the whole estimate."""
+    (with its value: ``area_m2`` or ``length_m`` and their errors, for a 2- or 1-D region), largest reach and
+    what it is (``rule``: :func:`_reach_rule`), points and the whole estimate."""
     dim = est.dimension
     out: dict[str, Any] = {"volume_m3": est.volume_m3, "volume_err_m3": est.error_m3,
                            "dimension": 3 if dim is None else dim.dimension,
@@ -116,7 +128,8 @@ def _region_numbers(est: VolumeEstimate, mask: np.ndarray, reach: float | None) 
         out.update(area_m2=dim.area_m2, area_err_m2=dim.area_err_m2)
     if dim is not None and dim.dimension == 1:
         out.update(length_m=dim.length_m, length_err_m=dim.length_err_m)
-    return {**out, "largest_reach_m": reach, "points": int(mask.sum()), "volume": est.to_dict()}
+    return {**out, "largest_reach_m": reach, "reach_rule": rule, "points": int(mask.sum()),
+            "volume": est.to_dict()}
 
 
 @dataclass(frozen=True, eq=False)
@@ -139,7 +152,8 @@ class WorkspaceStudy:
     largest_reach : Reach
         The largest reach by the settings' rule.
     realisable_reach : float or None
-        The farthest realisable sample's reach [m] (None when none is realisable).
+        The farthest realisable sample's reach [m] (None when none is realisable): never searched, so it can be
+        below a searched FSW optimum that is itself realisable.
     """
 
     settings: WorkspaceSettings
@@ -157,12 +171,17 @@ class WorkspaceStudy:
         return self.region.samples
 
     def to_dict(self) -> dict[str, Any]:
-        """The numbers, JSON-ready: the FSW's volume, error, largest reach, points and estimate at the top level,
-        the realisable region's under ``realisable``; the voxel, the samples' counts, the warm starts, the
+        """The numbers, JSON-ready: the FSW's volume, error, largest reach and what it is (``reach_rule``),
+        points and estimate at the top level, the realisable region's under ``realisable`` (its largest reach is
+        the farthest realisable sample, not searched); the voxel, the samples' counts, the warm starts, the
         boundary voxels' sources, the boundary search, h(d), the reach search and the sampling time."""
         wr, s = self.region, self.region.samples
-        return {**_region_numbers(wr.fsw, s.feasible, self.largest_reach.reach),
-                "realisable": _region_numbers(wr.realisable, s.realisable, self.realisable_reach),
+        searched = self.reach_search is not None
+        real = "none" if self.realisable_reach is None else "samples"
+        return {**_region_numbers(wr.fsw, s.feasible, self.largest_reach.reach,
+                                  _reach_rule(self.largest_reach.source, searched)),
+                "realisable": _region_numbers(wr.realisable, s.realisable, self.realisable_reach,
+                                              _reach_rule(real, False, "realisable")),
                 "voxel_m": wr.voxel, "counts": _counts(s), "warm_start": s.warm.to_dict(),
                 "boundary_sources": _boundary_sources(wr.fsw_region, s, s.feasible) if np.any(s.feasible) else {},
                 "boundary_search": wr.search.to_dict() if wr.search is not None else None,

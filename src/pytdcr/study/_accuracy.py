@@ -9,7 +9,15 @@ from typing import Any
 
 import numpy as np
 
-from ..accuracy import AccuracyStudy, LoadGroup, OrderStudy, check_accuracy_plan, model_accuracy, order_study
+from ..accuracy import (
+    AccuracyStudy,
+    LoadGroup,
+    OrderStudy,
+    check_accuracy_plan,
+    model_accuracy,
+    order_study,
+    reference_options,
+)
 from ..bounds import TensionBounds
 from ..design import Robot
 from ..loads import Loads
@@ -41,7 +49,9 @@ class AccuracyRun:
 
     def summary(self) -> dict[str, Any]:
         """The rows, time and orders, JSON-ready (``accuracy.json``'s ``summary``)."""
-        return {"rows": self.study.rows(), "seconds": self.study.seconds,
+        return {"rows": self.study.rows(), "compared": self.study.compared,
+                "reference_steps_per_subsegment": self.study.reference_steps_per_subsegment,
+                "seconds": self.study.seconds,
                 "orders": [{"group": st.group, "disks": list(st.disks), "spacing_m": st.spacing,
                             "errors_mm": st.errors_mm, "order": st.order, "seconds": st.seconds}
                            for st in self.orders]}
@@ -55,14 +65,30 @@ def _fmt(x: float, f: str = ".3f") -> str:
     return "-" if not np.isfinite(x) else format(x, f)
 
 
+def _per_segment(disks: int, steps: int) -> int:
+    """The reference's Runge-Kutta steps over a segment of ``disks`` disks, asked for ``steps`` per segment (at
+    least 4 per subsegment: :func:`pytdcr.accuracy.reference_options`)."""
+    return reference_options(disks, steps).steps_per_subsegment * disks
+
+
+def _reference_steps(robot: Robot, steps: int) -> str:
+    """The reference's integration as used on ``robot`` (``steps`` asked for per segment of its most disks)."""
+    per = max(s.n_disks for s in robot.segments)
+    k = reference_options(per, steps).steps_per_subsegment
+    used = sorted({k * s.n_disks for s in robot.segments})
+    return (f"{k} Runge-Kutta steps per subsegment between its disks ({' or '.join(map(str, used))} per segment; "
+            f"{steps} asked for, at least 4 per subsegment)")
+
+
 def accuracy_markdown(study: AccuracyStudy, orders: Sequence[OrderStudy], source: str) -> str:
     """The accuracy table and the order study as Markdown."""
+    why = study.nothing_compared()
     lines = [
         f"# Which model to trust: robot '{study.robot.name}'", "",
+        *([f"**Nothing could be compared:** {why}; the table below holds no tip error.", ""] if why else []),
         f"{len(study.tensions)} tension vectors ({source}), solved by every model under each load group; the "
-        f"reference is `sscr` of the same robot with {study.reference_steps} Runge-Kutta steps per segment "
-        f"between its disks. Tip error: distance from the reference's tip. Friction law: "
-        f"`{study.robot.friction.law}`.", "",
+        f"reference is `sscr` of the same robot with {_reference_steps(study.robot, study.reference_steps)}. Tip "
+        f"error: distance from the reference's tip. Friction law: `{study.robot.friction.law}`.", "",
         "| load group | model | median error [mm] | 95th percentile [mm] | max [mm] | converged | median time [ms] |",
         "|---|---|---:|---:|---:|---:|---:|",
     ]
@@ -78,7 +104,8 @@ def accuracy_markdown(study: AccuracyStudy, orders: Sequence[OrderStudy], source
         lines += ["", "## Order of convergence against `sscr` of the same robot", "",
                   f"Median tip error over {orders[0].cases} tension vectors [mm], by disks per segment (same lengths, "
                   "routing and total disk mass); the order is the slope of log(error) on log(spacing) "
-                  "(`fig_order.png`).", "",
+                  "(`fig_order.png`). The reference's Runge-Kutta steps per segment: "
+                  + ", ".join(f"{_per_segment(d, study.reference_steps)} with {d} disks" for d in disks) + ".", "",
                   "| load group | model | " + " | ".join(f"{d} disks" for d in disks) + " | order |",
                   "|---|---|" + "---:|" * (len(disks) + 1)]
         for st in orders:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -11,7 +12,7 @@ import numpy as np
 from ..bounds import TensionBounds
 from ..design import Robot
 from ..optimize import ReachResult
-from ..paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT, PAYLOAD_MASS
+from ..paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT, PAYLOAD_MASS, payload_gravity, payload_loads
 from ..runtime import default_threads
 
 if TYPE_CHECKING:
@@ -20,20 +21,43 @@ if TYPE_CHECKING:
 __all__ = ["reproduce_report"]
 
 
+#: reaches closer than this [m] are the same in the report (its tables print 6 decimals)
+SAME_REACH = 1e-6
+
+
+def _bounds_trend(reach: Sequence[float], uppers: Sequence[float]) -> str:
+    """How the reach moves as the upper bound widens, in words that claim no more than the numbers show: it
+    "grows" only where every step raises it by more than :data:`SAME_REACH`."""
+    steps = [b - a for a, b in itertools.pairwise(reach)]
+    span = f"{reach[0]:.6f} m at {uppers[0]:g} N to {reach[-1]:.6f} m at {uppers[-1]:g} N"
+    if all(abs(d) <= SAME_REACH for d in steps):
+        return f"The reach stays the same at every upper bound ({reach[0]:.6f} m, within {SAME_REACH:g} m)."
+    if any(d < -SAME_REACH for d in steps):
+        return ("The reach does not grow monotonically with the upper bound although each set of bounds contains "
+                "the previous one: the optimiser missed the global optimum in at least one run (a wider box is "
+                "harder to search with the same budget).")
+    if all(d > SAME_REACH for d in steps):
+        per_n = [d / (h1 - h0) for d, (h0, h1) in zip(steps, itertools.pairwise(uppers), strict=True)]
+        tail = (f", with diminishing returns ({', then '.join(f'{x * 1e3:.3g}' for x in per_n)} mm per N)"
+                if len(per_n) > 1 and all(b < a for a, b in itertools.pairwise(per_n)) else "")
+        return (f"The reach grows with the upper bound, from {span}{tail}: more tension can cancel more of the "
+                "load's bending moment.")
+    flat = [f"{h0:g} and {h1:g} N" for d, (h0, h1) in zip(steps, itertools.pairwise(uppers), strict=True)
+            if abs(d) <= SAME_REACH]
+    return (f"The reach does not decrease with the upper bound, from {span}, but stays the same (within "
+            f"{SAME_REACH:g} m) between {'; between '.join(flat)}.")
+
+
 def _bounds_comment(bound_study: list[tuple[float, ReachResult]]) -> str:
+    """Which tendons sit at the upper bound in each optimum, and how the reach moves with that bound."""
     reach = [r.reach for _, r in bound_study]
     active = [int(np.sum(np.isclose(r.tensions, hi))) for hi, r in bound_study]
     text = ("Tendons at the upper bound in the optimum: " + ", ".join(
         f"{a} of {len(bound_study[0][1].tensions)} at {hi:g} N" for (hi, _), a in zip(bound_study, active,
                                                                                      strict=True)) + ". ")
-    if all(b >= a - 1e-9 for a, b in itertools.pairwise(reach)):
-        text += ("The reach grows with the upper bound: more tension cancels more of the load's bending moment, "
-                 "with diminishing returns once the tendons can hold the robot nearly straight against the load.")
-    else:
-        text += ("The reach does not grow monotonically with the upper bound although each set of bounds contains "
-                 "the previous one: the optimiser missed the global optimum in at least one run (a wider box is "
-                 "harder to search with the same budget).")
-    return text
+    if len(bound_study) < 2:
+        return text + "One upper bound only: nothing to compare across bounds."
+    return text + _bounds_trend(reach, [hi for hi, _ in bound_study])
 
 
 def _first_final(r: ReachResult, tol: float) -> int:
@@ -78,7 +102,8 @@ def _ga_row(label: str, r: ReachResult) -> str:
     first = _first_final(r, 1e-6)
     pr = f"{r.reach:.6f}" if r.polished else "-"
     pc = f"{r.polish_gain:.2e}" if r.polished else "-"
-    return (f"| {label} | {ga.reach:.6f} | {ga.cost:.6f} | {pr} | {pc} | {first} | {r.generations} "
+    return (f"| {label} | {ga.reach:.6f} | {ga.cost:.6f} | {pr} | {pc} | {_stable_cell(r.stable)} | {first} | "
+            f"{r.generations} "
             f"{'(tol met)' if r.stop_reason == 'tolerance' else '(cap)'} | {r.evaluations} | {r.nonconverged} | "
             f"{r.seconds:.1f} |")
 
@@ -115,18 +140,73 @@ def _head(robot: Robot, run: ReproduceRun, bounds: TensionBounds, s: ReproduceSe
     ]
 
 
+def _stable_cell(stable: bool | None) -> str:
+    """A table cell for an optimum's static stability."""
+    return "untested" if stable is None else "yes" if stable else "**no**"
+
+
+def _stability(stable: bool | None) -> str:
+    """An optimum's static stability in words (the test of :attr:`ReachResult.stable`)."""
+    if stable is None:
+        return "the optimum's stability is untested (the model has no such test)"
+    return "the optimum is statically stable" if stable else "the optimum is **flagged unstable**"
+
+
+def _unstable_warning(run: ReproduceRun) -> list[str]:
+    """A warning naming every optimum of the run flagged unstable (none: no line)."""
+    named = [*((f"GA population {p}", r) for p, r in run.ga.items()), ("payload", run.payload),
+             *((f"bounds [0, {hi:g}] N", r) for hi, r in run.bounds_study)]
+    bad = [label for label, r in named if r.stable is False]
+    if not bad:
+        return []
+    return [f"**Warning:** optimum flagged unstable: {', '.join(bad)}. The tangent stiffness there has a real "
+            "eigenvalue <= 0 (the loading path crossed a fold or a bifurcation): a small disturbance can leave that "
+            "equilibrium, so the robot may not hold it. `tdcr optimize --stable-only` makes unstable equilibria "
+            "infeasible.", ""]
+
+
+def _antagonistic_pairs(robot: Robot) -> list[tuple[int, int]]:
+    """Pairs of tendons (1-based) routed opposite each other: the same segment and routing radius, routing
+    angles pi apart. Equal tensions in such a pair put no bending moment on the straight robot."""
+    t = robot.tendons
+    return [(i + 1, j + 1) for i, j in itertools.combinations(range(len(t)), 2)
+            if t[i].segment == t[j].segment and math.isclose(t[i].radius, t[j].radius, rel_tol=1e-12)
+            and abs(math.remainder(t[i].angle - t[j].angle - math.pi, 2 * math.pi)) < 1e-9]
+
+
+def _payload_is_axial(robot: Robot) -> bool:
+    """True when the payload (:func:`~pytdcr.paper.payload_gravity`) acts along the unloaded robot's axis,
+    against the direction it points (base z, the robot pointing up)."""
+    g = payload_gravity(robot)
+    return bool(np.allclose(g / np.linalg.norm(g), (0.0, 0.0, -1.0), rtol=0.0, atol=1e-12))
+
+
+def _axial_text(robot: Robot) -> str:
+    """What an axial payload means for the optimum: only where it holds (nothing otherwise)."""
+    if not _payload_is_axial(robot):
+        return ""
+    pairs = _antagonistic_pairs(robot)
+    weight = float(np.linalg.norm(payload_loads(robot).tip_force))
+    buckling = np.pi**2 * robot.backbone.bending_stiffness / (4 * robot.length**2)
+    text = (" The robot points up against the payload, which it carries axially: the straight robot reaches "
+            f"farthest (its reach is the length, {robot.length} m)")
+    if pairs:
+        text += (", and equal tensions in a pair of opposite tendons (" + ", ".join(f"{a} and {b}" for a, b in pairs)
+                 + ") keep it straight, so the optimum is a whole set of tension vectors")
+    return text + (f". The payload's weight, {weight:.4f} N, is {'below' if weight < buckling else 'not below'} "
+                   f"the straight robot's buckling load without gravity (about pi^2 EI / 4L^2 = {buckling:.3f} N).")
+
+
 def _payload_text(robot: Robot, pay: ReachResult) -> str:
     ga = pay.ga if pay.ga is not None else pay.optimum
-    return (f"Payload {PAYLOAD_MASS * 1e3:g} g at the tip (force (0, 0, {-PAYLOAD_MASS * 9.81:.4f}) N, along "
-            f"gravity). GA (population {pay.settings['pop_size']}): reach {ga.reach:.6f} m after {pay.generations} "
-            f"generations and {pay.evaluations} solves"
+    force = ", ".join(f"{f:.4f}" for f in payload_loads(robot).tip_force)
+    along = "the robot's gravity" if np.any(robot.gravity) else "standard gravity (the robot has none)"
+    return (f"Payload {PAYLOAD_MASS * 1e3:g} g at the tip (force ({force}) N, along {along}). GA (population "
+            f"{pay.settings['pop_size']}): reach {ga.reach:.6f} m after {pay.generations} generations and "
+            f"{pay.evaluations} solves"
             + (f"; polished {pay.reach:.6f} m with tensions {np.round(pay.tensions, 3).tolist()} N"
                if pay.polished else "")
-            + ". A robot pointing up carries a vertical payload axially: the straight robot reaches farthest, and "
-            "any pair of equal antagonistic tensions keeps it straight, so the optimum is a whole set of tension "
-            "vectors. The payload is kept below the straight robot's buckling load (about pi^2 EI / 4L^2 = "
-            f"{np.pi**2 * robot.backbone.bending_stiffness / (4 * robot.length**2):.3f} N without gravity; the "
-            "static model does not check the stability of an equilibrium).")
+            + f"; {_stability(pay.stable)}." + _axial_text(robot))
 
 
 def reproduce_report(robot: Robot, run: ReproduceRun, bounds: TensionBounds, s: ReproduceSettings,
@@ -136,23 +216,24 @@ def reproduce_report(robot: Robot, run: ReproduceRun, bounds: TensionBounds, s: 
     before the list of files."""
     ga, pay, bound_study = run.ga, run.payload, run.bounds_study
     head = ("| study | GA reach [m] | GA cost [1/m] | polished reach [m] | polish gain in cost | "
-            "generation within 1e-6 of final | generations | model solves | not converged | time [s] |\n"
-            "|---|---|---|---|---|---|---|---|---|---|")
+            "stable | generation within 1e-6 of final | generations | model solves | not converged | time [s] |\n"
+            "|---|---|---|---|---|---|---|---|---|---|---|")
     best = min(ga.values(), key=lambda r: r.cost)
     lines = [
         *_head(robot, run, bounds, s),
+        *_unstable_warning(run),
         "## Fig. 5: the GA under the paper's load",
         "",
         head,
         *[_ga_row(f"population {p}", r) for p, r in ga.items()],
         "",
         f"Best optimum found (after polishing): reach {best.reach:.6f} m with tensions "
-        f"{np.round(best.tensions, 3).tolist()} N." if best.polished else "",
+        f"{np.round(best.tensions, 3).tolist()} N; {_stability(best.stable)}." if best.polished else "",
         f"Upper bound: the backbone length, {robot.length} m (cost {1 / robot.length:.2f} 1/m); no reach exceeds it.",
         "",
         _beside_paper(ga, s.tol),
         "",
-        "## Fig. 6: the optimum under a vertical payload",
+        "## Fig. 6: the optimum under a payload",
         "",
         _payload_text(robot, pay),
         "",
@@ -161,10 +242,11 @@ def reproduce_report(robot: Robot, run: ReproduceRun, bounds: TensionBounds, s: 
         f"GA population {next(iter(ga))} for the other bounds, at most the side-study generation cap; at the "
         "default bounds the best of the main study's runs.",
         "",
-        "| upper bound [N] | GA reach [m] | polished reach [m] | tensions at the polished optimum [N] |",
-        "|---|---|---|---|",
-        *[f"| {hi:g} | {(r.ga or r.optimum).reach:.6f} | {r.reach:.6f} | {np.round(r.tensions, 2).tolist()} |"
-          if r.polished else f"| {hi:g} | {r.reach:.6f} | - | - |" for hi, r in bound_study],
+        "| upper bound [N] | GA reach [m] | polished reach [m] | tensions at the polished optimum [N] | stable |",
+        "|---|---|---|---|---|",
+        *[f"| {hi:g} | {(r.ga or r.optimum).reach:.6f} | {r.reach:.6f} | {np.round(r.tensions, 2).tolist()} | "
+          f"{_stable_cell(r.stable)} |" if r.polished else f"| {hi:g} | {r.reach:.6f} | - | - | "
+          f"{_stable_cell(r.stable)} |" for hi, r in bound_study],
         "",
         _bounds_comment(bound_study),
         "",

@@ -102,7 +102,7 @@ class ReproduceRun:
     ga : dict of int to ReachResult
         The GA under the paper's load, by population.
     payload : ReachResult
-        The GA under a vertical payload.
+        The GA under a payload hanging along the robot's gravity (:func:`~pytdcr.paper.payload_loads`).
     bounds_study : list of (float, ReachResult)
         The optimum by upper tension bound [N].
     verdicts : list of ModelVerdict
@@ -251,7 +251,7 @@ def _reproduce(robot: Robot, out: Path, seed: int, progress: Progress | None, s:
         return progress(stage, total) if progress is not None else None
 
     def finished(key: str, r: ReachResult) -> None:
-        # Fig. 5 (each population, under the paper's load) and Fig. 6 (under a vertical payload), drawn as
+        # Fig. 5 (each population, under the paper's load) and Fig. 6 (under a payload along gravity), drawn as
         # the runs finish
         if key.startswith("pop") or key == "payload":
             summary["files"] += write_optimize(r, jobs[key].problem, out, stem=key)

@@ -279,6 +279,7 @@ def _report(summary: dict[str, Any], command: str) -> str:
              f"{_cell(f['largest_reach_m'])} | {f['points']} |",
              f"| realisable (no disk below the base, no disks touching) | {r['volume_m3'] * 1e6:.0f} | "
              f"{r['volume_err_m3'] * 1e6:.0f}{pct(r)} | {_cell(r['largest_reach_m'])} | {r['points']} |", "",
+             _reach_note(f, r), "",
              "Convergence with the base samples (FSW): "
              + ", ".join(f"n = {s['n_base']}: {s['estimate_m3'] * 1e6:.0f} cm³" for s in f["volume"]["scales"])
              + ".", ""]
@@ -315,6 +316,18 @@ def _report(summary: dict[str, Any], command: str) -> str:
     return "\n".join(lines)
 
 
+def _reach_note(fsw: dict[str, Any], real: dict[str, Any]) -> str:
+    """What each region's largest reach is (``reach_rule``): the realisable region's is a sample, never searched,
+    and can be below the FSW's even where the FSW's optimum is realisable."""
+    text = f"Largest reach: the FSW's is {fsw['reach_rule']}; the realisable region's is {real['reach_rule']}"
+    fsw_sample = fsw["reach_rule"].startswith("the farthest feasible sample")  # then both are samples: compared
+    if (fsw["largest_reach_m"] is not None and real["largest_reach_m"] is not None and not fsw_sample
+            and real["largest_reach_m"] < fsw["largest_reach_m"]):
+        text += (", so it may be below the FSW's even where the FSW's farthest tip is realisable (whether it is "
+                 "was not checked)")
+    return text + "."
+
+
 def _slug(name: str) -> str:
     return "".join(c if c.isalnum() else "_" for c in name.lower()).strip("_")
 
@@ -338,7 +351,8 @@ def _comparison(cases: list[WorkspaceCase]) -> list[dict[str, Any]]:
         rows.append({"case": c.name, "volume_m3": s["volume_m3"], "volume_err_m3": s["volume_err_m3"],
                      "realisable_m3": s["realisable"]["volume_m3"],
                      "realisable_err_m3": s["realisable"]["volume_err_m3"],
-                     "largest_reach_m": s["largest_reach_m"], "volume_ratio": s["volume_m3"] / v0 if v0 else None,
+                     "largest_reach_m": s["largest_reach_m"], "reach_rule": s["reach_rule"],
+                     "volume_ratio": s["volume_m3"] / v0 if v0 else None,
                      "centroid_m": _centroid(c.region.fsw_region).tolist(), "centroid_shift_m": shift.tolist(),
                      "folder": _slug(c.name)})
     return rows
@@ -355,6 +369,9 @@ def _compare_report(rows: list[dict[str, Any]], cases: list[WorkspaceCase], comm
                      f"{r['realisable_m3'] * 1e6:.0f} | {r['realisable_err_m3'] * 1e6:.0f} | "
                      f"{_cell(r['largest_reach_m'])} | {_cell(r['volume_ratio'], '.2f')} | "
                      + ("—" if not np.all(np.isfinite(sh)) else f"({sh[0]:.0f}, {sh[1]:.0f}, {sh[2]:.0f})") + " |")
+    rules = dict.fromkeys(r["reach_rule"] for r in rows)
+    lines += ["", "Largest reach: the FSW's, " + ("; ".join(f"{r['case']}: {r['reach_rule']}" for r in rows)
+                                                  if len(rules) > 1 else next(iter(rules))) + "."]
     short = [c.name for c in cases if c.summary["boundary_search"] and c.summary["boundary_search"]["stop"] == "budget"]
     if short:
         lines += ["", f"**Warning:** the boundary search ran out of budget before the region converged under "
