@@ -8,6 +8,7 @@ from __future__ import annotations
 import copy
 import json
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -109,9 +110,9 @@ def test_unreadable_robot_files(capsys, tmp_path):
         (["solve", "--tensions", "2e4,0,0,0,0,0,0,0"], ["tendon 1", "10000"]),
         (["solve", "--tensions", "1,0,0,\x1b[31m,0"], ["\\x1b[31m"]),
         (["sample", "--seed", "-1"], ["--seed", "[0, 4294967295]", "'-1'"]),
-        (["sample", "--n", "0"], ["--n", ">= 1", "'0'"]),
+        (["sample", "--n", "0"], ["--n = 0: must be an integer >= 1"]),
         (["sample", "--n", "1e3"], ["--n", "integer"]),
-        (["optimize", "--pop", "1"], ["--pop", ">= 2"]),
+        (["optimize", "--pop", "1"], ["--pop = 1: must be an integer >= 2"]),
     ],
 )
 def test_bad_arguments_one_line(capsys, args, words):
@@ -260,3 +261,38 @@ def test_rod_crushed_beyond_its_axial_stiffness_does_not_converge(paper, model):
     crushed = solve(robot, Loads(np.zeros(8), tip_force=[0, 0, -2.0 * ea]), model=model, options=opts)
     assert not crushed.converged
     assert json.loads(json.dumps(crushed.to_dict()))["tip_position"] is None
+
+
+#: a design study to name with --workers
+STUDY = Path(__file__).resolve().parents[1] / "examples" / "design_study_small.toml"
+
+# every count option states its range as one fact, whichever bad value is given (the settings check it, the
+# command line only reads the integer)
+COUNT_RANGES = [
+    (["optimize"], "--pop", ["1", "0", "-1"], "must be an integer >= 2"),
+    (["optimize"], "--window", ["0", "-2"], "must be an integer >= 1"),
+    (["optimize"], "--max-gen", ["0", "-2"], "must be an integer >= 1"),
+    (["sample"], "--n", ["0", "-3"], "must be an integer >= 1"),
+    (["compare"], "--n", ["0", "-3"], "must be an integer >= 1"),
+    (["accuracy"], "--n", ["0", "-3"], "must be an integer >= 1"),
+    (["accuracy"], "--order-cases", ["-1", "-7"], "must be an integer >= 0"),
+    (["accuracy"], "--reference-steps", ["15", "0"], "must be an integer >= 16"),
+    (["workspace"], "--n", ["0", "-1"], "must be an integer >= 1"),
+    (["workspace"], "--budget", ["-1", "-9"], "must be an integer >= 0"),
+    (["workspace"], "--directions", ["-1", "100001"], "must be an integer in [0, 100,000]"),
+    (["designs", str(STUDY)], "--workers", ["0", "100000"], "must be an integer in [1, 4,096]"),
+]
+
+
+@pytest.mark.parametrize(("command", "option", "values", "words"), COUNT_RANGES,
+                         ids=[f"{c[0]} {o}" for c, o, _, _ in COUNT_RANGES])
+def test_a_count_states_its_range_alike_for_every_bad_value(capsys, tmp_path, command, option, values, words):
+    for value in values:
+        code, out, err = run(capsys, *command, option, value, "--out", str(tmp_path / "out"))
+        assert code == 2 and out == ""
+        assert one_error_line(err) == f"tdcr: error: {option} = {value}: {words}"
+    code, _, err = run(capsys, *command, option, "2.5", "--out", str(tmp_path / "out"))
+    assert code == 2 and f"argument {option}: must be an integer, got '2.5'" in one_error_line(err)
+    code, _, err = run(capsys, *command, option, "9" * 19, "--out", str(tmp_path / "out"))
+    assert code == 2 and "must be an integer of at most 18 digits" in one_error_line(err)
+    assert not (tmp_path / "out").exists()

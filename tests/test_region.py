@@ -263,7 +263,7 @@ def test_workspace_settings_hold_every_default_and_range():
         WorkspaceSettings(voxel=5).check(robot)
     with pytest.raises(ValueError, match=r"^voxel = 5e-05: must be in \[0.0001, 0.4\] m"):
         WorkspaceSettings(voxel=5e-5).check(robot)
-    with pytest.raises(ValueError, match=r"^directions = 100001: must be in \[0, 100000\]$"):
+    with pytest.raises(ValueError, match=r"^directions = 100001: must be an integer in \[0, 100,000\]$"):
         WorkspaceSettings(directions=100_001)
     for bad, says in (({"n": 0}, "n = 0"), ({"budget": -1}, "budget = -1"), ({"seed": -1}, "seed = -1"),
                       ({"tol": 2.0}, "tol = 2"), ({"reach": "far"}, "reach = 'far'"), ({"threads": 0}, "threads"),

@@ -18,7 +18,6 @@ from ._args import (
     add_seed,
     bounds_spec,
     check_out,
-    count0_type,
     count_type,
     load_spec,
     model_spec,
@@ -45,7 +44,7 @@ def add_parser(sub: Any) -> None:
     ws.add_argument("--no-search", action="store_true", help="no boundary search: the region of the samples alone")
     ws.add_argument("--budget", type=count_type, default=None,
                     help="the boundary search's budget of solves [25 n]")
-    ws.add_argument("--directions", type=count0_type, default=200,
+    ws.add_argument("--directions", type=count_type, default=200,
                     help="directions of the support function h(d) on a Fibonacci sphere; 0: none [200]")
     ws.add_argument("--compare-loads", action="store_true",
                     help="compare load cases: no load, gravity only, payloads 5/10/20 g, the paper's wrench, and "

@@ -44,7 +44,7 @@ _DISTINCT = 0.05
 
 def _check_int(name: str, value: Any, lowest: int) -> None:
     if isinstance(value, bool) or int(value) != value or value < lowest:
-        raise ValueError(f"{name} must be an integer >= {lowest}, got {value!r}")
+        raise ValueError(f"{name} = {value!r}: must be an integer >= {lowest}")
 
 
 @dataclass(frozen=True)

@@ -274,14 +274,6 @@ def read_cases(path: str | Path, robot: Robot) -> np.ndarray:
     return np.array(rows, dtype=float)
 
 
-def _at_least(value: Any, name: str, lo: int) -> int:
-    if not is_integer(value):
-        raise TypeError(f"{name} must be an integer, got {show(value)} ({type(value).__name__})")
-    if value < lo:
-        raise SettingsError(name, f" must be >= {lo}, got {value}")
-    return int(value)
-
-
 @dataclass(frozen=True)
 class AccuracySettings:
     """Which model to trust (``tdcr accuracy``): every model against ``sscr`` by load group, and the order study.
@@ -320,7 +312,7 @@ class AccuracySettings:
         check_type(self.robot, RobotSpec, "robot")
         check_type(self.bounds, BoundsSpec, "bounds")
         for name, lo in (("n", 1), ("order_cases", 0), ("reference_steps", 16)):
-            object.__setattr__(self, name, _at_least(getattr(self, name), name, lo))
+            object.__setattr__(self, name, count_setting(getattr(self, name), name, lo))
         p = self.payload_g
         real = not isinstance(p, bool) and isinstance(p, (int, float, np.number))
         if not (real and math.isfinite(p) and 0 < p <= 1000):
