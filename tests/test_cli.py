@@ -154,8 +154,9 @@ def test_sample_and_optimize_commands(capsys, tmp_path):
     data = json.loads(out)
     assert code == 0
     for key in ("tensions", "tip_position", "reach", "cost", "generations", "evaluations", "nonconverged",
-                "seconds", "seed", "history"):
+                "rejected_unstable", "seconds", "seed", "history"):
         assert key in data
+    assert "unstable" not in data  # the count of refused individuals, never read beside the optimum's "stable"
     assert data["reach"] <= 0.4 and len(data["history"]["best"]) == data["generations"]
 
 
