@@ -100,13 +100,13 @@ def test_unreadable_robot_files(capsys, tmp_path):
         (["solve", "--tensions", "1_0,0,0,0,0,0,0,0"], ["--tensions", "not a number", "'1_0'"]),
         (["solve", "--tensions", "-inf,0,0,0,0,0,0,0"], ["--tensions", "'-inf'", "finite"]),
         (["solve", "--tensions", "True,0,0,0,0,0,0,0"], ["--tensions", "not a number"]),
-        (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--atol", "1e300"], ["atol", "[1e-14, 0.0001] N m"]),
-        (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--atol", "1e-300"], ["atol", "[1e-14, 0.0001] N m"]),
+        (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--atol", "1e300"], ["--atol", "[1e-14, 0.0001] N m"]),
+        (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--atol", "1e-300"], ["--atol", "[1e-14, 0.0001] N m"]),
         (["accuracy", "--disks", "5,10,20000"], ["--disks", "per_segment", "[1, 10,000]", "20000"]),
         (["accuracy", "--disks", "5,5"], ["--disks", "two or more different"]),
         (["accuracy", "--reference-steps", "99999999999"], ["--reference-steps", "more than 1000"]),
         (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--friction", "1e400"], ["--friction", "finite"]),
-        (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--tip-force", "0,0,1e7"], ["tip_force", "1e+06"]),
+        (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--tip-force", "0,0,1e7"], ["--tip-force", "1e+06"]),
         (["solve", "--tensions", "2e4,0,0,0,0,0,0,0"], ["tendon 1", "10000"]),
         (["solve", "--tensions", "1,0,0,\x1b[31m,0"], ["\\x1b[31m"]),
         (["sample", "--seed", "-1"], ["--seed", "[0, 4294967295]", "'-1'"]),
@@ -295,4 +295,52 @@ def test_a_count_states_its_range_alike_for_every_bad_value(capsys, tmp_path, co
     assert code == 2 and f"argument {option}: must be an integer, got '2.5'" in one_error_line(err)
     code, _, err = run(capsys, *command, option, "9" * 19, "--out", str(tmp_path / "out"))
     assert code == 2 and "must be an integer of at most 18 digits" in one_error_line(err)
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("command", [["sample", "--n", "3"], ["optimize"], ["workspace", "--n", "10"],
+                                     ["compare", "--n", "2"], ["accuracy", "--n", "2"],
+                                     ["sample", "--bounds", "0,1"], ["optimize", "--bounds", "2,3"]])
+def test_a_robot_without_tendons_is_refused_by_its_option(capsys, tmp_path, command):
+    """The robot is what is wrong, whatever other option is given (before: '--bounds: n_tendons = 0' for a run
+    without --bounds)."""
+    path = robot_file(tmp_path, "bare.toml", lambda d: d.update(name="bare", tendons=[]))
+    code, out, err = run(capsys, *command, "--robot", path, "--out", str(tmp_path / "out"))
+    line = one_error_line(err)
+    assert code == 2 and out == "" and not (tmp_path / "out").exists()
+    assert line == "tdcr: error: --robot: robot 'bare' has no tendons; a run over tension bounds needs at least one"
+    code, _, err = run(capsys, "solve", "--robot", path, "--tensions", "0")
+    assert code == 2 and one_error_line(err) == ("tdcr: error: --robot: robot 'bare' has no tendons, so it takes no "
+                                                 "tensions (got 1)")
+
+
+#: bad input whose message came (or could come) from a layer below the settings, named by a field
+NAMED_BY_OPTION = [
+    (["optimize", "--bounds", "3,3"], "--bounds: every tension is fixed (lower == upper); nothing to optimise"),
+    (["workspace", "--bounds", "2,2"], "--bounds: every tension is fixed (lower == upper); there is no workspace"),
+    (["optimize", "--bounds-file", "@FIXED"], "--bounds-file '"),
+    (["workspace", "--bounds-file", "@FIXED"], "--bounds-file '"),
+    (["sample", "--bounds", "5,1"], "--bounds: tendon 1 has lower 5.0 > upper 1.0 N"),
+    (["solve", "--tensions", ZERO8, "--tip-force", "0,0,1e7"], "--tip-force must be within +/-1e+06"),
+    (["sample", "--tip-moment", "0,1e7,0"], "--tip-moment must be within +/-1e+06"),
+    (["solve", "--tensions", ZERO8, "--atol", "1"], "--atol must be in [1e-14, 0.0001] N m"),
+    (["optimize", "--stable-only", "--model", "sscr"], "--stable-only: model 'sscr' has no static stability test"),
+    (["optimize", "--stable-only", "--model", "cosserat", "--friction", "none"], "--stable-only: model 'cosserat'"),
+    (["robot", "--out", "@TMP"], "--out '"),
+]
+
+
+@pytest.mark.parametrize(("args", "start"), NAMED_BY_OPTION, ids=[" ".join(a[:3]) for a, _ in NAMED_BY_OPTION])
+def test_every_message_names_its_option_as_typed(capsys, tmp_path, args, start):
+    from pytdcr.cli._args import FLAGS
+
+    fixed = tmp_path / "fixed.toml"
+    fixed.write_text("lower = [3, 3, 3, 3, 3, 3, 3, 3]\nupper = [3, 3, 3, 3, 3, 3, 3, 3]\n")
+    args = [str(fixed) if a == "@FIXED" else str(tmp_path) if a == "@TMP" else a for a in args]
+    out = [] if args[0] in ("solve", "robot") else ["--out", str(tmp_path / "out")]
+    code, _, err = run(capsys, *args, *out)
+    line = one_error_line(err).removeprefix("tdcr: error: ")
+    assert code == 2 and line.startswith(start), line
+    for name in FLAGS:  # no setting by its Python name where an option was typed
+        assert not line.startswith((f"{name}:", f"{name} ", f"{name}=")), line
     assert not (tmp_path / "out").exists()

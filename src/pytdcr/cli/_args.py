@@ -31,8 +31,9 @@ __all__ = ["FLAGS", "Parser", "add_bounds", "add_model", "add_n", "add_out", "ad
 
 #: the settings' fields by the options that set them (a :class:`~pytdcr.validate.SettingsError` names the option)
 FLAGS = {name: "--" + name.replace("_", "-") for name in (
-    "friction", "tensions", "bounds", "bounds_file", "model", "shear_extension", "atol", "plot", "n", "seed", "pop",
-    "tol", "window", "max_gen", "models", "cases", "disks", "order_cases", "reference_steps", "payload_g", "out")}
+    "robot", "friction", "tip_force", "tip_moment", "tensions", "bounds", "bounds_file", "model", "shear_extension",
+    "atol", "plot", "n", "seed", "pop", "tol", "window", "max_gen", "stable_only", "models", "cases", "disks",
+    "order_cases", "reference_steps", "payload_g", "out")}
 
 
 def parse_floats(text: str, name: str, count: int | None = None) -> np.ndarray:

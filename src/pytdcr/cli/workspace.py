@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
     out = check_out(args.out)
     robot = robot_spec(args).build()
     loads = load_spec(args).build(robot)
-    bounds = (bounds_spec(args) or BoundsSpec()).build(robot)
+    bounds = (bounds_spec(args) or BoundsSpec()).build(robot, "there is no workspace to sample")
     m, options = model_spec(args).resolve(robot, loads)
     try:  # the settings check their ranges (the only place they live); the message names the option
         settings = WorkspaceSettings(n=args.n, seed=args.seed, voxel=args.voxel, warm=not args.no_warm,

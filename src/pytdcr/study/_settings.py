@@ -15,7 +15,7 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -72,6 +72,9 @@ class SolveSettings:
 
     def tensions_for(self, robot: Robot) -> np.ndarray:
         """The tensions, shape (n_tendons,) [N]; SettingsError unless there is one per tendon of ``robot``."""
+        if robot.n_tendons == 0 and self.tensions:
+            raise SettingsError("robot", f": robot '{robot.name}' has no tendons, so it takes no tensions (got "
+                                f"{len(self.tensions)})")
         if len(self.tensions) != robot.n_tendons:
             raise SettingsError("tensions", f": robot '{robot.name}' has {robot.n_tendons} tendons, got "
                                 f"{len(self.tensions)} values")
@@ -140,6 +143,9 @@ class OptimizeSettings(_Buildable):
     local_search: bool = True
     stable_only: bool = False
 
+    #: what the search does with the tensions (a box with every tension fixed is refused: :meth:`BoundsSpec.build`)
+    varied: ClassVar[str] = "nothing to optimise"
+
     def __post_init__(self) -> None:
         super().__post_init__()
         try:
@@ -151,6 +157,10 @@ class OptimizeSettings(_Buildable):
         object.__setattr__(self, "seed", check_seed(self.seed))
         for name in ("polish", "local_search", "stable_only"):
             object.__setattr__(self, name, check_flag(getattr(self, name), name))
+        if self.stable_only and not self.model.model.capabilities.stability:
+            tested = ", ".join(name for name, m in MODELS.items() if m.capabilities.stability)
+            raise SettingsError("stable_only", f": model '{self.model.name}' has no static stability test, so no "
+                                f"equilibrium can be refused as unstable (models with the test: {tested})")
 
     def algorithm(self) -> MemeticGA:
         """The memetic GA of these settings."""
