@@ -227,6 +227,12 @@ def test_nothing_converged_is_exit_1_with_the_count(capsys, tmp_path):
     crush = ["--tip-force", "1000,0,-1000", "--tip-moment", "50,0,0"]
     code, out, err = run(capsys, "sample", "--n", "3", *crush, "--out", str(tmp_path / "s"))
     assert code == 1 and "0 converged, 3 not" in out and "none of the 3 samples converged" in err
+    rows = (tmp_path / "s" / "samples.csv").read_text().splitlines()
+    head = rows[0].split(",")
+    for row in rows[1:]:  # no tip, reach or stability where none was computed; the tensions and residual stay
+        cells = dict(zip(head, row.split(","), strict=True))
+        assert [cells[k] for k in ("tip_x_m", "tip_y_m", "tip_z_m", "reach_m", "stable")] == [""] * 5
+        assert cells["converged"] == "0" and float(cells["residual_Nm"]) > 0 and cells["T1_N"]
     code, out, err = run(capsys, "compare", "--n", "2", "--models", "pcc,pcc2", *crush, "--out", str(tmp_path / "c"))
     assert code == 1 and "no case converged for every model" in err and "median n/a" in out
     code, out, err = run(capsys, "optimize", "--pop", "4", "--max-gen", "2", *crush)
@@ -260,7 +266,25 @@ def test_rod_crushed_beyond_its_axial_stiffness_does_not_converge(paper, model):
         assert ok.tip_position[2] == pytest.approx(0.5 * robot.length, rel=1e-3)
     crushed = solve(robot, Loads(np.zeros(8), tip_force=[0, 0, -2.0 * ea]), model=model, options=opts)
     assert not crushed.converged
-    assert json.loads(json.dumps(crushed.to_dict()))["tip_position"] is None
+    data = json.loads(json.dumps(crushed.to_dict()))
+    assert data["tip_position"] is None and data["q"] is None and data["tensions"] is None
+
+
+def test_a_batch_row_not_converged_carries_no_unknowns(paper):
+    """solve_batch: a row that did not converge has NaN unknowns, tip and disks (no last iterate read as an
+    equilibrium); the converged rows are untouched and warm-start a new batch."""
+    loads = Loads(np.zeros(8), tip_force=[1000, 0, -1000], tip_moment=[50, 0, 0])
+    T = np.array([[0.0] * 8, [19.2, 14.5, 10.8, 5.5, 3.2, 19.4, 10.3, 2.3]])
+    free = solve_batch(paper, T, Loads(np.zeros(8)))
+    crushed = solve_batch(paper, T, loads)
+    assert free.converged.all() and not crushed.converged.any()
+    assert np.all(np.isfinite(free.q))
+    for field in ("q", "tip_position", "disk_positions", "disk_rotations"):
+        assert np.isnan(getattr(crushed, field)).all(), field
+    assert np.all(crushed.residual > 0) and np.all(crushed.iterations > 0)
+    assert np.isnan(crushed.rows(np.array([1])).q).all()
+    again = solve_batch(paper, T, Loads(np.zeros(8)), q0=free.q)
+    assert np.allclose(again.tip_position, free.tip_position, atol=1e-9)
 
 
 #: a design study to name with --workers
