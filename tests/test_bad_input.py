@@ -8,6 +8,7 @@ from __future__ import annotations
 import copy
 import json
 import os
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -99,19 +100,19 @@ def test_unreadable_robot_files(capsys, tmp_path):
         (["solve", "--tensions", "1_0,0,0,0,0,0,0,0"], ["--tensions", "not a number", "'1_0'"]),
         (["solve", "--tensions", "-inf,0,0,0,0,0,0,0"], ["--tensions", "'-inf'", "finite"]),
         (["solve", "--tensions", "True,0,0,0,0,0,0,0"], ["--tensions", "not a number"]),
-        (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--atol", "1e300"], ["atol", "[1e-14, 0.0001] N m"]),
-        (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--atol", "1e-300"], ["atol", "[1e-14, 0.0001] N m"]),
+        (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--atol", "1e300"], ["--atol", "[1e-14, 0.0001] N m"]),
+        (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--atol", "1e-300"], ["--atol", "[1e-14, 0.0001] N m"]),
         (["accuracy", "--disks", "5,10,20000"], ["--disks", "per_segment", "[1, 10,000]", "20000"]),
         (["accuracy", "--disks", "5,5"], ["--disks", "two or more different"]),
         (["accuracy", "--reference-steps", "99999999999"], ["--reference-steps", "more than 1000"]),
         (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--friction", "1e400"], ["--friction", "finite"]),
-        (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--tip-force", "0,0,1e7"], ["tip_force", "1e+06"]),
+        (["solve", "--tensions", "1,0,0,0,0,0,0,0", "--tip-force", "0,0,1e7"], ["--tip-force", "1e+06"]),
         (["solve", "--tensions", "2e4,0,0,0,0,0,0,0"], ["tendon 1", "10000"]),
         (["solve", "--tensions", "1,0,0,\x1b[31m,0"], ["\\x1b[31m"]),
         (["sample", "--seed", "-1"], ["--seed", "[0, 4294967295]", "'-1'"]),
-        (["sample", "--n", "0"], ["--n", ">= 1", "'0'"]),
+        (["sample", "--n", "0"], ["--n = 0: must be an integer >= 1"]),
         (["sample", "--n", "1e3"], ["--n", "integer"]),
-        (["optimize", "--pop", "1"], ["--pop", ">= 2"]),
+        (["optimize", "--pop", "1"], ["--pop = 1: must be an integer >= 2"]),
     ],
 )
 def test_bad_arguments_one_line(capsys, args, words):
@@ -226,6 +227,12 @@ def test_nothing_converged_is_exit_1_with_the_count(capsys, tmp_path):
     crush = ["--tip-force", "1000,0,-1000", "--tip-moment", "50,0,0"]
     code, out, err = run(capsys, "sample", "--n", "3", *crush, "--out", str(tmp_path / "s"))
     assert code == 1 and "0 converged, 3 not" in out and "none of the 3 samples converged" in err
+    rows = (tmp_path / "s" / "samples.csv").read_text().splitlines()
+    head = rows[0].split(",")
+    for row in rows[1:]:  # no tip, reach or stability where none was computed; the tensions and residual stay
+        cells = dict(zip(head, row.split(","), strict=True))
+        assert [cells[k] for k in ("tip_x_m", "tip_y_m", "tip_z_m", "reach_m", "stable")] == [""] * 5
+        assert cells["converged"] == "0" and float(cells["residual_Nm"]) > 0 and cells["T1_N"]
     code, out, err = run(capsys, "compare", "--n", "2", "--models", "pcc,pcc2", *crush, "--out", str(tmp_path / "c"))
     assert code == 1 and "no case converged for every model" in err and "median n/a" in out
     code, out, err = run(capsys, "optimize", "--pop", "4", "--max-gen", "2", *crush)
@@ -259,4 +266,105 @@ def test_rod_crushed_beyond_its_axial_stiffness_does_not_converge(paper, model):
         assert ok.tip_position[2] == pytest.approx(0.5 * robot.length, rel=1e-3)
     crushed = solve(robot, Loads(np.zeros(8), tip_force=[0, 0, -2.0 * ea]), model=model, options=opts)
     assert not crushed.converged
-    assert json.loads(json.dumps(crushed.to_dict()))["tip_position"] is None
+    data = json.loads(json.dumps(crushed.to_dict()))
+    assert data["tip_position"] is None and data["q"] is None and data["tensions"] is None
+
+
+def test_a_batch_row_not_converged_carries_no_unknowns(paper):
+    """solve_batch: a row that did not converge has NaN unknowns, tip and disks (no last iterate read as an
+    equilibrium); the converged rows are untouched and warm-start a new batch."""
+    loads = Loads(np.zeros(8), tip_force=[1000, 0, -1000], tip_moment=[50, 0, 0])
+    T = np.array([[0.0] * 8, [19.2, 14.5, 10.8, 5.5, 3.2, 19.4, 10.3, 2.3]])
+    free = solve_batch(paper, T, Loads(np.zeros(8)))
+    crushed = solve_batch(paper, T, loads)
+    assert free.converged.all() and not crushed.converged.any()
+    assert np.all(np.isfinite(free.q))
+    for field in ("q", "tip_position", "disk_positions", "disk_rotations"):
+        assert np.isnan(getattr(crushed, field)).all(), field
+    assert np.all(crushed.residual > 0) and np.all(crushed.iterations > 0)
+    assert np.isnan(crushed.rows(np.array([1])).q).all()
+    again = solve_batch(paper, T, Loads(np.zeros(8)), q0=free.q)
+    assert np.allclose(again.tip_position, free.tip_position, atol=1e-9)
+
+
+#: a design study to name with --workers
+STUDY = Path(__file__).resolve().parents[1] / "examples" / "design_study_small.toml"
+
+# every count option states its range as one fact, whichever bad value is given (the settings check it, the
+# command line only reads the integer)
+COUNT_RANGES = [
+    (["optimize"], "--pop", ["1", "0", "-1"], "must be an integer >= 2"),
+    (["optimize"], "--window", ["0", "-2"], "must be an integer >= 1"),
+    (["optimize"], "--max-gen", ["0", "-2"], "must be an integer >= 1"),
+    (["sample"], "--n", ["0", "-3"], "must be an integer >= 1"),
+    (["compare"], "--n", ["0", "-3"], "must be an integer >= 1"),
+    (["accuracy"], "--n", ["0", "-3"], "must be an integer >= 1"),
+    (["accuracy"], "--order-cases", ["-1", "-7"], "must be an integer >= 0"),
+    (["accuracy"], "--reference-steps", ["15", "0"], "must be an integer >= 16"),
+    (["workspace"], "--n", ["0", "-1"], "must be an integer >= 1"),
+    (["workspace"], "--budget", ["-1", "-9"], "must be an integer >= 0"),
+    (["workspace"], "--directions", ["-1", "100001"], "must be an integer in [0, 100,000]"),
+    (["designs", str(STUDY)], "--workers", ["0", "100000"], "must be an integer in [1, 4,096]"),
+]
+
+
+@pytest.mark.parametrize(("command", "option", "values", "words"), COUNT_RANGES,
+                         ids=[f"{c[0]} {o}" for c, o, _, _ in COUNT_RANGES])
+def test_a_count_states_its_range_alike_for_every_bad_value(capsys, tmp_path, command, option, values, words):
+    for value in values:
+        code, out, err = run(capsys, *command, option, value, "--out", str(tmp_path / "out"))
+        assert code == 2 and out == ""
+        assert one_error_line(err) == f"tdcr: error: {option} = {value}: {words}"
+    code, _, err = run(capsys, *command, option, "2.5", "--out", str(tmp_path / "out"))
+    assert code == 2 and f"argument {option}: must be an integer, got '2.5'" in one_error_line(err)
+    code, _, err = run(capsys, *command, option, "9" * 19, "--out", str(tmp_path / "out"))
+    assert code == 2 and "must be an integer of at most 18 digits" in one_error_line(err)
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("command", [["sample", "--n", "3"], ["optimize"], ["workspace", "--n", "10"],
+                                     ["compare", "--n", "2"], ["accuracy", "--n", "2"],
+                                     ["sample", "--bounds", "0,1"], ["optimize", "--bounds", "2,3"]])
+def test_a_robot_without_tendons_is_refused_by_its_option(capsys, tmp_path, command):
+    """The robot is what is wrong, whatever other option is given (before: '--bounds: n_tendons = 0' for a run
+    without --bounds)."""
+    path = robot_file(tmp_path, "bare.toml", lambda d: d.update(name="bare", tendons=[]))
+    code, out, err = run(capsys, *command, "--robot", path, "--out", str(tmp_path / "out"))
+    line = one_error_line(err)
+    assert code == 2 and out == "" and not (tmp_path / "out").exists()
+    assert line == "tdcr: error: --robot: robot 'bare' has no tendons; a run over tension bounds needs at least one"
+    code, _, err = run(capsys, "solve", "--robot", path, "--tensions", "0")
+    assert code == 2 and one_error_line(err) == ("tdcr: error: --robot: robot 'bare' has no tendons, so it takes no "
+                                                 "tensions (got 1)")
+
+
+#: bad input whose message came (or could come) from a layer below the settings, named by a field
+NAMED_BY_OPTION = [
+    (["optimize", "--bounds", "3,3"], "--bounds: every tension is fixed (lower == upper); nothing to optimise"),
+    (["workspace", "--bounds", "2,2"], "--bounds: every tension is fixed (lower == upper); there is no workspace"),
+    (["optimize", "--bounds-file", "@FIXED"], "--bounds-file '"),
+    (["workspace", "--bounds-file", "@FIXED"], "--bounds-file '"),
+    (["sample", "--bounds", "5,1"], "--bounds: tendon 1 has lower 5.0 > upper 1.0 N"),
+    (["solve", "--tensions", ZERO8, "--tip-force", "0,0,1e7"], "--tip-force must be within +/-1e+06"),
+    (["sample", "--tip-moment", "0,1e7,0"], "--tip-moment must be within +/-1e+06"),
+    (["solve", "--tensions", ZERO8, "--atol", "1"], "--atol must be in [1e-14, 0.0001] N m"),
+    (["optimize", "--stable-only", "--model", "sscr"], "--stable-only: model 'sscr' has no static stability test"),
+    (["optimize", "--stable-only", "--model", "cosserat", "--friction", "none"], "--stable-only: model 'cosserat'"),
+    (["robot", "--out", "@TMP"], "--out '"),
+]
+
+
+@pytest.mark.parametrize(("args", "start"), NAMED_BY_OPTION, ids=[" ".join(a[:3]) for a, _ in NAMED_BY_OPTION])
+def test_every_message_names_its_option_as_typed(capsys, tmp_path, args, start):
+    from pytdcr.cli._args import FLAGS
+
+    fixed = tmp_path / "fixed.toml"
+    fixed.write_text("lower = [3, 3, 3, 3, 3, 3, 3, 3]\nupper = [3, 3, 3, 3, 3, 3, 3, 3]\n")
+    args = [str(fixed) if a == "@FIXED" else str(tmp_path) if a == "@TMP" else a for a in args]
+    out = [] if args[0] in ("solve", "robot") else ["--out", str(tmp_path / "out")]
+    code, _, err = run(capsys, *args, *out)
+    line = one_error_line(err).removeprefix("tdcr: error: ")
+    assert code == 2 and line.startswith(start), line
+    for name in FLAGS:  # no setting by its Python name where an option was typed
+        assert not line.startswith((f"{name}:", f"{name} ", f"{name}=")), line
+    assert not (tmp_path / "out").exists()

@@ -90,11 +90,16 @@ def test_bad_robot_file(capsys, tmp_path):
     assert code == 2 and "wheels: unknown key" in err
 
 
-def test_not_converged_exit_status(capsys):
-    code, out, _ = run(capsys, "solve", "--tensions", "19.2,14.5,10.8,5.5,3.2,19.4,10.3,2.3", "--tip-force",
-                       "1000,0,-1000", "--tip-moment", "50,0,0", "--json")  # no equilibrium on the loading path
+@pytest.mark.parametrize("model", ["pcc", "pcc2"])
+def test_not_converged_exit_status(capsys, model):
+    code, out, _ = run(capsys, "solve", "--model", model, "--tensions", "19.2,14.5,10.8,5.5,3.2,19.4,10.3,2.3",
+                       "--tip-force", "1000,0,-1000", "--tip-moment", "50,0,0", "--json")  # no equilibrium
     data = json.loads(out)
-    assert code == 1 and data["converged"] is False and data["tip_position"] is None
+    assert code == 1 and data["converged"] is False
+    # what was not obtained is null, never the last iterate's numbers; what happened is said
+    for key in ("tip_position", "tip_rotation", "disk_positions", "q", "tensions", "stable", "stability"):
+        assert data[key] is None, key
+    assert data["residual"] > 0 and data["iterations"] > 0 and data["path"]
 
 
 def test_console_script_no_traceback():
@@ -154,8 +159,9 @@ def test_sample_and_optimize_commands(capsys, tmp_path):
     data = json.loads(out)
     assert code == 0
     for key in ("tensions", "tip_position", "reach", "cost", "generations", "evaluations", "nonconverged",
-                "seconds", "seed", "history"):
+                "rejected_unstable", "seconds", "seed", "history"):
         assert key in data
+    assert "unstable" not in data  # the count of refused individuals, never read beside the optimum's "stable"
     assert data["reach"] <= 0.4 and len(data["history"]["best"]) == data["generations"]
 
 

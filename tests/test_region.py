@@ -263,7 +263,7 @@ def test_workspace_settings_hold_every_default_and_range():
         WorkspaceSettings(voxel=5).check(robot)
     with pytest.raises(ValueError, match=r"^voxel = 5e-05: must be in \[0.0001, 0.4\] m"):
         WorkspaceSettings(voxel=5e-5).check(robot)
-    with pytest.raises(ValueError, match=r"^directions = 100001: must be in \[0, 100000\]$"):
+    with pytest.raises(ValueError, match=r"^directions = 100001: must be an integer in \[0, 100,000\]$"):
         WorkspaceSettings(directions=100_001)
     for bad, says in (({"n": 0}, "n = 0"), ({"budget": -1}, "budget = -1"), ({"seed": -1}, "seed = -1"),
                       ({"tol": 2.0}, "tol = 2"), ({"reach": "far"}, "reach = 'far'"), ({"threads": 0}, "threads"),
@@ -426,3 +426,39 @@ def test_one_free_tendon_traces_a_curve_not_an_area():
         ext = numbers["volume"]["dimension"]["extents_m"]
         assert ext[1] >= ws.region.voxel  # the arc spans a plane: by its extents alone it would be 2-D
         assert numbers["length_m"] >= ext[0] and "area_m2" not in numbers
+
+
+def _tiny_robot():
+    """A 2 mm robot (two 1 mm segments, a 10 um backbone, tendons at 50 um), no friction or gravity."""
+    from pytdcr import Robot
+    from pytdcr.io import robot_to_dict
+
+    d = robot_to_dict(paper_robot().with_disks(3).with_friction(NoFriction()).with_gravity(None))
+    d.pop("schema_version")
+    d["name"] = "tiny"
+    d["backbone"].update(outer_radius=1e-5, mass_per_length=1e-6)
+    for seg in d["segments"]:
+        seg.update(length=1e-3, disk_mass=1e-10)
+    for t in d["tendons"]:
+        t["radius"] = 5e-5
+    return Robot.model_validate(d)
+
+
+def test_warm_starts_agree_to_a_share_of_the_robots_length():
+    """The same equilibrium means the same tip to 1e-6 m per 0.4 m of the robot: exactly 1e-6 m on the paper's
+    robot (its results unchanged), 5 nm on a 2 mm robot, where 1e-6 m would be half a thousandth of its length."""
+    from pytdcr.region._solve import SAME_TIP, _agree, same_tip
+
+    paper, tiny = paper_robot(), _tiny_robot()
+    assert same_tip(paper) == SAME_TIP == 1e-6 and same_tip(tiny) == pytest.approx(5e-9, rel=1e-12)
+    tips = np.array([[0.0, 0.0, 2e-3], [1e-3, 0.0, 1.5e-3]])
+    warm = {"converged": np.array([True, True]), "tip_position": tips}
+    off = {"converged": np.array([True, True]), "tip_position": tips + np.array([1e-7, 0.0, 0.0])}  # 0.1 um
+    assert _agree(warm, off, same_tip(paper)).all() and not _agree(warm, off, same_tip(tiny)).any()
+    # on the tiny robot warm starts still pass the check: its equilibria agree far within the scaled tolerance
+    plan = plan_tensions(TensionBounds.uniform(8, 0, 0.01), 256, seed=1, corners=False)
+    got = solve_plan(tiny, Loads(np.zeros(8)), plan, warm=WarmStarts(check=100, seed=1))
+    cold = solve_plan(tiny, Loads(np.zeros(8)), plan, warm=False)
+    assert got.warm.mode == "warm" and got.warm.agreed == got.warm.checked == 100
+    assert got.converged.all() and np.linalg.norm(cold.tip_position, axis=1).min() < 0.999 * tiny.length  # bent
+    assert np.linalg.norm(got.tip_position - cold.tip_position, axis=1).max() <= same_tip(tiny)

@@ -150,11 +150,11 @@ def test_the_same_search_maximises_along_a_direction(small_problem):
 
 
 def test_search_settings_are_validated(small_problem):
-    with pytest.raises(ValueError, match="pop_size must be an integer >= 2"):
+    with pytest.raises(ValueError, match="pop_size = 1: must be an integer >= 2"):
         MemeticGA(pop_size=1)
     with pytest.raises(ValueError, match="tol must be finite and > 0"):
         Termination(tol=0.0)
-    with pytest.raises(ValueError, match="seed must be an integer >= 0"):
+    with pytest.raises(ValueError, match="seed = -1: must be an integer >= 0"):
         maximize_reach(small_problem, seed=-1)
     with pytest.raises(ValueError, match="every tension is fixed"):
         ReachProblem.create(small_problem.robot, small_problem.loads, TensionBounds.uniform(4, 1.0, 1.0))

@@ -54,6 +54,19 @@ SAME = [
     (lambda: AccuracySettings(reference_steps=3), ["accuracy", "--reference-steps", "3"], "reference_steps"),
     (lambda: AccuracySettings(payload_g=2000.0), ["accuracy", "--payload-g", "2000"], "payload_g"),
     (lambda: AccuracySettings(models=("pcc", "prbm")), ["accuracy", "--models", "pcc,prbm"], "models"),
+    (lambda: LoadSpec(tip_force=(0.0, 0.0, 1e7)), ["solve", "--tensions", Z8, "--tip-force", "0,0,1e7"], "tip_force"),
+    (lambda: LoadSpec(tip_moment=(0.0, 2e6, 0.0)), ["sample", "--tip-moment", "0,2e6,0"], "tip_moment"),
+    (lambda: ModelSpec(atol=1.0), ["solve", "--tensions", Z8, "--atol", "1"], "atol"),
+    (lambda: ModelSpec("sscr", atol=1e-300), ["solve", "--tensions", Z8, "--model", "sscr", "--atol", "1e-300"],
+     "atol"),
+    (lambda: OptimizeSettings(model=ModelSpec("sscr"), stable_only=True),
+     ["optimize", "--model", "sscr", "--stable-only"], "stable_only"),
+    (lambda: OptimizeSettings(model=ModelSpec("cosserat"), stable_only=True),
+     ["optimize", "--model", "cosserat", "--stable-only"], "stable_only"),
+    (lambda: OptimizeSettings(bounds=BoundsSpec(3.0, 3.0)).build(), ["optimize", "--bounds", "3,3"], "bounds"),
+    (lambda: OptimizeSettings(pop=0), ["optimize", "--pop", "0"], "pop"),
+    (lambda: SampleSettings(n=-2), ["sample", "--n", "-2"], "n"),
+    (lambda: AccuracySettings(order_cases=-1), ["accuracy", "--order-cases", "-1"], "order_cases"),
 ]
 
 

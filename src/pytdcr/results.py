@@ -95,8 +95,10 @@ class StaticSolution:
         model (its ``unknowns`` attribute says what they are). PCC: shape
         (N, 3), (beta [1/m], gamma [1/m], eps [rad]) per subsegment (MODEL.md);
         Cosserat: shape (3,), the total moment at the base [N m], base frame.
+        Not converged: the solver's last iterate, no equilibrium (:meth:`to_dict` gives null).
     tensions : ndarray, shape (n_tendons, N)
-        Tension in each tendon piece i (between disk i-1 and i) [N]; 0 past the anchor.
+        Tension in each tendon piece i (between disk i-1 and i) [N]; 0 past the anchor. Not converged: those
+        of the last iterate, no equilibrium's (:meth:`to_dict` gives null).
     seconds : float
         Wall time of the solve [s].
     atol : float
@@ -192,7 +194,12 @@ class StaticSolution:
         return _reduce(self, self.stability)
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dictionary; shape fields are None when not converged."""
+        """JSON-ready dictionary (what ``tdcr solve --json`` prints).
+
+        Not converged: what was not obtained is None (``tip_position``, ``tip_rotation``, ``disk_positions``,
+        ``q``, ``tensions``, ``stable``, ``stability``), never the numbers of the last iterate; ``converged``,
+        ``failure``, ``residual``, ``iterations``, ``load_steps``, ``path`` and ``seconds`` say what happened.
+        """
         ok = self.converged
         return {
             "converged": bool(ok),
@@ -208,8 +215,8 @@ class StaticSolution:
             "tip_position": self.tip_position.tolist() if ok else None,
             "tip_rotation": self.tip_rotation.tolist() if ok else None,
             "disk_positions": self.disk_positions.tolist() if ok else None,
-            "q": self.q.tolist(),
-            "tensions": self.tensions.tolist(),
+            "q": self.q.tolist() if ok else None,
+            "tensions": self.tensions.tolist() if ok else None,
         }
 
 
@@ -227,7 +234,8 @@ class BatchSolution:
         max |residual| [N m].
     iterations : ndarray of int, shape (B,)
     q : ndarray
-        The model's unknowns per case: PCC (B, N, 3), Cosserat (B, 3).
+        The model's unknowns per case: PCC (B, N, 3), Cosserat (B, 3); NaN where not converged (the last
+        iterate is no equilibrium: warm-start a new batch from the converged rows).
     tip_position : ndarray, shape (B, 3)
         [m]; NaN where not converged.
     seconds : float
@@ -261,6 +269,13 @@ class BatchSolution:
     disk_rotations: np.ndarray | None = None
     atol: np.ndarray | None = None
     loads: Loads | None = None
+
+    def __post_init__(self) -> None:
+        ok = np.asarray(self.converged, dtype=bool)
+        if not np.all(ok):  # a case not converged carries no unknowns that could be read as its equilibrium
+            q = np.array(self.q, dtype=float)
+            q[~ok] = np.nan
+            object.__setattr__(self, "q", q)
 
     @cached_property
     def stability(self) -> tuple[Stability | None, ...]:

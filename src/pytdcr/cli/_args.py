@@ -26,13 +26,14 @@ if TYPE_CHECKING:
     from ..study import BoundsSpec, LoadSpec, ModelSpec, RobotSpec
 
 __all__ = ["FLAGS", "Parser", "add_bounds", "add_model", "add_n", "add_out", "add_robot_and_loads", "add_seed",
-           "bounds_spec", "check_out", "count0_type", "count_type", "glue_negative_values", "has_tip_wrench",
+           "bounds_spec", "check_out", "count_type", "glue_negative_values", "has_tip_wrench",
            "load_spec", "model_spec", "parse_floats", "real_type", "robot_spec", "seed_type"]
 
 #: the settings' fields by the options that set them (a :class:`~pytdcr.validate.SettingsError` names the option)
 FLAGS = {name: "--" + name.replace("_", "-") for name in (
-    "friction", "tensions", "bounds", "bounds_file", "model", "shear_extension", "atol", "plot", "n", "seed", "pop",
-    "tol", "window", "max_gen", "models", "cases", "disks", "order_cases", "reference_steps", "payload_g", "out")}
+    "robot", "friction", "tip_force", "tip_moment", "tensions", "bounds", "bounds_file", "model", "shear_extension",
+    "atol", "plot", "n", "seed", "pop", "tol", "window", "max_gen", "stable_only", "models", "cases", "disks",
+    "order_cases", "reference_steps", "payload_g", "out")}
 
 
 def parse_floats(text: str, name: str, count: int | None = None) -> np.ndarray:
@@ -50,16 +51,25 @@ def seed_type(text: str) -> int:
     return int(text)
 
 
-def count_type(text: str, lowest: int = 1) -> int:
-    """argparse type of a count: a decimal integer >= ``lowest`` (no underscores, at most 12 digits)."""
-    if not re.fullmatch(r"[+-]?[0-9]{1,12}", text.strip()) or int(text) < lowest:
-        raise argparse.ArgumentTypeError(f"must be an integer >= {lowest}, got {show(text)}")
-    return int(text)
+#: the most digits a count on the command line may have (a larger one would overflow the 64-bit integers
+#: the work is counted in)
+MAX_COUNT_DIGITS = 18
 
 
-def count0_type(text: str) -> int:
-    """argparse type of a count that may be 0."""
-    return count_type(text, 0)
+def count_type(text: str) -> int:
+    """argparse type of a count: a decimal integer (a sign allowed; no underscores, at most
+    :data:`MAX_COUNT_DIGITS` digits).
+
+    Its range is not checked here but by the run's settings, the one place it lives: every value out of
+    range, on the command line or from Python, is refused with the same words (``--pop = 0: must be an
+    integer >= 2`` as ``--pop = 1: ...``).
+    """
+    t = text.strip()
+    if not re.fullmatch(r"[+-]?[0-9]+", t):
+        raise argparse.ArgumentTypeError(f"must be an integer, got {show(text)}")
+    if len(t.lstrip("+-")) > MAX_COUNT_DIGITS:
+        raise argparse.ArgumentTypeError(f"must be an integer of at most {MAX_COUNT_DIGITS} digits, got {show(text)}")
+    return int(t)
 
 
 def real_type(text: str) -> float:

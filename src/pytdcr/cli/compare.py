@@ -19,7 +19,6 @@ from ._args import (
     add_seed,
     bounds_spec,
     check_out,
-    count0_type,
     count_type,
     has_tip_wrench,
     load_spec,
@@ -103,7 +102,7 @@ def add_accuracy_parser(sub: Any) -> None:
     a.add_argument("--models", metavar="A,B,...", help=f"models to compare (default all: {', '.join(MODELS)})")
     a.add_argument("--disks", default="5,10,20,40", metavar="N1,N2,...",
                    help="disks per segment of the order study [5,10,20,40]")
-    a.add_argument("--order-cases", type=count0_type, default=3,
+    a.add_argument("--order-cases", type=count_type, default=3,
                    help="tension vectors of the order study (0: none) [3]")
     a.add_argument("--reference-steps", type=count_type, default=160,
                    help="Runge-Kutta steps per segment of the reference sscr, at least 4 per subsegment [160]")

@@ -64,7 +64,7 @@ def print_reach(res: ReachResult, args: argparse.Namespace) -> None:
               f"tensions {np.round(res.tensions, 4).tolist()} N")
     print(f"  optimum tip {np.round(res.tip_position, 6).tolist()} m; "
           f"{'stable' if res.stable else 'UNSTABLE' if res.stable is False else 'stability untested'}"
-          f"{f' ({res.unstable} unstable individuals refused)' if res.unstable else ''}")
+          f"{f' ({res.rejected_unstable} unstable individuals refused)' if res.rejected_unstable else ''}")
 
 
 def run(args: argparse.Namespace) -> int:

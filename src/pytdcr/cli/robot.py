@@ -25,11 +25,14 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         robot = RobotSpec(robot=args.robot).build()
-        if args.out:
-            write_robot(robot, args.out)
-            return EXIT_OK
-    except RobotFileError as err:
+    except RobotFileError as err:  # names the file or the built-in robot given with --robot
         raise CliError(str(err)) from None
+    if args.out:
+        try:
+            write_robot(robot, args.out)
+        except (ValueError, OSError) as err:  # the file to write: named with its option
+            raise CliError(f"--out {err}") from None
+        return EXIT_OK
     import tomli_w
 
     print(tomli_w.dumps(robot_to_dict(robot)), end="")

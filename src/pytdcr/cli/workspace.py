@@ -18,7 +18,6 @@ from ._args import (
     add_seed,
     bounds_spec,
     check_out,
-    count0_type,
     count_type,
     load_spec,
     model_spec,
@@ -45,7 +44,7 @@ def add_parser(sub: Any) -> None:
     ws.add_argument("--no-search", action="store_true", help="no boundary search: the region of the samples alone")
     ws.add_argument("--budget", type=count_type, default=None,
                     help="the boundary search's budget of solves [25 n]")
-    ws.add_argument("--directions", type=count0_type, default=200,
+    ws.add_argument("--directions", type=count_type, default=200,
                     help="directions of the support function h(d) on a Fibonacci sphere; 0: none [200]")
     ws.add_argument("--compare-loads", action="store_true",
                     help="compare load cases: no load, gravity only, payloads 5/10/20 g, the paper's wrench, and "
@@ -78,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     out = check_out(args.out)
     robot = robot_spec(args).build()
     loads = load_spec(args).build(robot)
-    bounds = (bounds_spec(args) or BoundsSpec()).build(robot)
+    bounds = (bounds_spec(args) or BoundsSpec()).build(robot, "there is no workspace to sample")
     m, options = model_spec(args).resolve(robot, loads)
     try:  # the settings check their ranges (the only place they live); the message names the option
         settings = WorkspaceSettings(n=args.n, seed=args.seed, voxel=args.voxel, warm=not args.no_warm,

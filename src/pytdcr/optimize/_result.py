@@ -79,8 +79,9 @@ class ReachResult:
         in ``polish_evaluations``).
     nonconverged : int
         GA evaluations whose solve did not converge (infeasible individuals).
-    unstable : int
-        GA evaluations refused as unstable (with ``stable_only``).
+    rejected_unstable : int
+        GA evaluations that converged but were refused as unstable (with ``stable_only``; 0 without it): a
+        count of rejected individuals, not a verdict on the optimum (that is ``stable``).
     seconds : float
         Wall time of the whole search [s].
     seed : int or None
@@ -115,7 +116,7 @@ class ReachResult:
     polish_gain: float = 0.0
     polish_evaluations: int = 0
     polish_message: str = ""
-    unstable: int = 0
+    rejected_unstable: int = 0
     settings: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -138,7 +139,7 @@ class ReachResult:
             "generations": self.generations,
             "evaluations": self.evaluations,
             "nonconverged": self.nonconverged,
-            "unstable": self.unstable,
+            "rejected_unstable": self.rejected_unstable,
             "seconds": self.seconds,
             "seed": self.seed,
             "history": self.history,

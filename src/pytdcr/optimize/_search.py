@@ -44,7 +44,7 @@ _DISTINCT = 0.05
 
 def _check_int(name: str, value: Any, lowest: int) -> None:
     if isinstance(value, bool) or int(value) != value or value < lowest:
-        raise ValueError(f"{name} must be an integer >= {lowest}, got {value!r}")
+        raise ValueError(f"{name} = {value!r}: must be an integer >= {lowest}")
 
 
 @dataclass(frozen=True)
@@ -195,7 +195,7 @@ def polish_reach(problem: ReachProblem, tensions: np.ndarray, *, q0: np.ndarray 
 class _Stats:
     evals: int = 0
     nonconv: int = 0
-    unstable: int = 0  # converged but refused as unstable (stable_only)
+    rejected_unstable: int = 0  # converged but refused as unstable (stable_only)
     ls: int = 0
     ls_runs: int = 0
     history: dict[str, list] = field(default_factory=lambda: {
@@ -229,7 +229,7 @@ class _Evaluator(Problem):
         self.archive_q.append(ev.batch.q[conv])
         self.stats.evals += x.shape[0]
         self.stats.nonconv += int((~conv).sum())
-        self.stats.unstable += int((conv & ~ev.feasible).sum())
+        self.stats.rejected_unstable += int((conv & ~ev.feasible).sum())
         out["F"] = ev.cost[:, None]
         out["G"] = np.where(ev.feasible, -1.0, 1.0)[:, None]
 
@@ -415,7 +415,7 @@ def maximize_reach(problem: ReachProblem, algorithm: MemeticGA | None = None, te
         tensions=top.tensions, tip_position=top.tip_position, reach=top.reach, cost=top.cost,
         value=float(problem.value(top.tip_position)), stable=top.stable, converged=reason == "tolerance",
         stop_reason=reason, generations=len(stats.history["best"]), evaluations=stats.evals + stats.ls,
-        nonconverged=stats.nonconv, unstable=stats.unstable,
+        nonconverged=stats.nonconv, rejected_unstable=stats.rejected_unstable,
         seconds=time.perf_counter() - t0, seed=int(seed), history=stats.history, ga=ga,
         polish_gain=ga.cost - top.cost if final is not None else 0.0,
         polish_evaluations=final.polish_evaluations if final is not None else 0,

@@ -75,7 +75,7 @@ def _directions(value: Any) -> int | tuple[tuple[float, float, float], ...]:
     """A count of Fibonacci directions in [0, MAX_DIRECTIONS], or K >= 1 finite nonzero 3-vectors as tuples."""
     if isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_)):
         if not 0 <= value <= MAX_DIRECTIONS:
-            raise ValueError(f"directions = {value}: must be in [0, {MAX_DIRECTIONS}]")
+            raise ValueError(f"directions = {value}: must be an integer in [0, {MAX_DIRECTIONS:,}]")
         return int(value)
     if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray)):
         raise TypeError(f"directions must be a count or (K, 3) vectors, got {show(value)} ({type(value).__name__})")

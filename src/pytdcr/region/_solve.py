@@ -21,13 +21,17 @@ from ..statics import Model, check_resources, resolve, solve_batch
 from ..validate import check_count
 from ._plan import TensionPlan
 
-__all__ = ["AGREEMENT_REQUIRED", "RegionSamples", "WarmStartCheck", "WarmStarts", "plan_stages", "solve_plan",
-           "solves_needed"]
+__all__ = ["AGREEMENT_REQUIRED", "SAME_TIP", "SAME_TIP_LENGTH", "RegionSamples", "WarmStartCheck", "WarmStarts",
+           "plan_stages", "same_tip", "solve_plan", "solves_needed"]
 
 #: the share of checked warm starts that must land on the loading path's equilibrium for warm starts to be used
 AGREEMENT_REQUIRED = 0.999
-#: two equilibria are the same when their tips are this close [m]
+#: two equilibria of a robot of length :data:`SAME_TIP_LENGTH` are the same when their tips are this close [m];
+#: on another robot the distance scales with its length (:func:`same_tip`)
 SAME_TIP = 1e-6
+#: the robot length at which :data:`SAME_TIP` holds as it is [m] (that of the paper's robot, two 0.2 m
+#: segments: its results are those of the absolute 1e-6 m this replaced, bit for bit)
+SAME_TIP_LENGTH = 0.4
 #: rows solved per call (progress and Ctrl-C between blocks)
 BLOCK = 512
 #: warm-started samples also solved along the loading path, by default
@@ -69,7 +73,8 @@ class WarmStartCheck:
     checked : int
         Warm-started samples also solved along the loading path.
     agreed : int
-        Of those, how many reached the same equilibrium (tips within 1e-6 m, or neither converged).
+        Of those, how many reached the same equilibrium (tips within :func:`same_tip`, 1e-6 m per 0.4 m of the
+        robot's length, or neither converged).
     seconds_warm, seconds_cold : float
         Wall time of the checked subset warm and cold [s].
     """
@@ -219,10 +224,17 @@ class _Solver:
         return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
-def _agree(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> np.ndarray:
-    """Row by row: the same equilibrium (tips within SAME_TIP) or neither converged."""
+def same_tip(robot: Robot) -> float:
+    """How close two tips of ``robot`` are when they belong to the same equilibrium [m]: :data:`SAME_TIP` per
+    :data:`SAME_TIP_LENGTH` of its length (1e-6 m on the paper's 0.4 m robot, 2.5e-9 m on a 1 mm one), so that
+    the warm-start check asks the same relative agreement of a robot of any size."""
+    return SAME_TIP * (robot.length / SAME_TIP_LENGTH)
+
+
+def _agree(a: dict[str, np.ndarray], b: dict[str, np.ndarray], tol: float) -> np.ndarray:
+    """Row by row: the same equilibrium (tips within ``tol`` [m], :func:`same_tip`) or neither converged."""
     same_flag = a["converged"] == b["converged"]
-    close = np.linalg.norm(np.nan_to_num(a["tip_position"] - b["tip_position"], nan=np.inf), axis=1) <= SAME_TIP
+    close = np.linalg.norm(np.nan_to_num(a["tip_position"] - b["tip_position"], nan=np.inf), axis=1) <= tol
     return same_flag & (~a["converged"] | close)
 
 
@@ -320,7 +332,7 @@ def _checked(solver: _Solver, rest: np.ndarray, q0: np.ndarray | None, check: in
     t1 = time.perf_counter()
     cold_sub = solver.solve(rest[sub])
     t2 = time.perf_counter()
-    agreed = int(np.sum(_agree(warm_sub, cold_sub)))
+    agreed = int(np.sum(_agree(warm_sub, cold_sub, same_tip(solver.robot))))
     passed = agreed >= AGREEMENT_REQUIRED * sub.size
     report = WarmStartCheck("warm" if passed else "loading path", n_anchor, int(sub.size), agreed, t1 - t0, t2 - t1)
     others = np.setdiff1d(np.arange(rest.shape[0]), sub)

@@ -15,7 +15,7 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -72,6 +72,9 @@ class SolveSettings:
 
     def tensions_for(self, robot: Robot) -> np.ndarray:
         """The tensions, shape (n_tendons,) [N]; SettingsError unless there is one per tendon of ``robot``."""
+        if robot.n_tendons == 0 and self.tensions:
+            raise SettingsError("robot", f": robot '{robot.name}' has no tendons, so it takes no tensions (got "
+                                f"{len(self.tensions)})")
         if len(self.tensions) != robot.n_tendons:
             raise SettingsError("tensions", f": robot '{robot.name}' has {robot.n_tendons} tendons, got "
                                 f"{len(self.tensions)} values")
@@ -140,6 +143,9 @@ class OptimizeSettings(_Buildable):
     local_search: bool = True
     stable_only: bool = False
 
+    #: what the search does with the tensions (a box with every tension fixed is refused: :meth:`BoundsSpec.build`)
+    varied: ClassVar[str] = "nothing to optimise"
+
     def __post_init__(self) -> None:
         super().__post_init__()
         try:
@@ -151,6 +157,10 @@ class OptimizeSettings(_Buildable):
         object.__setattr__(self, "seed", check_seed(self.seed))
         for name in ("polish", "local_search", "stable_only"):
             object.__setattr__(self, name, check_flag(getattr(self, name), name))
+        if self.stable_only and not self.model.model.capabilities.stability:
+            tested = ", ".join(name for name, m in MODELS.items() if m.capabilities.stability)
+            raise SettingsError("stable_only", f": model '{self.model.name}' has no static stability test, so no "
+                                f"equilibrium can be refused as unstable (models with the test: {tested})")
 
     def algorithm(self) -> MemeticGA:
         """The memetic GA of these settings."""
@@ -274,14 +284,6 @@ def read_cases(path: str | Path, robot: Robot) -> np.ndarray:
     return np.array(rows, dtype=float)
 
 
-def _at_least(value: Any, name: str, lo: int) -> int:
-    if not is_integer(value):
-        raise TypeError(f"{name} must be an integer, got {show(value)} ({type(value).__name__})")
-    if value < lo:
-        raise SettingsError(name, f" must be >= {lo}, got {value}")
-    return int(value)
-
-
 @dataclass(frozen=True)
 class AccuracySettings:
     """Which model to trust (``tdcr accuracy``): every model against ``sscr`` by load group, and the order study.
@@ -320,7 +322,7 @@ class AccuracySettings:
         check_type(self.robot, RobotSpec, "robot")
         check_type(self.bounds, BoundsSpec, "bounds")
         for name, lo in (("n", 1), ("order_cases", 0), ("reference_steps", 16)):
-            object.__setattr__(self, name, _at_least(getattr(self, name), name, lo))
+            object.__setattr__(self, name, count_setting(getattr(self, name), name, lo))
         p = self.payload_g
         real = not isinstance(p, bool) and isinstance(p, (int, float, np.number))
         if not (real and math.isfinite(p) and 0 < p <= 1000):

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numbers
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -139,7 +139,11 @@ class LoadSpec:
 
     def __post_init__(self) -> None:
         for name in ("tip_force", "tip_moment"):
-            object.__setattr__(self, name, tuple(float(x) for x in check_vector(getattr(self, name), name)))
+            try:
+                vector = check_vector(getattr(self, name), name)
+            except ValueError as err:
+                raise SettingsError.about(name, err) from None
+            object.__setattr__(self, name, tuple(float(x) for x in vector))
         object.__setattr__(self, "release", check_flag(self.release, "release"))
 
     @property
@@ -193,7 +197,13 @@ class ModelSpec:
         for key in overrides:
             if key not in known:
                 raise SettingsError(key, f": model '{self.name}' has no such option")
-        return configure(m, **overrides)
+        try:
+            return configure(m, **overrides)
+        except ValueError as err:  # an option's value out of its range: the option's own message, named
+            key = next((k for k in overrides if str(err).startswith(k)), None)
+            if key is None:
+                raise
+            raise SettingsError.about(key, err) from None
 
     def resolve(self, robot: Robot, loads: Loads | None = None) -> tuple[Model, Any]:
         """The model and its options, checked by the registry against ``robot`` and ``loads``
@@ -244,15 +254,29 @@ class BoundsSpec:
         except ValueError as err:
             raise SettingsError.about("bounds", err) from None
 
-    def build(self, robot: Robot) -> TensionBounds:
-        """The bounds for ``robot``'s tendons (SettingsError naming ``bounds`` or ``bounds_file``)."""
+    @property
+    def field(self) -> str:
+        """The setting the box comes from: ``bounds_file`` or ``bounds``."""
+        return "bounds" if self.file is None else "bounds_file"
+
+    def build(self, robot: Robot, varied: str = "") -> TensionBounds:
+        """The bounds for ``robot``'s tendons (SettingsError naming ``bounds`` or ``bounds_file``, or ``robot``
+        for a robot without tendons). ``varied``: what the run does with the tensions, said when every one is
+        fixed (lower == upper), which it then refuses ("nothing to optimise"); empty: a fixed box is allowed."""
+        if robot.n_tendons == 0:
+            raise SettingsError("robot", f": robot '{robot.name}' has no tendons; a run over tension bounds needs at "
+                                "least one")
         if self.file is not None:
-            return self._from_file(robot)
-        b = self._box(robot.n_tendons)
-        try:
-            b.check_robot(robot)
-        except ValueError as err:
-            raise SettingsError.about("bounds", err) from None
+            b = self._from_file(robot)
+        else:
+            b = self._box(robot.n_tendons)
+            try:
+                b.check_robot(robot)
+            except ValueError as err:
+                raise SettingsError.about("bounds", err) from None
+        if varied and not np.any(b.free):
+            where = f" {show_path(self.file)}" if self.file is not None else ""
+            raise SettingsError(self.field, f"{where}: every tension is fixed (lower == upper); {varied}")
         return b
 
     def _from_file(self, robot: Robot) -> TensionBounds:
@@ -318,13 +342,16 @@ class _Buildable:
         for name, kind in (("robot", RobotSpec), ("loads", LoadSpec), ("model", ModelSpec), ("bounds", BoundsSpec)):
             check_type(getattr(self, name), kind, name)
 
+    #: what the run does with the tensions, when a box with every tension fixed is no run (:meth:`BoundsSpec.build`)
+    varied: ClassVar[str] = ""
+
     def build(self, robot: Robot | None = None, loads: Loads | None = None,
               bounds: TensionBounds | None = None) -> RunInputs:
         """The run's inputs, each built from its spec unless given (in this order: robot, loads, bounds, then the
         model resolved against them)."""
         robot = robot if robot is not None else self.robot.build()
         loads = loads if loads is not None else self.loads.build(robot)
-        bounds = bounds if bounds is not None else self.bounds.build(robot)
+        bounds = bounds if bounds is not None else self.bounds.build(robot, self.varied)
         if not isinstance(bounds, TensionBounds):
             raise TypeError(f"bounds must be a pytdcr.TensionBounds, got {type(bounds).__name__}")
         model, options = self.model.resolve(robot, loads)
