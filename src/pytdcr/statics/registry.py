@@ -62,6 +62,8 @@ def get_model(model: str | Model) -> Model:
             return MODELS[model]
         except KeyError:
             raise ValueError(f"model must be one of {list(MODELS)}, got {model!r}") from None
+    if any(model is m for m in MODELS.values()):  # a registered model (the protocol check costs 30 us a call)
+        return model
     if isinstance(model, Model):
         return model
     raise TypeError(f"model must be a registered name ({', '.join(MODELS)}) or a Model, got {type(model).__name__}")
