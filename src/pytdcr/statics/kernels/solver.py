@@ -30,7 +30,6 @@ from ..options import (
     PATH_SNAP,
     STEP_CONTINUE,
 )
-from .broyden import apply, apply_t, factor, make_inverse, push
 
 __all__ = ["FOLD_ARCLENGTH", "FOLD_RELAX", "Homotopy", "Outcome", "Settings", "arclength", "continue_range",
            "model_angle", "model_evaluate", "model_with_tension", "model_work", "newton", "relax", "solve_one",
@@ -206,55 +205,17 @@ def _step_scale(dx, m, max_dtheta):
 
 
 @njit(cache=True)
-def _levenberg(q, r, lam, m, f0, max_dtheta, J, qt, rt, work):
-    """Levenberg-Marquardt on the exact Jacobian ``J`` at ``q`` (robust where J is near singular): a trial point
-    ``qt`` whose residual ``rt`` has a smaller ||r||^2 than ``f0``. Returns ``(accepted, ||rt||^2)``."""
-    nq = q.shape[0]
-    A = J.T @ J
-    g = J.T @ r
-    mu = 1e-5
-    dmax = 0.0
-    for u in range(nq):
-        if A[u, u] > dmax:
-            dmax = A[u, u]
-    f1 = f0
-    for _lm in range(8):
-        B = A.copy()
-        for u in range(nq):
-            B[u, u] += mu * dmax
-        try:
-            dx = -np.linalg.solve(B, g)
-        except Exception:
-            mu *= 10.0
-            continue
-        alpha = _step_scale(dx, m, max_dtheta)
-        for u in range(nq):
-            qt[u] = q[u] + alpha * dx[u]
-        model_evaluate(qt, lam, m, False, rt, J, work)
-        f1 = _sumsq(rt)
-        if f1 < f0:
-            return True, f1
-        mu *= 10.0
-    return False, f1
-
-
-@njit(cache=True)
-def _fresh_jacobian(q, lam, m, r, J, H, work):
-    """The residual ``r`` and exact Jacobian ``J`` at ``q``; ``H`` its inverse (the zero operator if singular)."""
-    model_evaluate(q, lam, m, True, r, J, work)
-    factor(H, J)
-
-
-@njit(cache=True)
 def newton(q, lam, m, atol, max_iter, max_dtheta, work, H, reuse):
     """Quasi-Newton iteration from ``q`` (modified in place) at load factor ``lam``.
 
-    ``H`` (:class:`~pytdcr.statics.kernels.broyden.InverseJacobian`) is the inverse Jacobian: the LU of the
-    exact Jacobian unless ``reuse`` (then the caller's ``H``, e.g. from the last load step, is the start), and
-    left updated on return. Later steps update it with Broyden's rank-one formula (kept as vector pairs) and
-    the exact Jacobian is recomputed only when a step stops making good progress. Steps are scaled so that no
-    subsegment's bend angle or twist changes by more than ``max_dtheta`` [rad] and backtracked on ||r||^2.
-    Where the Newton direction fails on a fresh Jacobian (near a fold), Levenberg-Marquardt steps take over.
+    ``H`` (3N, 3N) holds the inverse Jacobian: computed from the exact
+    Jacobian unless ``reuse`` (then the caller's ``H``, e.g. from the last load
+    step, is the start), and left updated on return. Later steps update the inverse with
+    Broyden's rank-one formula and the exact Jacobian is recomputed only when a
+    step stops making good progress. Steps are scaled so that no subsegment's
+    bend angle or twist changes by more than ``max_dtheta`` [rad] and
+    backtracked on ||r||^2. Where the Newton direction fails on a fresh
+    Jacobian (near a fold), Levenberg-Marquardt steps take over.
     Returns ``(converged, max|r|, iterations, jacobian evaluations)``.
     """
     nq = q.shape[0]
@@ -262,20 +223,18 @@ def newton(q, lam, m, atol, max_iter, max_dtheta, work, H, reuse):
     rt = np.empty(nq)
     J = np.empty((nq, nq))
     qt = np.empty(nq)
-    dx = np.empty(nq)
-    s = np.empty(nq)
-    Hy = np.empty(nq)
-    d = np.empty(nq)
-    hr = np.empty(nq)  # H r at the current point, once known
-    have_hr = False
     if reuse:
         model_evaluate(q, lam, m, False, r, J, work)
         njac = 0
         fresh = False
     else:
-        _fresh_jacobian(q, lam, m, r, J, H, work)
+        model_evaluate(q, lam, m, True, r, J, work)
         njac = 1
         fresh = True
+        try:
+            H[:, :] = np.linalg.inv(J)
+        except Exception:
+            H[:, :] = 0.0
     res = _maxabs(r)
     it = 0
     best = res
@@ -294,14 +253,10 @@ def newton(q, lam, m, atol, max_iter, max_dtheta, work, H, reuse):
             if since > _STALL:
                 return False, res, it, njac
         it += 1
-        if not have_hr:
-            apply(H, r, hr)
-        for u in range(nq):
-            dx[u] = -hr[u]
+        dx = -(H @ r)
         alpha = _step_scale(dx, m, max_dtheta)
         f0 = _sumsq(r)
         accepted = False
-        newton_step = True
         nls = 8 if not fresh else 12
         for _ls in range(nls):
             for u in range(nq):
@@ -313,47 +268,65 @@ def newton(q, lam, m, atol, max_iter, max_dtheta, work, H, reuse):
                 break
             alpha *= 0.5
         if not accepted and fresh:
-            accepted, f1 = _levenberg(q, r, lam, m, f0, max_dtheta, J, qt, rt, work)
-            newton_step = False
+            # Levenberg-Marquardt on the exact Jacobian (robust where J is near singular)
+            A = J.T @ J
+            g = J.T @ r
+            mu = 1e-5
+            dmax = 0.0
+            for u in range(nq):
+                if A[u, u] > dmax:
+                    dmax = A[u, u]
+            for _lm in range(8):
+                B = A.copy()
+                for u in range(nq):
+                    B[u, u] += mu * dmax
+                try:
+                    dx = -np.linalg.solve(B, g)
+                except Exception:
+                    mu *= 10.0
+                    continue
+                alpha = _step_scale(dx, m, max_dtheta)
+                for u in range(nq):
+                    qt[u] = q[u] + alpha * dx[u]
+                model_evaluate(qt, lam, m, False, rt, J, work)
+                f1 = _sumsq(rt)
+                if f1 < f0:
+                    accepted = True
+                    break
+                mu *= 10.0
             if not accepted:
                 return False, res, it, njac
         if not accepted:
             # stale Broyden inverse: recompute the exact Jacobian here and retry
-            _fresh_jacobian(q, lam, m, r, J, H, work)
+            model_evaluate(q, lam, m, True, r, J, work)
             njac += 1
             fresh = True
-            have_hr = False
+            try:
+                H[:, :] = np.linalg.inv(J)
+            except Exception:
+                H[:, :] = 0.0
             continue
-        # Broyden's update with s = qt - q, y = rt - r: H y = H rt - H r, and H r = -dx for a Newton step
-        for u in range(nq):
-            s[u] = qt[u] - q[u]
-        apply(H, rt, hr)
-        if newton_step:
-            for u in range(nq):
-                Hy[u] = hr[u] + dx[u]
-        else:
-            for u in range(nq):
-                d[u] = rt[u] - r[u]
-            apply(H, d, Hy)
-        apply_t(H, s, d)
-        if push(H, s, Hy, d):  # H+ rt = H rt + c (d . rt)
-            w = 0.0
-            for u in range(nq):
-                w += d[u] * rt[u]
-            kk = H.k[0] - 1
-            for u in range(nq):
-                hr[u] += w * H.C[kk, u]
-        have_hr = True
+        # Broyden update of the inverse with s = qt - q, y = rt - r
+        s = qt - q
+        y = rt - r
+        Hy = H @ y
+        sHy = s @ Hy
+        if abs(sHy) > 1e-300:
+            sH = s @ H
+            H += np.outer(s - Hy, sH) / sHy
         for u in range(nq):
             q[u] = qt[u]
             r[u] = rt[u]
         res = _maxabs(r)
         fresh = False
         if f1 > 0.25 * f0 and res > atol:
-            _fresh_jacobian(q, lam, m, r, J, H, work)
+            model_evaluate(q, lam, m, True, r, J, work)
             njac += 1
             fresh = True
-            have_hr = False
+            try:
+                H[:, :] = np.linalg.inv(J)
+            except Exception:
+                H[:, :] = 0.0
     return res <= atol, res, it, njac
 
 
@@ -525,20 +498,20 @@ def arclength(q, lam, m, atol, max_iter, max_dtheta, work):
 @njit(cache=True)
 def _tangent(q, m, work, H, tan):
     """The path's tangent ``tan`` = dq/dlam (in place) at ``q``, an equilibrium at lam = 0: ``-J^-1 dr/dlam`` with
-    the exact Jacobian, whose inverse is left in ``H`` (its LU). The residual is affine in lam (every load is), so
+    the exact Jacobian, whose inverse is left in ``H``. The residual is affine in lam (every load is), so
     dr/dlam = r(q, 1) - r(q, 0) exactly. False (and ``tan`` zero) where J is singular."""
     nq = q.shape[0]
     r0 = np.empty(nq)
     r1 = np.empty(nq)
     J = np.empty((nq, nq))
     model_evaluate(q, 1.0, m, False, r1, J, work)
-    _fresh_jacobian(q, 0.0, m, r0, J, H, work)
-    if H.k[0] < 0:
+    model_evaluate(q, 0.0, m, True, r0, J, work)
+    try:
+        H[:, :] = np.linalg.inv(J)
+    except Exception:
         tan[:] = 0.0
         return False
-    apply(H, r1 - r0, tan)
-    for u in range(nq):
-        tan[u] = -tan[u]
+    tan[:] = -(H @ (r1 - r0))
     return np.all(np.isfinite(tan))
 
 
@@ -562,16 +535,10 @@ def solve_one(q0, m, settings, work):
     atol, max_iter, max_dtheta, stepping = settings.atol, settings.max_iter, settings.max_dtheta, settings.stepping
     nq = q0.shape[0]
     q = q0.copy()
-    H = make_inverse(nq)
+    H = np.zeros((nq, nq))
     iters = 0
     nj = 0
     cont = stepping == STEP_CONTINUE
-    if stepping != 2:  # a start already in balance at full load is the answer: no Jacobian for it
-        r = np.empty(nq)
-        model_evaluate(q, 1.0, m, False, r, np.empty((1, 1)), work)
-        res = _maxabs(r)
-        if res <= atol:
-            return Outcome(q, True, res, 0, 0, 0, PATH_CONTINUED if cont else PATH_DIRECT)
     if stepping != 2 and not cont:
         ok, res, it, ne = newton(q, 1.0, m, atol, max_iter, max_dtheta, work, H, False)
         iters += it
