@@ -539,6 +539,12 @@ def solve_one(q0, m, settings, work):
     iters = 0
     nj = 0
     cont = stepping == STEP_CONTINUE
+    if stepping != 2:  # a start already in balance at full load is the answer: no Jacobian for it
+        r = np.empty(nq)
+        model_evaluate(q, 1.0, m, False, r, np.empty((1, 1)), work)
+        res = _maxabs(r)
+        if res <= atol:
+            return Outcome(q, True, res, 0, 0, 0, PATH_CONTINUED if cont else PATH_DIRECT)
     if stepping != 2 and not cont:
         ok, res, it, ne = newton(q, 1.0, m, atol, max_iter, max_dtheta, work, H, False)
         iters += it
