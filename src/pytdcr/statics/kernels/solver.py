@@ -643,7 +643,7 @@ def solve_one(q0, m, settings, work):
         r = np.empty(nq)
         J = np.empty((1, 1))
         model_evaluate(q, 1.0, m, False, r, J, work)
-        return Outcome(q, False, _maxabs(r), iters, nj, steps, PATH_LOADING)
+        return Outcome(q, False, _maxabs(r), iters, nj, steps, path)
     return Outcome(q, ok, res, iters, nj, steps, path)
 
 
