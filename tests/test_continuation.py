@@ -47,8 +47,8 @@ def test_small_loads_continue_to_the_loading_paths_equilibrium(paper, model):
 
 
 def test_every_load_moves_along_the_path(paper):
-    """Gravity, the tip wrench and the tensions all change along one continuation: from the unloaded robot's
-    straight pose to the paper load, the answer is the loading path's."""
+    """The tip wrench and the tensions both change along one continuation (gravity is the robot's, the same at
+    both ends): from the robot under gravity alone to the paper load, the answer is the loading path's."""
     rest = solve(paper, Loads(np.zeros(paper.n_tendons)), options=SolverOptions())
     t = np.array([2.0, 0.0, 1.0, 0.5, 0.0, 1.0, 0.0, 0.5])
     target = Loads(t, **PAPER_LOAD)
@@ -154,11 +154,11 @@ def test_continuation_refuses_what_it_cannot_continue(paper, rao):
     with pytest.raises(ValueError, match="start: not an equilibrium"):
         solve(paper, paper_loads(), start=pickle.loads(pickle.dumps(sol)).__class__(
             **{**{f: getattr(sol, f) for f in sol.__dataclass_fields__}, "loads": paper_loads()}))
-    failed = solve(paper, paper_loads(np.full(paper.n_tendons, 2.0)),
+    failed = solve(paper, Loads(np.array([19.2, 14.5, 10.8, 5.5, 3.2, 19.4, 10.3, 2.3]), **PAPER_LOAD),
                    options=SolverOptions(max_iter=1, load_stepping="never"))
-    if not failed.converged:
-        with pytest.raises(ValueError, match="did not converge"):
-            solve(paper, paper_loads(), start=failed)
+    assert not failed.converged
+    with pytest.raises(ValueError, match="did not converge"):
+        solve(paper, paper_loads(), start=failed)
     rao_sol = solve(rao, Loads(np.ones(rao.n_tendons)), model="cosserat")
     with pytest.raises(UnsupportedFeatureError, match="continuation"):
         solve(rao, Loads(np.full(rao.n_tendons, 2.0)), model="cosserat", start=rao_sol)
@@ -184,3 +184,32 @@ def test_a_continuation_that_cannot_cross_its_fold_says_so(paper):
                 start=start)
     assert not out.converged and out.path == "continued" and out.residual > out.atol
     assert out.to_dict()["tip_position"] is None
+
+
+def test_a_point_load_at_a_middle_disk_moves_along_the_path(paper):
+    """A wrench at disk 10 (not the tip) appears along a continuation: the answer is the cold solve's (a small
+    load, a unique branch)."""
+    from pytdcr import PointLoad
+
+    t = np.full(paper.n_tendons, 1.0)
+    start = solve(paper, Loads(t))
+    target = Loads(t, point_loads=[PointLoad(disk=10, force=np.array([0.05, 0.0, 0.0]))])
+    cont = solve(paper, target, start=start)
+    cold = solve(paper, target)
+    assert cont.converged and cont.path == "continued"
+    assert np.linalg.norm(cont.tip_position - cold.tip_position) < SAME_TIP
+    assert np.linalg.norm(cont.tip_position - start.tip_position) > 1e-3  # the point load moved the tip
+
+
+def test_a_batch_start_must_be_in_balance_for_this_robot(paper):
+    """A batch solved for a stiffer robot (same disks, same unknowns) is refused row by row, not continued
+    into a false history; an empty start continues to an empty batch."""
+    stiff = paper.model_copy(update={"backbone": paper.backbone.model_copy(
+        update={"youngs_modulus": 4 * paper.backbone.youngs_modulus})})
+    T = np.full((2, paper.n_tendons), 3.0)
+    other = solve_batch(stiff, T, paper_loads())
+    with pytest.raises(ValueError, match="start: row 0 is not an equilibrium"):
+        solve_batch(paper, T + 0.5, paper_loads(), start=other)
+    empty = solve_batch(paper, np.zeros((0, paper.n_tendons)), paper_loads())
+    out = solve_batch(paper, np.zeros((0, paper.n_tendons)), paper_loads(), start=empty)
+    assert out.converged.shape == (0,)

@@ -156,6 +156,24 @@ def _solve_rows(eq: Equations, Q0: np.ndarray, T: np.ndarray, settings: SV.Setti
     return out
 
 
+#: how far past its own residual and tolerance a start may be out of balance for the robot it is continued on
+START_SLACK = 100.0
+
+
+def _check_in_balance(eq0: Equations, start: BatchSolution, rows: np.ndarray) -> None:
+    """Refuse a batch ``start`` whose rows ``rows`` are not equilibria of ``eq0`` (the robot and options of the
+    continuation, under the start's loads) at their own tensions: solved for another robot or with other
+    options. ValueError naming the first such row."""
+    q = start.q.reshape(start.q.shape[0], -1)
+    atol = start.atol if start.atol is not None else np.zeros(start.q.shape[0])
+    for b in rows:
+        r = float(np.max(np.abs(eq0.with_tensions(start.tensions[b]).evaluate(q[b]).residual)))
+        if not r <= START_SLACK * max(float(start.residual[b]), float(atol[b])):
+            raise ValueError(f"start: row {b} is not an equilibrium of this robot under the loads it carries (max "
+                             f"|residual| {r:.3g} N m there, {start.residual[b]:.3g} N m when it was solved): "
+                             "continue a batch solved for this robot, model and options")
+
+
 class _Path(NamedTuple):
     """Continuations along the straight path of the loads: from the equilibria ``Q0`` (B, m) of ``start`` at the
     actuator tensions ``T0`` (B, nt) [N] to ``end`` at ``T1`` (B, nt) [N]."""
@@ -322,6 +340,7 @@ class CompiledModel:
         eq0 = self.equations(robot, start.loads.with_tensions(np.zeros(robot.n_tendons)), options)
         nb = tensions.shape[0]
         rows = np.flatnonzero(start.converged)
+        _check_in_balance(eq0, start, rows)
         path = _Path(eq0, eq, np.array(start.q.reshape(nb, -1)[rows], dtype=float, order="C"),
                      np.ascontiguousarray(start.tensions[rows], dtype=float), np.ascontiguousarray(tensions[rows]))
         t0 = time.perf_counter()

@@ -40,14 +40,16 @@ def solve(robot: Robot, loads: Loads, *, model: str | Model = "pcc", q0: np.ndar
         default: the model's defaults.
     start : StaticSolution, optional
         Continuation: a converged equilibrium of this robot and model (under
-        its own ``start.loads``), followed along its branch as every load
-        (tensions, gravity, wrenches) moves on the straight path from
-        ``start.loads`` to ``loads``, with the loading path's step control and
-        fold handling. ``path`` is ``"continued"``, or ``"snap"`` where the
-        branch folded and the robot snapped. Where the robot has several
-        equilibria, this is the one it reaches from ``start``'s state (the
-        loading path, without ``start``, is the one it reaches from rest).
-        Not with ``q0``; the friction direction (``release``) must match.
+        its own ``start.loads``), followed along its branch as the tensions
+        and disk wrenches move on the straight path from ``start.loads`` to
+        ``loads`` (gravity is the robot's), with the loading path's step
+        control and fold handling. ``path`` is ``"continued"``, ``"snap"``
+        where the branch folded and the robot snapped, or ``"fallback"``; a
+        failed continuation keeps ``"continued"`` with ``converged`` False.
+        Where the robot has several equilibria, this is the one it reaches
+        from ``start``'s state (the loading path, without ``start``, is the
+        one it reaches from rest). Not with ``q0``; the friction direction
+        (``release``) must match and holds along the path (docs/models.md).
 
     Returns
     -------
@@ -142,7 +144,8 @@ def _check_batch_start(model: Model, robot: Robot, loads: Loads, tensions: np.nd
     if start.loads.release != loads.release:
         raise ValueError(f"start: solved with release={start.loads.release}, loads have release={loads.release}: "
                          "the friction direction cannot change along a continuation; solve from rest instead")
-    if start.q.shape[0] != tensions.shape[0] or start.q[0].size != robot.n_disks * model.unknowns_per_disk:
+    per_row = int(np.prod(start.q.shape[1:]))
+    if start.q.shape[0] != tensions.shape[0] or per_row != robot.n_disks * getattr(model, "unknowns_per_disk", 0):
         raise ValueError(f"start: its unknowns (shape {start.q.shape}) are not those of robot '{robot.name}'")
 
 
