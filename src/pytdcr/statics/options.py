@@ -19,8 +19,8 @@ from ..validate import show_number
 
 __all__ = ["DEFAULT_ATOL", "FOLDS", "FOLD_ARCLENGTH", "FOLD_RELAX", "LOAD_STEPPING", "MAX_ATOL", "MIN_ATOL",
            "MIN_STEP_SCALE", "PATH_CONTINUED", "PATH_DIRECT", "PATH_FALLBACK", "PATH_LOADING", "PATH_NAMES",
-           "PATH_NO_START", "PATH_SELF_CONTACT", "PATH_SNAP", "STEP_CONTINUE", "TIGHT_ATOL", "CosseratOptions",
-           "SSCROptions", "SolverOptions", "check_common_options"]
+           "PATH_NO_START", "PATH_SELF_CONTACT", "PATH_SNAP", "SAME_EQUILIBRIUM", "STEP_CONTINUE", "TIGHT_ATOL",
+           "CosseratOptions", "SSCROptions", "SolverOptions", "check_common_options"]
 
 #: Newton from the start point at full load
 PATH_DIRECT = 0
@@ -38,6 +38,10 @@ PATH_NAMES = ("direct", "loading", "snap", "fallback", "continued")
 PATH_SELF_CONTACT = "self-contact"
 #: ``path`` of a batch row not continued because its start did not converge (``solve_batch(..., start=batch)``)
 PATH_NO_START = "no start"
+
+#: how far past its own residual and tolerance a solution may be out of balance for the robot and loads it is
+#: given with (a gradient's solution, a continuation's start) and still count as theirs
+SAME_EQUILIBRIUM = 100.0
 
 #: load-stepping modes by name, as the kernels take them
 LOAD_STEPPING = {"never": 0, "auto": 1, "always": 2}

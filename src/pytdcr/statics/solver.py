@@ -22,7 +22,16 @@ from ..loads import Loads
 from ..results import BatchSolution, StaticSolution
 from ..runtime import MAX_CHUNK, check_cancelled, run_in_chunks
 from .kernels import solver as SV
-from .options import FOLDS, LOAD_STEPPING, PATH_NAMES, PATH_NO_START, PATH_SELF_CONTACT, STEP_CONTINUE, SolverOptions
+from .options import (
+    FOLDS,
+    LOAD_STEPPING,
+    PATH_NAMES,
+    PATH_NO_START,
+    PATH_SELF_CONTACT,
+    SAME_EQUILIBRIUM,
+    STEP_CONTINUE,
+    SolverOptions,
+)
 from .stability import Stability, conjugate_stiffness, stability_of
 from .tolerance import tolerances
 
@@ -156,10 +165,6 @@ def _solve_rows(eq: Equations, Q0: np.ndarray, T: np.ndarray, settings: SV.Setti
     return out
 
 
-#: how far past its own residual and tolerance a start may be out of balance for the robot it is continued on
-START_SLACK = 100.0
-
-
 def _check_in_balance(eq0: Equations, start: BatchSolution, rows: np.ndarray) -> None:
     """Refuse a batch ``start`` whose rows ``rows`` are not equilibria of ``eq0`` (the robot and options of the
     continuation, under the start's loads) at their own tensions: solved for another robot or with other
@@ -168,7 +173,7 @@ def _check_in_balance(eq0: Equations, start: BatchSolution, rows: np.ndarray) ->
     atol = start.atol if start.atol is not None else np.zeros(start.q.shape[0])
     for b in rows:
         r = float(np.max(np.abs(eq0.with_tensions(start.tensions[b]).evaluate(q[b]).residual)))
-        if not r <= START_SLACK * max(float(start.residual[b]), float(atol[b])):
+        if not r <= SAME_EQUILIBRIUM * max(float(start.residual[b]), float(atol[b])):
             raise ValueError(f"start: row {b} is not an equilibrium of this robot under the loads it carries (max "
                              f"|residual| {r:.3g} N m there, {start.residual[b]:.3g} N m when it was solved): "
                              "continue a batch solved for this robot, model and options")

@@ -16,6 +16,7 @@ from ..loads import Loads, check_tensions
 from ..results import BatchSolution, StaticSolution
 from ..runtime import default_threads
 from .base import Model
+from .options import SAME_EQUILIBRIUM
 from .registry import MODELS, check_resources, resolve
 
 __all__ = ["SAME_EQUILIBRIUM", "check_solution", "check_start", "solve", "solve_batch", "tip_gradient", "warmup"]
@@ -85,9 +86,7 @@ def check_start(model: Model, robot: Robot, loads: Loads, start: StaticSolution,
                          "state to continue from")
     if start.loads is None:
         raise ValueError("start: the solution does not carry the loads it was solved under")
-    if start.loads.release != loads.release:
-        raise ValueError(f"start: solved with release={start.loads.release}, loads have release={loads.release}: "
-                         "the friction direction cannot change along a continuation; solve from rest instead")
+    _check_release(start.loads, loads)
     check_solution(model, robot, start.loads, start, options, "start")
 
 
@@ -126,6 +125,13 @@ def solve_batch(robot: Robot, tensions: np.ndarray, loads: Loads | None = None, 
     return m.solve_batch(robot, T, unloaded, q0, opts, threads)
 
 
+def _check_release(start_loads: Loads, loads: Loads) -> None:
+    """Refuse a continuation that would change the friction direction (``Loads.release``)."""
+    if start_loads.release != loads.release:
+        raise ValueError(f"start: solved with release={start_loads.release}, loads have release={loads.release}: "
+                         "the friction direction cannot change along a continuation; solve from rest instead")
+
+
 def _check_batch_start(model: Model, robot: Robot, loads: Loads, tensions: np.ndarray, start: BatchSolution,
                        q0: np.ndarray | None) -> None:
     """Refuse a batch ``start`` that cannot be continued row by row to ``tensions`` (B, n_tendons) under ``loads``:
@@ -141,9 +147,7 @@ def _check_batch_start(model: Model, robot: Robot, loads: Loads, tensions: np.nd
                          f"has shape {tensions.shape}: continue row by row from a batch of the same shape")
     if start.loads is None:
         raise ValueError("start: the batch does not carry the loads it was solved under")
-    if start.loads.release != loads.release:
-        raise ValueError(f"start: solved with release={start.loads.release}, loads have release={loads.release}: "
-                         "the friction direction cannot change along a continuation; solve from rest instead")
+    _check_release(start.loads, loads)
     per_row = int(np.prod(start.q.shape[1:]))
     if start.q.shape[0] != tensions.shape[0] or per_row != robot.n_disks * getattr(model, "unknowns_per_disk", 0):
         raise ValueError(f"start: its unknowns (shape {start.q.shape}) are not those of robot '{robot.name}'")
@@ -165,8 +169,6 @@ def tip_gradient(robot: Robot, loads: Loads, solution: StaticSolution, *, model:
     return m.tip_gradient(robot, loads, solution, opts)
 
 
-#: how far past its own residual a solution may be out of balance for the robot and loads it is given with
-SAME_EQUILIBRIUM = 100.0
 
 
 def check_solution(model: Model, robot: Robot, loads: Loads, solution: StaticSolution, options: Any,

@@ -496,15 +496,13 @@ def arclength(q, lam, m, atol, max_iter, max_dtheta, work):
 
 
 @njit(cache=True)
-def _tangent(q, m, work, H, tan):
-    """The path's tangent ``tan`` = dq/dlam (in place) at ``q``, an equilibrium at lam = 0: ``-J^-1 dr/dlam`` with
-    the exact Jacobian, whose inverse is left in ``H``. The residual is affine in lam (every load is), so
-    dr/dlam = r(q, 1) - r(q, 0) exactly. False (and ``tan`` zero) where J is singular."""
+def _tangent(q, r1, m, work, H, tan):
+    """The path's tangent ``tan`` = dq/dlam (in place) at ``q``, an equilibrium at lam = 0 whose residual at lam = 1
+    is ``r1``: ``-J^-1 dr/dlam`` with the exact Jacobian, whose inverse is left in ``H``. The residual is affine in
+    lam (every load is), so dr/dlam = r(q, 1) - r(q, 0) exactly. False (and ``tan`` zero) where J is singular."""
     nq = q.shape[0]
     r0 = np.empty(nq)
-    r1 = np.empty(nq)
     J = np.empty((nq, nq))
-    model_evaluate(q, 1.0, m, False, r1, J, work)
     model_evaluate(q, 0.0, m, True, r0, J, work)
     try:
         H[:, :] = np.linalg.inv(J)
@@ -539,10 +537,10 @@ def solve_one(q0, m, settings, work):
     iters = 0
     nj = 0
     cont = stepping == STEP_CONTINUE
+    r_full = np.empty(nq)  # the start's residual at full load
     if stepping != 2:  # a start already in balance at full load is the answer: no Jacobian for it
-        r = np.empty(nq)
-        model_evaluate(q, 1.0, m, False, r, np.empty((1, 1)), work)
-        res = _maxabs(r)
+        model_evaluate(q, 1.0, m, False, r_full, np.empty((1, 1)), work)
+        res = _maxabs(r_full)
         if res <= atol:
             return Outcome(q, True, res, 0, 0, 0, PATH_CONTINUED if cont else PATH_DIRECT)
     if stepping != 2 and not cont:
@@ -565,7 +563,7 @@ def solve_one(q0, m, settings, work):
     tan = np.zeros(nq)
     use_tan = False  # the first step of a continuation: a tangent predictor (there is no secant yet)
     if cont:
-        use_tan = _tangent(q, m, work, H, tan)
+        use_tan = _tangent(q, r_full, m, work, H, tan)
         nj += 1
         rate = model_angle(tan, m)
         if use_tan and rate > 0.0:
