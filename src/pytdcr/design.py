@@ -33,6 +33,12 @@ __all__ = [
 ]
 
 
+def _read_only(a: np.ndarray) -> np.ndarray:
+    """``a``, no longer writeable: a robot's derived arrays are computed once and shared by every caller."""
+    a.setflags(write=False)
+    return a
+
+
 class _Frozen(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid", ignored_types=(cached_property,))
 
@@ -295,35 +301,35 @@ class Robot(_Frozen):
         """Total backbone length [m]."""
         return float(sum(s.length for s in self.segments))
 
-    @property
+    @cached_property
     def subsegment_lengths(self) -> np.ndarray:
-        """Arc length of every subsegment, shape (N,) [m]."""
-        return np.concatenate([s.lengths for s in self.segments])
+        """Arc length of every subsegment, shape (N,) [m] (read-only)."""
+        return _read_only(np.concatenate([s.lengths for s in self.segments]))
 
-    @property
+    @cached_property
     def disk_masses(self) -> np.ndarray:
-        """Mass of every disk, shape (N,) [kg]."""
-        return np.concatenate([np.full(s.n_disks, s.disk_mass) for s in self.segments])
+        """Mass of every disk, shape (N,) [kg] (read-only)."""
+        return _read_only(np.concatenate([np.full(s.n_disks, s.disk_mass) for s in self.segments]))
 
     @property
     def segment_end_disks(self) -> np.ndarray:
         """1-based index of the last disk of each segment, shape (M,)."""
         return np.cumsum([s.n_disks for s in self.segments])
 
-    @property
+    @cached_property
     def anchor_disks(self) -> np.ndarray:
-        """1-based index of the disk anchoring each tendon, shape (n_tendons,)."""
+        """1-based index of the disk anchoring each tendon, shape (n_tendons,) (read-only)."""
         ends = self.segment_end_disks
-        return np.array([ends[t.segment - 1] for t in self.tendons], dtype=np.int64)
+        return _read_only(np.array([ends[t.segment - 1] for t in self.tendons], dtype=np.int64))
 
-    @property
+    @cached_property
     def tendon_holes(self) -> np.ndarray:
-        """Hole position of each tendon in its disk's frame, shape (n_tendons, 3) [m]."""
+        """Hole position of each tendon in its disk's frame, shape (n_tendons, 3) [m] (read-only)."""
         out = np.zeros((self.n_tendons, 3))
         for k, t in enumerate(self.tendons):
             out[k, 0] = t.radius * math.cos(t.angle)
             out[k, 1] = t.radius * math.sin(t.angle)
-        return out
+        return _read_only(out)
 
     def with_gravity(self, gravity: tuple[float, float, float] | None) -> Robot:
         """Copy with another gravity vector (``None`` or zeros: no gravity)."""

@@ -94,7 +94,7 @@ class CosseratShooting:
         bb = robot.backbone
         area = math.pi * (bb.outer_radius**2 - bb.inner_radius**2)
         stiff = np.array([bb.bending_stiffness, bb.torsional_stiffness, bb.shear * area, bb.youngs_modulus * area])
-        return cls(robot=robot, packed=packed, stiff=stiff, holes=np.ascontiguousarray(robot.tendon_holes),
+        return cls(robot=robot, packed=packed, stiff=stiff, holes=np.array(robot.tendon_holes),
                    mpl=bb.mass_per_length, shear_extension=bool(opts.shear_extension),
                    nsub=int(opts.steps_per_subsegment))
 

@@ -102,7 +102,7 @@ class PCCEquations(PackedEquations):
                 raise ValueError(f"point load disk must be between 1 and {n}, got {p.disk}")
             pforce[p.disk - 1] += p.force
             pmoment[p.disk - 1] += p.moment
-        packed = K.Packed(sub, np.ascontiguousarray(robot.tendon_holes[:, :2]), robot.anchor_disks,
+        packed = K.Packed(sub, np.array(robot.tendon_holes[:, :2]), robot.anchor_disks.copy(),
                           friction_params(robot, loads.release), np.array(loads.tensions, dtype=float),
                           np.array(robot.gravity, dtype=float), pforce, pmoment, int(balance))
         return cls(robot=robot, loads=loads, packed=packed)

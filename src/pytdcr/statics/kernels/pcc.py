@@ -86,7 +86,7 @@ BALANCE_BASE = 0
 BALANCE_MIDPOINT = 1
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def tendon_unit_load_jvp(R, d, hn, dR, dd, dh, nl, px, py, is_anchor, fric, out, dout):
     """Load of one tendon of unit tension on disk i, in frame i-1, and its derivatives.
 

@@ -40,6 +40,8 @@ _MAX_DLAM = 0.25  # largest load step
 _STEP_TARGET = 0.05  # [rad] bend/twist change of a subsegment that a load step aims at
 _MAX_STEP_CHANGE = 0.1  # [rad] largest bend/twist change of a subsegment in one load step (else: a branch jump)
 _ARC_STEPS = 300  # pseudo-arclength steps allowed through a fold
+_STEP_JACOBIANS = 2  # exact Jacobians a load step may take before it is halved instead (a fold is near)
+_UNLIMITED = 1 << 30
 
 
 
@@ -204,8 +206,50 @@ def _step_scale(dx, m, max_dtheta):
     return 1.0
 
 
+@njit(cache=True, inline="always")
+def _matvec(A, x, out):
+    """``out = A @ x`` (in place; no temporaries)."""
+    n = x.shape[0]
+    for u in range(A.shape[0]):
+        acc = 0.0
+        for v in range(n):
+            acc += A[u, v] * x[v]
+        out[u] = acc
+
+
+@njit(cache=True, inline="always")
+def _broyden(H, q, qt, rt, hr, hrt, hy, sh, s):
+    """Broyden's ("good") rank-one update of the inverse Jacobian ``H`` (in place) for the step from ``q`` to
+    ``qt`` whose residual is ``rt``, with ``hr`` = H r at ``q`` on entry; on return ``hr`` = H rt for the updated H
+    (the next step's direction, without another product). ``hrt``, ``hy``, ``sh``, ``s``: scratch (m,)."""
+    nq = q.shape[0]
+    _matvec(H, rt, hrt)
+    shy = 0.0
+    for u in range(nq):
+        s[u] = qt[u] - q[u]
+        hy[u] = hrt[u] - hr[u]  # H y, y = rt - r
+        shy += s[u] * hy[u]
+    if not abs(shy) > 1e-300:
+        hr[:] = hrt
+        return
+    for v in range(nq):
+        sh[v] = 0.0
+    for u in range(nq):
+        su = s[u]
+        for v in range(nq):
+            sh[v] += su * H[u, v]
+    c = 0.0
+    for v in range(nq):
+        c += sh[v] * rt[v]
+    for u in range(nq):
+        w = (s[u] - hy[u]) / shy
+        for v in range(nq):
+            H[u, v] += w * sh[v]
+        hr[u] = hrt[u] + w * c
+
+
 @njit(cache=True)
-def newton(q, lam, m, atol, max_iter, max_dtheta, work, H, reuse):
+def newton(q, lam, m, atol, max_iter, max_dtheta, work, H, reuse, max_jac):
     """Quasi-Newton iteration from ``q`` (modified in place) at load factor ``lam``.
 
     ``H`` (3N, 3N) holds the inverse Jacobian: computed from the exact
@@ -215,7 +259,10 @@ def newton(q, lam, m, atol, max_iter, max_dtheta, work, H, reuse):
     step stops making good progress. Steps are scaled so that no subsegment's
     bend angle or twist changes by more than ``max_dtheta`` [rad] and
     backtracked on ||r||^2. Where the Newton direction fails on a fresh
-    Jacobian (near a fold), Levenberg-Marquardt steps take over.
+    Jacobian (near a fold), Levenberg-Marquardt steps take over. A load step
+    passes a small ``max_jac``: where it would need more exact Jacobians than
+    that (a fold is near, and Newton crawls), it fails at once and the caller
+    halves the step, instead of forcing its way with Levenberg-Marquardt.
     Returns ``(converged, max|r|, iterations, jacobian evaluations)``.
     """
     nq = q.shape[0]
@@ -223,6 +270,13 @@ def newton(q, lam, m, atol, max_iter, max_dtheta, work, H, reuse):
     rt = np.empty(nq)
     J = np.empty((nq, nq))
     qt = np.empty(nq)
+    hr = np.empty(nq)  # H r for the current r (kept up to date through each Broyden update)
+    hrt = np.empty(nq)
+    hy = np.empty(nq)
+    sh = np.empty(nq)
+    s = np.empty(nq)
+    dx = np.empty(nq)
+    have_hr = False
     if reuse:
         model_evaluate(q, lam, m, False, r, J, work)
         njac = 0
@@ -253,7 +307,11 @@ def newton(q, lam, m, atol, max_iter, max_dtheta, work, H, reuse):
             if since > _STALL:
                 return False, res, it, njac
         it += 1
-        dx = -(H @ r)
+        if not have_hr:
+            _matvec(H, r, hr)
+            have_hr = True
+        for u in range(nq):
+            dx[u] = -hr[u]
         alpha = _step_scale(dx, m, max_dtheta)
         f0 = _sumsq(r)
         accepted = False
@@ -281,7 +339,7 @@ def newton(q, lam, m, atol, max_iter, max_dtheta, work, H, reuse):
                 for u in range(nq):
                     B[u, u] += mu * dmax
                 try:
-                    dx = -np.linalg.solve(B, g)
+                    dx[:] = -np.linalg.solve(B, g)
                 except Exception:
                     mu *= 10.0
                     continue
@@ -298,31 +356,30 @@ def newton(q, lam, m, atol, max_iter, max_dtheta, work, H, reuse):
                 return False, res, it, njac
         if not accepted:
             # stale Broyden inverse: recompute the exact Jacobian here and retry
+            if njac >= max_jac:
+                return False, res, it, njac
             model_evaluate(q, lam, m, True, r, J, work)
             njac += 1
             fresh = True
+            have_hr = False
             try:
                 H[:, :] = np.linalg.inv(J)
             except Exception:
                 H[:, :] = 0.0
             continue
-        # Broyden update of the inverse with s = qt - q, y = rt - r
-        s = qt - q
-        y = rt - r
-        Hy = H @ y
-        sHy = s @ Hy
-        if abs(sHy) > 1e-300:
-            sH = s @ H
-            H += np.outer(s - Hy, sH) / sHy
+        _broyden(H, q, qt, rt, hr, hrt, hy, sh, s)
         for u in range(nq):
             q[u] = qt[u]
             r[u] = rt[u]
         res = _maxabs(r)
         fresh = False
         if f1 > 0.25 * f0 and res > atol:
+            if njac >= max_jac:
+                return False, res, it, njac
             model_evaluate(q, lam, m, True, r, J, work)
             njac += 1
             fresh = True
+            have_hr = False
             try:
                 H[:, :] = np.linalg.inv(J)
             except Exception:
@@ -544,7 +601,7 @@ def solve_one(q0, m, settings, work):
         if res <= atol:
             return Outcome(q, True, res, 0, 0, 0, PATH_CONTINUED if cont else PATH_DIRECT)
     if stepping != 2 and not cont:
-        ok, res, it, ne = newton(q, 1.0, m, atol, max_iter, max_dtheta, work, H, False)
+        ok, res, it, ne = newton(q, 1.0, m, atol, max_iter, max_dtheta, work, H, False, _UNLIMITED)
         iters += it
         nj += ne
         if ok or stepping == 0:
@@ -561,13 +618,15 @@ def solve_one(q0, m, settings, work):
     max_dlam = 1.0 if cont else _MAX_DLAM * settings.step_scale
     dlam = max_dlam
     tan = np.zeros(nq)
-    use_tan = False  # the first step of a continuation: a tangent predictor (there is no secant yet)
-    if cont:
-        use_tan = _tangent(q, r_full, m, work, H, tan)
-        nj += 1
-        rate = model_angle(tan, m)
-        if use_tan and rate > 0.0:
-            dlam = min(1.0, target / rate)
+    # the first step, of a continuation or of the loading path from rest, is predicted along the path's tangent
+    # (there is no secant yet) and sized by it
+    if not cont:
+        model_evaluate(q, 1.0, m, False, r_full, np.empty((1, 1)), work)
+    use_tan = _tangent(q, r_full, m, work, H, tan)
+    nj += 1
+    rate = model_angle(tan, m)
+    if use_tan and rate > 0.0:
+        dlam = min(max_dlam, target / rate)
     steps = 0
     ok = False
     res = np.inf
@@ -586,10 +645,10 @@ def solve_one(q0, m, settings, work):
         else:
             qs[:] = q
         tol = atol if lt >= 1.0 else max(atol, settings.step_atol)
-        ok, res, it, ne = newton(qs, lt, m, tol, step_iter, max_dtheta, work, H, have_h)
+        ok, res, it, ne = newton(qs, lt, m, tol, step_iter, max_dtheta, work, H, have_h, _STEP_JACOBIANS)
         if not ok and (lam > lprev or use_tan):  # retry without the predictor, from a fresh Jacobian
             qs[:] = q
-            ok, res, it2, ne2 = newton(qs, lt, m, tol, step_iter, max_dtheta, work, H, False)
+            ok, res, it2, ne2 = newton(qs, lt, m, tol, step_iter, max_dtheta, work, H, False, _STEP_JACOBIANS)
             it += it2
             ne += ne2
         iters += it
@@ -633,7 +692,7 @@ def solve_one(q0, m, settings, work):
                 qs[:] = q
             else:
                 qs[:] = q0
-            ok, res, it, ne = newton(qs, 1.0, m, atol, max_iter, max_dtheta, work, H, False)
+            ok, res, it, ne = newton(qs, 1.0, m, atol, max_iter, max_dtheta, work, H, False, _UNLIMITED)
             iters += it
             nj += ne
             if ok:
