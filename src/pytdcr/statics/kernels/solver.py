@@ -32,8 +32,8 @@ from ..options import (
 )
 
 __all__ = ["FOLD_ARCLENGTH", "FOLD_RELAX", "Homotopy", "Outcome", "Settings", "arclength", "continue_range",
-           "model_angle", "model_evaluate", "model_with_tension", "model_work", "newton", "relax", "solve_one",
-           "solve_range"]
+           "model_angle", "model_evaluate", "model_with_tension", "model_work", "newton", "relax", "snap_through",
+           "solve_one", "solve_range"]
 
 _STALL = 15  # Newton gives up after this many iterations without halving the residual
 _MAX_DLAM = 0.25  # largest load step
@@ -552,6 +552,260 @@ def arclength(q, lam, m, atol, max_iter, max_dtheta, work):
     return False, res, iters, njac, _ARC_STEPS, turned
 
 
+# ------------------------------------------------------------------ through a fold: follow, snap, follow on
+_SNAP_DLAM = 1.0 / 128.0  # how far past a fold's load factor the snap-through is relaxed
+_FOLD_H = 1e-6  # a load step this small that still fails: the branch ends (a fold) here
+_FOLLOW_STEPS = 200  # load steps allowed to the follower between two folds
+_MAX_FOLDS = 6  # snap-throughs allowed on the way to full load
+_FLOW_STEPS = 300  # implicit Euler steps of one snap-through
+_FLOW_CAP = 1.0  # largest pseudo-time step while the flow's residual grows (the snap itself)
+
+
+@njit(cache=True)
+def _inverse(J, H):
+    """``H`` = J^-1 in place; False (H zero) where J is singular."""
+    try:
+        H[:, :] = np.linalg.inv(J)
+    except Exception:
+        H[:, :] = 0.0
+        return False
+    return np.all(np.isfinite(H))
+
+
+@njit(cache=True)
+def _det_sign(J):
+    """The sign of det J (0 where singular or not finite)."""
+    s, ld = np.linalg.slogdet(J)
+    return s if np.isfinite(ld) else 0.0
+
+
+@njit(cache=True)
+def _correct(q, lam, m, tol, max_iter, max_dtheta, work):
+    """Newton from ``q`` (in place) at load factor ``lam`` with the exact Jacobian every iteration, damped by
+    Deuflhard's natural monotonicity test: a step of length a along the Newton correction dx is accepted when the
+    simplified correction J^-1 r(q + a dx) at the new point is shorter than (1 - a/4) |dx|.
+
+    Affine invariant, unlike a test on |r|: where the Jacobian is ill-conditioned and far from symmetric (no
+    friction, near a fold) a full Newton step that converges can raise |r| on the way, and a line search on |r|
+    rejects it. Returns ``(converged, max|r|, iterations, jacobian evaluations, theta)``, theta the first
+    iteration's contraction |simplified correction| / |dx| (small: the start was well inside the basin)."""
+    nq = q.shape[0]
+    r = np.empty(nq)
+    rt = np.empty(nq)
+    qt = np.empty(nq)
+    J = np.empty((nq, nq))
+    H = np.empty((nq, nq))
+    a = 1.0
+    theta = 1.0
+    njac = 0
+    for it in range(max_iter):
+        model_evaluate(q, lam, m, True, r, J, work)
+        njac += 1
+        res = _maxabs(r)
+        if res <= tol:
+            return True, res, it, njac, theta
+        if not np.isfinite(res) or not _inverse(J, H):
+            return False, res, it, njac, theta
+        dx = -(H @ r)
+        ndx = np.sqrt(_sumsq(dx))
+        a = min(1.0, 2.0 * a, _step_scale(dx, m, max_dtheta))
+        while True:
+            for u in range(nq):
+                qt[u] = q[u] + a * dx[u]
+            model_evaluate(qt, lam, m, False, rt, J, work)
+            th = np.sqrt(_sumsq(H @ rt)) / ndx
+            if it == 0:
+                theta = th
+            if th <= 1.0 - 0.25 * a or _maxabs(rt) <= tol:
+                break
+            a *= 0.5
+            if a < 1e-4:
+                return False, res, it + 1, njac, theta
+        q[:] = qt
+    model_evaluate(q, lam, m, False, r, J, work)
+    res = _maxabs(r)
+    return res <= tol, res, max_iter, njac, theta
+
+
+@njit(cache=True)
+def _follow(q, lam, m, atol, step_atol, max_dtheta, work, target):
+    """Follow the branch of the equilibrium ``q`` (in place) at load factor ``lam`` towards lam = 1 in small load
+    steps: the tangent dq/dlam as predictor, :func:`_correct` as corrector, steps aimed at ``target`` [rad] per
+    subsegment and halved on a failed, slowly contracting or jumping step. Stops at lam = 1 or where a step of
+    :data:`_FOLD_H` fails (a fold: the branch turns back; ``q`` the last equilibrium before it).
+    Returns ``(reached, lam, max|r|, iterations, jacobian evaluations, steps)``."""
+    nq = q.shape[0]
+    J = np.empty((nq, nq))
+    r0 = np.empty(nq)
+    r1 = np.empty(nq)
+    dl = np.empty(nq)
+    qs = np.empty(nq)
+    iters = 0
+    njac = 0
+    h = _MAX_DLAM
+    res = np.inf
+    for step in range(_FOLLOW_STEPS):
+        if lam >= 1.0:
+            return True, lam, res, iters, njac, step
+        model_evaluate(q, lam, m, True, r0, J, work)
+        njac += 1
+        _dr_dlam(q, lam, m, work, r0, r1, dl)
+        try:
+            tan = -np.linalg.solve(J, dl)
+        except Exception:
+            return False, lam, res, iters, njac, step
+        rate = model_angle(tan, m)
+        if rate > 0.0 and np.isfinite(rate):
+            h = min(h, target / rate)
+        while True:
+            h = min(h, 1.0 - lam)
+            lt = lam + h
+            for u in range(nq):
+                qs[u] = q[u] + h * tan[u]
+            tol = atol if lt >= 1.0 else max(atol, step_atol)
+            ok, res, it, ne, theta = _correct(qs, lt, m, tol, 12, max_dtheta, work)
+            iters += it
+            njac += ne
+            if ok and theta < 0.5 and _change(qs, q, m) <= max(_MAX_STEP_CHANGE, 2.0 * h * rate):
+                q[:] = qs
+                lam = 1.0 if lt >= 1.0 else lt
+                h = min(2.0 * h, _MAX_DLAM)
+                break
+            h *= 0.5
+            if h < _FOLD_H:
+                return False, lam, res, iters, njac, step + 1
+    return lam >= 1.0, lam, res, iters, njac, _FOLLOW_STEPS
+
+
+@njit(cache=True)
+def _flow(q, lam, m, tol, max_dtheta, work, J0, H0, sign0):
+    """The snap-through: implicit Euler (in place) on the pseudo-time flow dq/dt = -J0^-1 r(q) at load factor
+    ``lam``, ``J0`` the Jacobian at the start of the path (``H0`` its inverse).
+
+    J0^-1 pairs each residual with the unknown it is conjugate to (the raw residual of the PCC models is the
+    bending moment rotated by 90 degrees against (beta, gamma): a flow dq/dt = -D^-1 r with a diagonal D turns
+    about the equilibrium instead of falling towards it) and weighs it by the unloaded robot's stiffness: a
+    damped, stiffness-proportional flow. The time step keeps each step's bend and twist near 0.1 rad, grows
+    towards Newton's as the residual falls, and stays at most :data:`_FLOW_CAP` while the residual grows
+    (the snap). Where the flow circles instead of settling (an equilibrium with a pair of complex eigenvalues of
+    the wrong sign: no first-order flow settles there), Newton (:func:`_correct`) is tried from each point where
+    |J0^-1 r| had a local minimum. Converged only on an equilibrium whose det J has the sign ``sign0`` of the
+    stable start (an odd count of real negative eigenvalues is a saddle).
+    Returns ``(converged, max|r|, iterations, jacobian evaluations)``."""
+    nq = q.shape[0]
+    r = np.empty(nq)
+    J = np.empty((nq, nq))
+    A = np.empty((nq, nq))
+    qlow = q.copy()
+    qtry = np.empty(nq)
+    model_evaluate(q, lam, m, True, r, J, work)
+    njac = 1
+    iters = 0
+    z = np.sqrt(_sumsq(H0 @ r))
+    falling = False
+    dt = 1.0
+    res = _maxabs(r)
+    for _ in range(_FLOW_STEPS):
+        if res <= tol:
+            if _det_sign(J) == sign0:
+                return True, res, iters, njac
+            break
+        iters += 1
+        for u in range(nq):
+            for v in range(nq):
+                A[u, v] = J[u, v] + J0[u, v] / dt
+        try:
+            dx = -np.linalg.solve(A, r)
+        except Exception:
+            break
+        step = model_angle(dx, m)
+        if not np.isfinite(step):
+            break
+        if step > 0.2:  # too far for one step of the flow: a shorter time step
+            dt *= 0.05 / step
+            continue
+        qlow[:] = q
+        for u in range(nq):
+            q[u] += dx[u]
+        model_evaluate(q, lam, m, True, r, J, work)
+        njac += 1
+        res = _maxabs(r)
+        zn = np.sqrt(_sumsq(H0 @ r))
+        dt = min(1e12, dt * min(4.0, 0.1 / max(step, 1e-300)))
+        if zn > z:
+            dt = min(dt, _FLOW_CAP)
+            if falling and res > tol:  # |J0^-1 r| had a local minimum at the last point: Newton from there
+                qtry[:] = qlow
+                ok, rt, it, ne, _th = _correct(qtry, lam, m, tol, 8, max_dtheta, work)
+                iters += it
+                njac += ne
+                if ok:
+                    model_evaluate(qtry, lam, m, True, r, J, work)
+                    njac += 1
+                    if _det_sign(J) == sign0:
+                        q[:] = qtry
+                        return True, rt, iters, njac
+                    model_evaluate(q, lam, m, True, r, J, work)
+                    njac += 1
+        falling = zn < z
+        z = zn
+    return False, res, iters, njac
+
+
+@njit(cache=True)
+def snap_through(q, lam, m, atol, step_atol, max_dtheta, work, qbase, target):
+    """From the last equilibrium ``q`` (in place) of a loading path that stalled at load factor ``lam``, reach
+    full load: follow the branch in small steps (:func:`_follow`, which also carries on where the stall was no
+    fold but a Newton failure), and at each fold relax :data:`_SNAP_DLAM` past it (:func:`_flow`; the robot
+    snaps through to a neighbouring stable equilibrium) and follow on from there; where that relaxation fails,
+    relax at full load. ``qbase`` is the start of the path (lam = 0), whose Jacobian weighs the flow.
+    Returns ``(converged, max|r|, iterations, jacobian evaluations, steps, snapped)``."""
+    nq = q.shape[0]
+    r = np.empty(nq)
+    J0 = np.empty((nq, nq))
+    H0 = np.empty((nq, nq))
+    model_evaluate(qbase, 0.0, m, True, r, J0, work)
+    iters = 0
+    njac = 1
+    steps = 0
+    snapped = False
+    res = np.inf
+    if not _inverse(J0, H0):
+        return False, res, iters, njac, steps, snapped
+    sign0 = _det_sign(J0)
+    qs = np.empty(nq)
+    for _fold in range(_MAX_FOLDS + 1):
+        ok, lam, res, it, ne, st = _follow(q, lam, m, atol, step_atol, max_dtheta, work, target)
+        iters += it
+        njac += ne
+        steps += st
+        if ok or _fold == _MAX_FOLDS:
+            return ok, res, iters, njac, steps, snapped
+        # a fold at lam: the robot snaps through to another equilibrium just past it
+        lt = min(1.0, lam + _SNAP_DLAM)
+        qs[:] = q
+        ok, res, it, ne = _flow(qs, lt, m, atol if lt >= 1.0 else max(atol, step_atol), max_dtheta, work, J0, H0,
+                                sign0)
+        iters += it
+        njac += ne
+        steps += 1
+        if not ok and lt < 1.0:  # no settling near the fold: relax at full load
+            lt = 1.0
+            qs[:] = q
+            ok, res, it, ne = _flow(qs, lt, m, atol, max_dtheta, work, J0, H0, sign0)
+            iters += it
+            njac += ne
+            steps += 1
+        if not ok:
+            return False, res, iters, njac, steps, snapped
+        q[:] = qs
+        lam = lt
+        snapped = True
+        if lam >= 1.0:
+            return True, res, iters, njac, steps, snapped
+    return False, res, iters, njac, steps, snapped
+
+
 @njit(cache=True)
 def _tangent(q, r1, m, work, H, tan):
     """The path's tangent ``tan`` = dq/dlam (in place) at ``q``, an equilibrium at lam = 0 whose residual at lam = 1
@@ -674,10 +928,17 @@ def solve_one(q0, m, settings, work):
                     ok, res, it, ne, st, turned = arclength(qs, lam, m, atol, max_iter, max_dtheta, work)
                     steps += st
                 else:
-                    # a fold: relax from the last equilibrium at full load (the snap-through)
-                    ok, res, it, ne = relax(qs, 1.0, m, atol, 4 * max_iter, max_dtheta, work)
-                    steps += 1
-                    turned = True
+                    # a stall: follow the branch on in small steps to its fold, snap through, follow on
+                    ok, res, it, ne, st, turned = snap_through(qs, lam, m, atol, settings.step_atol, max_dtheta, work,
+                                                               q0 if cont else np.zeros(nq), target)
+                    steps += st
+                    if not ok:  # relax at full load from the last equilibrium of the loading path
+                        iters += it
+                        nj += ne
+                        qs[:] = q
+                        ok, res, it, ne = relax(qs, 1.0, m, atol, 4 * max_iter, max_dtheta, work)
+                        steps += 1
+                        turned = True
                 iters += it
                 nj += ne
                 if ok:
