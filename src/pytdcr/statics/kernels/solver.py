@@ -554,7 +554,9 @@ def arclength(q, lam, m, atol, max_iter, max_dtheta, work):
 
 # ------------------------------------------------------------------ through a fold: follow, snap, follow on
 _SNAP_DLAM = 1.0 / 128.0  # how far past a fold's load factor the snap-through is relaxed
-_FOLD_H = 1e-6  # a load step this small that still fails: the branch ends (a fold) here
+_FOLD_H = 1e-4  # a load step this small that still fails: the branch ends (a fold) here (the snap is relaxed
+# _SNAP_DLAM past it: locating the fold more finely changes nothing but the cost)
+_FOLLOW_THETA = 0.5  # a follower's step whose first Newton contraction is above this is too long: halved
 _FOLLOW_STEPS = 200  # load steps allowed to the follower between two folds
 _MAX_FOLDS = 6  # snap-throughs allowed on the way to full load
 _FLOW_STEPS = 300  # implicit Euler steps of one snap-through
@@ -580,7 +582,7 @@ def _det_sign(J):
 
 
 @njit(cache=True)
-def _correct(q, lam, m, tol, max_iter, max_dtheta, work):
+def _correct(q, lam, m, tol, max_iter, max_dtheta, work, max_theta):
     """Newton from ``q`` (in place) at load factor ``lam`` with the exact Jacobian every iteration, damped by
     Deuflhard's natural monotonicity test: a step of length a along the Newton correction dx is accepted when the
     simplified correction J^-1 r(q + a dx) at the new point is shorter than (1 - a/4) |dx|.
@@ -588,7 +590,8 @@ def _correct(q, lam, m, tol, max_iter, max_dtheta, work):
     Affine invariant, unlike a test on |r|: where the Jacobian is ill-conditioned and far from symmetric (no
     friction, near a fold) a full Newton step that converges can raise |r| on the way, and a line search on |r|
     rejects it. Returns ``(converged, max|r|, iterations, jacobian evaluations, theta)``, theta the first
-    iteration's contraction |simplified correction| / |dx| (small: the start was well inside the basin)."""
+    iteration's contraction |simplified correction| / |dx| (small: the start was well inside the basin); a first
+    contraction above ``max_theta`` ends the iteration at once (not converged: the start is too far out)."""
     nq = q.shape[0]
     r = np.empty(nq)
     rt = np.empty(nq)
@@ -616,6 +619,8 @@ def _correct(q, lam, m, tol, max_iter, max_dtheta, work):
             th = np.sqrt(_sumsq(H @ rt)) / ndx
             if it == 0:
                 theta = th
+                if th > max_theta:
+                    return False, res, it + 1, njac, theta
             if th <= 1.0 - 0.25 * a or _maxabs(rt) <= tol:
                 break
             a *= 0.5
@@ -663,10 +668,10 @@ def _follow(q, lam, m, atol, step_atol, max_dtheta, work, target):
             for u in range(nq):
                 qs[u] = q[u] + h * tan[u]
             tol = atol if lt >= 1.0 else max(atol, step_atol)
-            ok, res, it, ne, theta = _correct(qs, lt, m, tol, 12, max_dtheta, work)
+            ok, res, it, ne, theta = _correct(qs, lt, m, tol, 12, max_dtheta, work, _FOLLOW_THETA)
             iters += it
             njac += ne
-            if ok and theta < 0.5 and _change(qs, q, m) <= max(_MAX_STEP_CHANGE, 2.0 * h * rate):
+            if ok and theta < _FOLLOW_THETA and _change(qs, q, m) <= max(_MAX_STEP_CHANGE, 2.0 * h * rate):
                 q[:] = qs
                 lam = 1.0 if lt >= 1.0 else lt
                 h = min(2.0 * h, _MAX_DLAM)
@@ -736,7 +741,7 @@ def _flow(q, lam, m, tol, max_dtheta, work, J0, H0, sign0):
             dt = min(dt, _FLOW_CAP)
             if falling and res > tol:  # |J0^-1 r| had a local minimum at the last point: Newton from there
                 qtry[:] = qlow
-                ok, rt, it, ne, _th = _correct(qtry, lam, m, tol, 8, max_dtheta, work)
+                ok, rt, it, ne, _th = _correct(qtry, lam, m, tol, 8, max_dtheta, work, np.inf)
                 iters += it
                 njac += ne
                 if ok:
@@ -810,18 +815,20 @@ def snap_through(q, lam, m, atol, step_atol, max_dtheta, work, qbase, target):
 def _tangent(q, r1, m, work, H, tan):
     """The path's tangent ``tan`` = dq/dlam (in place) at ``q``, an equilibrium at lam = 0 whose residual at lam = 1
     is ``r1``: ``-J^-1 dr/dlam`` with the exact Jacobian, whose inverse is left in ``H``. The residual is affine in
-    lam (every load is), so dr/dlam = r(q, 1) - r(q, 0) exactly. False (and ``tan`` zero) where J is singular."""
+    lam (every load is), so dr/dlam = r(q, 1) - r(q, 0) exactly. Returns (False where J is singular, then ``tan``
+    is zero; the sign of det J there)."""
     nq = q.shape[0]
     r0 = np.empty(nq)
     J = np.empty((nq, nq))
     model_evaluate(q, 0.0, m, True, r0, J, work)
+    sign = _det_sign(J)
     try:
         H[:, :] = np.linalg.inv(J)
     except Exception:
         tan[:] = 0.0
-        return False
+        return False, sign
     tan[:] = -(H @ (r1 - r0))
-    return np.all(np.isfinite(tan))
+    return np.all(np.isfinite(tan)), sign
 
 
 @njit(cache=True, nogil=True)
@@ -838,7 +845,11 @@ def solve_one(q0, m, settings, work):
     follows. Where it stalls at a fold it relaxes at full load from the last
     equilibrium (the snap-through); if that fails too, Newton at full load
     from the last equilibrium and then from ``q0`` gives another equilibrium
-    (path code 3).
+    (path code 3). A loading path or continuation that reaches full load
+    with the sign of det J changed from its start's has stepped over a fold
+    pair onto another branch (an odd number of real eigenvalues crossed zero:
+    the robot could not have got there quasi-statically); it is walked again
+    with load steps four times finer; so is one that found no way to full load.
     ``settings`` (:class:`Settings`) carries ``stepping`` and the tolerances. Returns an :class:`Outcome`.
     """
     atol, max_iter, max_dtheta, stepping = settings.atol, settings.max_iter, settings.max_dtheta, settings.stepping
@@ -860,23 +871,74 @@ def solve_one(q0, m, settings, work):
         nj += ne
         if ok or stepping == 0:
             return Outcome(q, ok, res, iters, nj, 0, PATH_DIRECT)
-    path = PATH_CONTINUED if cont else PATH_LOADING
     if not cont:
         q[:] = 0.0
+        model_evaluate(q, 1.0, m, False, r_full, np.empty((1, 1)), work)
+    start = q.copy()
+    scale = settings.step_scale
+    steps = 0
+    for attempt in range(2):
+        q[:] = start
+        ok, lam, res, it, ne, st, path, sign0 = _walk(q, m, settings, work, H, scale, cont, r_full)
+        iters += it
+        nj += ne
+        steps += st
+        if attempt == 1:
+            break
+        if lam >= 1.0:
+            if path == PATH_SNAP or sign0 == 0.0:
+                break
+            # the branch reached must be the one the path started on: det J keeps its sign along it
+            J = np.empty((nq, nq))
+            r = np.empty(nq)
+            model_evaluate(q, 1.0, m, True, r, J, work)
+            nj += 1
+            if _det_sign(J) == sign0:
+                break
+        scale *= 0.25  # stepped over a fold pair, or stalled with no way on: walk again in finer steps
+    if lam < 1.0:
+        # last resort: any equilibrium at full load, from the last equilibrium, then from q0
+        qs = np.empty(nq)
+        for which in range(2):
+            if which == 0:
+                qs[:] = q
+            else:
+                qs[:] = q0
+            ok, res, it, ne = newton(qs, 1.0, m, atol, max_iter, max_dtheta, work, H, False, _UNLIMITED)
+            iters += it
+            nj += ne
+            if ok:
+                return Outcome(qs, True, res, iters, nj, steps, PATH_FALLBACK)
+        r = np.empty(nq)
+        J = np.empty((1, 1))
+        model_evaluate(q, 1.0, m, False, r, J, work)
+        return Outcome(q, False, _maxabs(r), iters, nj, steps, path)
+    return Outcome(q, ok, res, iters, nj, steps, path)
+
+
+@njit(cache=True)
+def _walk(q, m, settings, work, H, scale, cont, r_full):
+    """The loading path (or a continuation, ``cont``) from ``q`` at lam = 0 (in place) towards lam = 1, load steps
+    scaled by ``scale``; ``r_full`` is the residual of ``q`` at lam = 1. See :func:`solve_one`.
+    Returns ``(converged, lam reached, max|r|, iterations, jacobians, steps, path code, sign of det J at the
+    start)``."""
+    atol, max_iter, max_dtheta = settings.atol, settings.max_iter, settings.max_dtheta
+    nq = q.shape[0]
+    q0 = q.copy()
+    iters = 0
+    nj = 0
+    path = PATH_CONTINUED if cont else PATH_LOADING
     qprev = np.zeros(nq)
     lprev = 0.0
     qs = np.zeros(nq)
     lam = 0.0
-    target = _STEP_TARGET * settings.step_scale
+    target = _STEP_TARGET * scale
     # a continuation may cross its whole path in one step; the loading path from rest takes at least four
-    max_dlam = 1.0 if cont else _MAX_DLAM * settings.step_scale
+    max_dlam = 1.0 if cont else _MAX_DLAM * scale
     dlam = max_dlam
     tan = np.zeros(nq)
-    # the first step, of a continuation or of the loading path from rest, is predicted along the path's tangent
-    # (there is no secant yet) and sized by it
-    if not cont:
-        model_evaluate(q, 1.0, m, False, r_full, np.empty((1, 1)), work)
-    use_tan = _tangent(q, r_full, m, work, H, tan)
+    # the first step is predicted along the path's tangent (there is no secant yet) and sized by it
+    use_tan, sign0 = _tangent(q, r_full, m, work, H, tan)
     nj += 1
     rate = model_angle(tan, m)
     if use_tan and rate > 0.0:
@@ -930,7 +992,7 @@ def solve_one(q0, m, settings, work):
                 else:
                     # a stall: follow the branch on in small steps to its fold, snap through, follow on
                     ok, res, it, ne, st, turned = snap_through(qs, lam, m, atol, settings.step_atol, max_dtheta, work,
-                                                               q0 if cont else np.zeros(nq), target)
+                                                               q0, target)
                     steps += st
                     if not ok:  # relax at full load from the last equilibrium of the loading path
                         iters += it
@@ -946,23 +1008,7 @@ def solve_one(q0, m, settings, work):
                     lam = 1.0
                     path = PATH_SNAP if turned else path
                 break
-    if lam < 1.0:
-        # last resort: any equilibrium at full load, from the last equilibrium, then from q0
-        for start in range(2):
-            if start == 0:
-                qs[:] = q
-            else:
-                qs[:] = q0
-            ok, res, it, ne = newton(qs, 1.0, m, atol, max_iter, max_dtheta, work, H, False, _UNLIMITED)
-            iters += it
-            nj += ne
-            if ok:
-                return Outcome(qs, True, res, iters, nj, steps, PATH_FALLBACK)
-        r = np.empty(nq)
-        J = np.empty((1, 1))
-        model_evaluate(q, 1.0, m, False, r, J, work)
-        return Outcome(q, False, _maxabs(r), iters, nj, steps, path)
-    return Outcome(q, ok, res, iters, nj, steps, path)
+    return ok, lam, res, iters, nj, steps, path, sign0
 
 
 @njit(cache=True, nogil=True)
