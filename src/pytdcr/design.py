@@ -13,6 +13,8 @@ All quantities are SI (m, kg, N, Pa, m/s^2) unless the name says otherwise
 from __future__ import annotations
 
 import math
+import weakref
+from collections.abc import Callable
 from functools import cached_property
 from typing import Annotated, Any, Literal
 
@@ -33,10 +35,24 @@ __all__ = [
 ]
 
 
-def _read_only(a: np.ndarray) -> np.ndarray:
-    """``a``, no longer writeable: a robot's derived arrays are computed once and shared by every caller."""
-    a.setflags(write=False)
-    return a
+#: a robot's derived arrays, computed once per robot object: id(robot) -> {name: read-only array}. Kept outside the
+#: object (its __dict__ takes part in pydantic's equality, where arrays have no truth value, and in pickling);
+#: an entry goes when its robot does
+_DERIVED: dict[int, dict[str, np.ndarray]] = {}
+
+
+def _derived(robot: Any, name: str, make: Callable[[], np.ndarray]) -> np.ndarray:
+    """``robot``'s derived array ``name``, computed by ``make`` on first use, read-only and shared by every caller."""
+    slot = _DERIVED.get(id(robot))
+    if slot is None:
+        slot = _DERIVED.setdefault(id(robot), {})
+        weakref.finalize(robot, _DERIVED.pop, id(robot), None)
+    arr = slot.get(name)
+    if arr is None:
+        arr = make()
+        arr.setflags(write=False)
+        slot[name] = arr
+    return arr
 
 
 class _Frozen(BaseModel):
@@ -301,35 +317,39 @@ class Robot(_Frozen):
         """Total backbone length [m]."""
         return float(sum(s.length for s in self.segments))
 
-    @cached_property
+    @property
     def subsegment_lengths(self) -> np.ndarray:
         """Arc length of every subsegment, shape (N,) [m] (read-only)."""
-        return _read_only(np.concatenate([s.lengths for s in self.segments]))
+        return _derived(self, "lengths", lambda: np.concatenate([s.lengths for s in self.segments]))
 
-    @cached_property
+    @property
     def disk_masses(self) -> np.ndarray:
         """Mass of every disk, shape (N,) [kg] (read-only)."""
-        return _read_only(np.concatenate([np.full(s.n_disks, s.disk_mass) for s in self.segments]))
+        return _derived(self, "masses",
+                        lambda: np.concatenate([np.full(s.n_disks, s.disk_mass) for s in self.segments]))
 
     @property
     def segment_end_disks(self) -> np.ndarray:
         """1-based index of the last disk of each segment, shape (M,)."""
         return np.cumsum([s.n_disks for s in self.segments])
 
-    @cached_property
+    @property
     def anchor_disks(self) -> np.ndarray:
         """1-based index of the disk anchoring each tendon, shape (n_tendons,) (read-only)."""
         ends = self.segment_end_disks
-        return _read_only(np.array([ends[t.segment - 1] for t in self.tendons], dtype=np.int64))
+        return _derived(self, "anchors", lambda: np.array([ends[t.segment - 1] for t in self.tendons], dtype=np.int64))
 
-    @cached_property
+    @property
     def tendon_holes(self) -> np.ndarray:
         """Hole position of each tendon in its disk's frame, shape (n_tendons, 3) [m] (read-only)."""
+        return _derived(self, "holes", self._tendon_holes)
+
+    def _tendon_holes(self) -> np.ndarray:
         out = np.zeros((self.n_tendons, 3))
         for k, t in enumerate(self.tendons):
             out[k, 0] = t.radius * math.cos(t.angle)
             out[k, 1] = t.radius * math.sin(t.angle)
-        return _read_only(out)
+        return out
 
     def with_gravity(self, gravity: tuple[float, float, float] | None) -> Robot:
         """Copy with another gravity vector (``None`` or zeros: no gravity)."""

@@ -261,8 +261,8 @@ def newton(q, lam, m, atol, max_iter, max_dtheta, work, H, reuse, max_jac):
     backtracked on ||r||^2. Where the Newton direction fails on a fresh
     Jacobian (near a fold), Levenberg-Marquardt steps take over. A load step
     passes a small ``max_jac``: where it would need more exact Jacobians than
-    that (a fold is near, and Newton crawls), it fails at once and the caller
-    halves the step, instead of forcing its way with Levenberg-Marquardt.
+    that (a fold is near, and Newton crawls), it fails and the caller halves
+    the step, instead of forcing its way through many more.
     Returns ``(converged, max|r|, iterations, jacobian evaluations)``.
     """
     nq = q.shape[0]
@@ -559,7 +559,7 @@ _FOLD_H = 1e-4  # a load step this small that still fails: the branch ends (a fo
 _FOLLOW_THETA = 0.5  # a follower's step whose first Newton contraction is above this is too long: halved
 _FOLLOW_STEPS = 200  # load steps allowed to the follower between two folds
 _MAX_FOLDS = 6  # snap-throughs allowed on the way to full load
-_FLOW_STEPS = 300  # implicit Euler steps of one snap-through
+_FLOW_STEPS = 300  # implicit Euler steps of one snap-through (at most 6 max_iter: the user's cap holds here too)
 _FLOW_CAP = 1.0  # largest pseudo-time step while the flow's residual grows (the snap itself)
 
 
@@ -577,6 +577,8 @@ def _inverse(J, H):
 @njit(cache=True)
 def _det_sign(J):
     """The sign of det J (0 where singular or not finite)."""
+    if not np.all(np.isfinite(J)):
+        return 0.0
     s, ld = np.linalg.slogdet(J)
     return s if np.isfinite(ld) else 0.0
 
@@ -599,7 +601,7 @@ def _correct(q, lam, m, tol, max_iter, max_dtheta, work, max_theta):
     J = np.empty((nq, nq))
     H = np.empty((nq, nq))
     a = 1.0
-    theta = 1.0
+    theta = 0.0  # a start already in balance contracts at once
     njac = 0
     for it in range(max_iter):
         model_evaluate(q, lam, m, True, r, J, work)
@@ -627,13 +629,16 @@ def _correct(q, lam, m, tol, max_iter, max_dtheta, work, max_theta):
             if a < 1e-4:
                 return False, res, it + 1, njac, theta
         q[:] = qt
+        rn = _maxabs(rt)
+        if rn <= tol:  # in balance at the new point: no Jacobian to confirm it
+            return True, rn, it + 1, njac, theta
     model_evaluate(q, lam, m, False, r, J, work)
     res = _maxabs(r)
     return res <= tol, res, max_iter, njac, theta
 
 
 @njit(cache=True)
-def _follow(q, lam, m, atol, step_atol, max_dtheta, work, target):
+def _follow(q, lam, m, atol, step_atol, max_iter, max_dtheta, work, target):
     """Follow the branch of the equilibrium ``q`` (in place) at load factor ``lam`` towards lam = 1 in small load
     steps: the tangent dq/dlam as predictor, :func:`_correct` as corrector, steps aimed at ``target`` [rad] per
     subsegment and halved on a failed, slowly contracting or jumping step. Stops at lam = 1 or where a step of
@@ -668,7 +673,7 @@ def _follow(q, lam, m, atol, step_atol, max_dtheta, work, target):
             for u in range(nq):
                 qs[u] = q[u] + h * tan[u]
             tol = atol if lt >= 1.0 else max(atol, step_atol)
-            ok, res, it, ne, theta = _correct(qs, lt, m, tol, 12, max_dtheta, work, _FOLLOW_THETA)
+            ok, res, it, ne, theta = _correct(qs, lt, m, tol, min(12, max_iter), max_dtheta, work, _FOLLOW_THETA)
             iters += it
             njac += ne
             if ok and theta < _FOLLOW_THETA and _change(qs, q, m) <= max(_MAX_STEP_CHANGE, 2.0 * h * rate):
@@ -683,7 +688,7 @@ def _follow(q, lam, m, atol, step_atol, max_dtheta, work, target):
 
 
 @njit(cache=True)
-def _flow(q, lam, m, tol, max_dtheta, work, J0, H0, sign0):
+def _flow(q, lam, m, tol, max_iter, max_dtheta, work, J0, H0, sign0):
     """The snap-through: implicit Euler (in place) on the pseudo-time flow dq/dt = -J0^-1 r(q) at load factor
     ``lam``, ``J0`` the Jacobian at the start of the path (``H0`` its inverse).
 
@@ -710,7 +715,7 @@ def _flow(q, lam, m, tol, max_dtheta, work, J0, H0, sign0):
     falling = False
     dt = 1.0
     res = _maxabs(r)
-    for _ in range(_FLOW_STEPS):
+    for _ in range(min(_FLOW_STEPS, 6 * max_iter)):
         if res <= tol:
             if _det_sign(J) == sign0:
                 return True, res, iters, njac
@@ -741,7 +746,7 @@ def _flow(q, lam, m, tol, max_dtheta, work, J0, H0, sign0):
             dt = min(dt, _FLOW_CAP)
             if falling and res > tol:  # |J0^-1 r| had a local minimum at the last point: Newton from there
                 qtry[:] = qlow
-                ok, rt, it, ne, _th = _correct(qtry, lam, m, tol, 8, max_dtheta, work, np.inf)
+                ok, rt, it, ne, _th = _correct(qtry, lam, m, tol, min(8, max_iter), max_dtheta, work, np.inf)
                 iters += it
                 njac += ne
                 if ok:
@@ -758,7 +763,7 @@ def _flow(q, lam, m, tol, max_dtheta, work, J0, H0, sign0):
 
 
 @njit(cache=True)
-def snap_through(q, lam, m, atol, step_atol, max_dtheta, work, qbase, target):
+def snap_through(q, lam, m, atol, step_atol, max_iter, max_dtheta, work, qbase, target):
     """From the last equilibrium ``q`` (in place) of a loading path that stalled at load factor ``lam``, reach
     full load: follow the branch in small steps (:func:`_follow`, which also carries on where the stall was no
     fold but a Newton failure), and at each fold relax :data:`_SNAP_DLAM` past it (:func:`_flow`; the robot
@@ -780,7 +785,7 @@ def snap_through(q, lam, m, atol, step_atol, max_dtheta, work, qbase, target):
     sign0 = _det_sign(J0)
     qs = np.empty(nq)
     for _fold in range(_MAX_FOLDS + 1):
-        ok, lam, res, it, ne, st = _follow(q, lam, m, atol, step_atol, max_dtheta, work, target)
+        ok, lam, res, it, ne, st = _follow(q, lam, m, atol, step_atol, max_iter, max_dtheta, work, target)
         iters += it
         njac += ne
         steps += st
@@ -789,15 +794,15 @@ def snap_through(q, lam, m, atol, step_atol, max_dtheta, work, qbase, target):
         # a fold at lam: the robot snaps through to another equilibrium just past it
         lt = min(1.0, lam + _SNAP_DLAM)
         qs[:] = q
-        ok, res, it, ne = _flow(qs, lt, m, atol if lt >= 1.0 else max(atol, step_atol), max_dtheta, work, J0, H0,
-                                sign0)
+        tol = atol if lt >= 1.0 else max(atol, step_atol)
+        ok, res, it, ne = _flow(qs, lt, m, tol, max_iter, max_dtheta, work, J0, H0, sign0)
         iters += it
         njac += ne
         steps += 1
         if not ok and lt < 1.0:  # no settling near the fold: relax at full load
             lt = 1.0
             qs[:] = q
-            ok, res, it, ne = _flow(qs, lt, m, atol, max_dtheta, work, J0, H0, sign0)
+            ok, res, it, ne = _flow(qs, lt, m, atol, max_iter, max_dtheta, work, J0, H0, sign0)
             iters += it
             njac += ne
             steps += 1
@@ -877,6 +882,9 @@ def solve_one(q0, m, settings, work):
     start = q.copy()
     scale = settings.step_scale
     steps = 0
+    first = np.empty(nq)  # the first walk's answer, where it reached full load on the other sign of det J
+    first_res = np.inf
+    first_path = PATH_LOADING
     for attempt in range(2):
         q[:] = start
         ok, lam, res, it, ne, st, path, sign0 = _walk(q, m, settings, work, H, scale, cont, r_full)
@@ -884,6 +892,9 @@ def solve_one(q0, m, settings, work):
         nj += ne
         steps += st
         if attempt == 1:
+            if lam < 1.0 and first_res <= atol:  # the finer walk found no way: the first walk's answer stands
+                q[:] = first
+                ok, lam, res, path = True, 1.0, first_res, first_path
             break
         if lam >= 1.0:
             if path == PATH_SNAP or sign0 == 0.0:
@@ -895,6 +906,9 @@ def solve_one(q0, m, settings, work):
             nj += 1
             if _det_sign(J) == sign0:
                 break
+            first[:] = q
+            first_res = res
+            first_path = path
         scale *= 0.25  # stepped over a fold pair, or stalled with no way on: walk again in finer steps
     if lam < 1.0:
         # last resort: any equilibrium at full load, from the last equilibrium, then from q0
@@ -991,8 +1005,8 @@ def _walk(q, m, settings, work, H, scale, cont, r_full):
                     steps += st
                 else:
                     # a stall: follow the branch on in small steps to its fold, snap through, follow on
-                    ok, res, it, ne, st, turned = snap_through(qs, lam, m, atol, settings.step_atol, max_dtheta, work,
-                                                               q0, target)
+                    ok, res, it, ne, st, turned = snap_through(qs, lam, m, atol, settings.step_atol, max_iter,
+                                                               max_dtheta, work, q0, target)
                     steps += st
                     if not ok:  # relax at full load from the last equilibrium of the loading path
                         iters += it
