@@ -31,7 +31,7 @@ from scipy.optimize import minimize as sp_minimize
 from scipy.spatial import cKDTree
 
 from ..limits import check_memory
-from ..runtime import default_threads, worker_pool
+from ..runtime import default_threads, single_threaded_blas, worker_pool
 from ..statics import TIGHT_ATOL, check_resources
 from ._problem import INFEASIBLE_COST, ReachProblem
 from ._result import Optimum, ReachResult, SearchFailed
@@ -355,7 +355,9 @@ def _polish_many(problem: ReachProblem, starts: list[np.ndarray], q0: np.ndarray
         except SearchFailed:
             return None
 
-    with worker_pool(min(len(starts), default_threads())) as submit:
+    # BLAS on one thread for the whole pool: the gradients' LAPACK calls run outside the solvers' own limit, and
+    # whether another thread's solve held that limit at the time changed their last bits from run to run
+    with single_threaded_blas(), worker_pool(min(len(starts), default_threads())) as submit:
         futures = [submit(one, k) for k in range(len(starts))]
         results = [r for r in (f.result() for f in futures) if r is not None]
     if not results:

@@ -17,7 +17,15 @@ from ..loads import Loads
 from ..optimize import MemeticGA, ReachProblem, ReachResult, Termination, maximize_reach, polish_reach
 from ..paper import DEFAULT_BOUNDS, PAYLOAD_MASS, paper_bounds, paper_loads, payload_loads
 from ..plotting import plot_robot, save_figure
-from ..runtime import atomic_write_text, default_threads, output_folder, saving, worker_pool, write_json
+from ..runtime import (
+    atomic_write_text,
+    default_threads,
+    output_folder,
+    saving,
+    single_threaded_blas,
+    worker_pool,
+    write_json,
+)
 from ..statics import options_record, solve
 from ._output import inputs_record, load_arrows
 from ._report import reproduce_report
@@ -218,7 +226,9 @@ def _run_jobs(jobs: dict[str, _Job], s: ReproduceSettings, seed: int, note: Call
 
     order = sorted(jobs, key=lambda k: -jobs[k].pop)  # largest populations first
     done: dict[str, ReachResult] = {}
-    with worker_pool(min(2, default_threads())) as submit:  # Ctrl-C here stops the jobs too
+    # BLAS on one thread throughout: a job's gradients call LAPACK outside the solvers' own limit, and whether the
+    # other job's solve held that limit at the time changed their last bits from run to run
+    with single_threaded_blas(), worker_pool(min(2, default_threads())) as submit:  # Ctrl-C stops the jobs too
         futures = {k: submit(run, jobs[k]) for k in order}
         between()
         for k in order:
@@ -264,7 +274,7 @@ def _reproduce(robot: Robot, out: Path, seed: int, progress: Progress | None, s:
     ga = {pop: done[f"pop{pop}"] for pop in s.pops}
     pay = done["payload"]
     best = min(ga.values(), key=lambda r: r.cost)
-    with worker_pool(1) as submit:  # beside the bounds study: both mostly in compiled code
+    with single_threaded_blas(), worker_pool(1) as submit:  # beside the bounds study: both in compiled code
         later = submit(model_verdicts, robot, loaded.loads, bounds, best, models=s.verdict_models,
                        ga_pop=s.verdict_ga_pop, polish_iter=s.verdict_polish_iter, seed=seed)
         bound_study = _bounds_study(robot, jobs, done, ga, s)
