@@ -1,6 +1,7 @@
 """Where a cold solve's time goes, and whether warm starts could replace it (paper robot, paper load).
 
-The workspace's sampling speed is bound by the loading-path solve under the paper's load (README, "Speed").
+``--model``: ``pcc`` (default), ``pcc2`` or ``sscr``. The workspace's sampling speed is bound by the
+loading-path solve under the paper's load (README, "Speed").
 This script measures what a faster solver would have to attack:
 
 - kernel: one residual, one exact Jacobian and one inverse of it (the quasi-Newton's pieces) [us, medians];
@@ -13,15 +14,16 @@ This script measures what a faster solver would have to attack:
   of the change of the unknowns and of the neighbour's distance (is there a filter that finds the
   disagreeing ones?).
 
-Prints a summary, writes ``bench/results/solve_profile.json``; ``--json`` also prints it as the last line.
+Prints a summary, writes ``bench/results/solve_profile_<model>.json``; ``--json`` also prints it as the last line.
 
-Usage: python bench/solve_profile.py [--samples 1500] [--seed 0] [--json]
+Usage: python bench/solve_profile.py [--samples 1500] [--seed 0] [--model pcc] [--json]
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import replace
 
 import numpy as np
 from _common import write_result
@@ -29,11 +31,13 @@ from numba import njit
 from scipy.spatial import cKDTree
 
 from pytdcr.paper import paper_loads, paper_robot
-from pytdcr.statics import PATH_NAMES, SolverOptions, solve_batch, warmup
-from pytdcr.statics.kernels import pcc as K
+from pytdcr.statics import PATH_NAMES, solve_batch, warmup
 from pytdcr.statics.kernels import solver as SV
-from pytdcr.statics.pcc import PCC
+from pytdcr.statics.registry import get_model
 from pytdcr.statics.solver import case_tolerances, kernel_settings
+
+#: the models solved by the compiled solver (their kernels are timed here)
+COMPILED = ("pcc", "pcc2", "sscr")
 
 
 @njit(cache=False)
@@ -58,7 +62,8 @@ def kernel_costs(eq, q: np.ndarray) -> dict[str, float]:
     """One residual, one Jacobian, one inverse [us] at ``q``."""
     n = q.size
     r, J, J1 = np.empty(n), np.empty((n, n)), np.empty((1, 1))
-    work = K.make_work(eq.n_disks, eq.packed.holes.shape[0])
+    K = SV.KERNELS[type(eq.packed)]
+    work = K.make_model_work(eq.packed)
 
     def residuals(reps: int) -> None:
         for _ in range(reps):
@@ -74,11 +79,12 @@ def kernel_costs(eq, q: np.ndarray) -> dict[str, float]:
             "inverse_us": _per_call(lambda reps: _invert(J, reps), 500), "unknowns": n}
 
 
-def cold(eq, T: np.ndarray, tols: np.ndarray) -> tuple[dict, np.ndarray]:
-    """Solve every row of ``T`` on one thread, each to its tolerances ``tols`` (B, 2) [N m] as the library would;
-    returns the summary and the per-solve table."""
-    base = kernel_settings(SolverOptions())
-    work = K.make_work(eq.n_disks, eq.packed.holes.shape[0])
+def cold(eq, T: np.ndarray, tols: np.ndarray, options) -> tuple[dict, np.ndarray]:
+    """Solve every row of ``T`` on one thread, each to its tolerances ``tols`` (B, 2) [N m] as the library would
+    with ``options``; returns the summary and the per-solve table."""
+    base = kernel_settings(options)
+    K = SV.KERNELS[type(eq.packed)]
+    work = K.make_model_work(eq.packed)
     q0 = np.zeros(eq.n_unknowns)
     rows = []
     for t, (tol, step) in zip(T, tols, strict=True):
@@ -102,16 +108,17 @@ def cold(eq, T: np.ndarray, tols: np.ndarray) -> tuple[dict, np.ndarray]:
     return out, a
 
 
-def warm(robot, loads, T: np.ndarray, q: np.ndarray, tip: np.ndarray, ok: np.ndarray) -> dict:
+def warm(robot, loads, T: np.ndarray, q: np.ndarray, tip: np.ndarray, ok: np.ndarray, model: str) -> dict:
     """Warm starts of the second half of ``T`` from the nearest solved loading-path case of the first half."""
     half = len(T) // 2
     anchors = np.flatnonzero(ok[:half])
     targets = np.arange(half, len(T))
     dist, idx = cKDTree(T[anchors]).query(T[targets])
     nb = anchors[idx]
-    opts = SolverOptions(load_stepping="never")
+    opts = replace(get_model(model).default_options(), load_stepping="never")
     t0 = time.perf_counter()
-    w = solve_batch(robot, T[targets], loads, q0=q[nb].reshape(len(targets), -1, 3), options=opts)
+    w = solve_batch(robot, T[targets], loads, q0=q[nb].reshape(len(targets), -1, q.shape[1] // robot.n_disks),
+                    options=opts, model=model)
     sec = time.perf_counter() - t0
     both = w.converged & ok[targets]
     agree = np.linalg.norm(w.tip_position - tip[targets], axis=1) < 1e-6
@@ -133,21 +140,25 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=int, default=1500)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--model", default="pcc", choices=COMPILED)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     if not 20 <= args.samples <= 1_000_000:
         ap.error(f"--samples must be in [20, 1000000], got {args.samples}")
     warmup()
     robot, loads = paper_robot(), paper_loads()
-    eq = PCC.equations(robot, loads)
+    model = get_model(args.model)
+    options = model.default_options()
+    eq = model.equations(robot, loads, options)
     T = np.random.default_rng(args.seed).uniform(0.0, 20.0, (args.samples, robot.n_tendons))
-    summary, table = cold(eq, T, case_tolerances(robot, loads, T, SolverOptions().atol))
+    summary, table = cold(eq, T, case_tolerances(robot, loads, T, options.atol), options)
     ok = table[:, 1] == PATH_NAMES.index("loading")
-    cases = solve_batch(robot, T, loads)  # the same cold solves, for the unknowns and tips
+    cases = solve_batch(robot, T, loads, model=args.model)  # the same cold solves, for the unknowns and tips
     q_mid = cases.q[int(np.flatnonzero(ok)[0])].ravel()
-    result = {"samples": args.samples, "seed": args.seed, "kernel": kernel_costs(eq, q_mid), "cold": summary,
+    result = {"samples": args.samples, "seed": args.seed, "model": args.model, "kernel": kernel_costs(eq, q_mid),
+              "cold": summary,
               "warm": warm(robot, loads, T, cases.q.reshape(len(T), -1), cases.tip_position,
-                           ok & cases.converged)}
+                           ok & cases.converged, args.model)}
     k, c, w = result["kernel"], result["cold"], result["warm"]
     print(f"kernel ({k['unknowns']} unknowns): residual {k['residual_us']:.1f} us, Jacobian {k['jacobian_us']:.1f} "
           f"us, inverse {k['inverse_us']:.1f} us")
@@ -162,7 +173,7 @@ def main() -> None:
     for name, rows in w["filters"].items():
         print(f"  kept by {name}: " + ", ".join(f"{100 * r['kept']:.0f} % kept -> {100 * r['agreement']:.1f} %"
                                                 for r in rows))
-    write_result("solve_profile", result, args.json)
+    write_result(f"solve_profile_{args.model}", result, args.json)
 
 
 if __name__ == "__main__":
