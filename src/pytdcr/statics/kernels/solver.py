@@ -42,6 +42,7 @@ _MAX_STEP_CHANGE = 0.1  # [rad] largest bend/twist change of a subsegment in one
 _ARC_STEPS = 300  # pseudo-arclength steps allowed through a fold
 _STEP_JACOBIANS = 2  # exact Jacobians a load step may take before it is halved instead (a fold is near)
 _UNLIMITED = 1 << 30
+_WALKS = 3  # loading paths walked at most, each with load steps four times finer than the last
 
 
 
@@ -130,6 +131,11 @@ def model_with_tension(model, tension):  # pragma: no cover - compiled code only
     raise NotImplementedError
 
 
+def model_rest(model):  # pragma: no cover - compiled code only
+    """A packed model whose evaluation at load factor 0 is the unloaded robot (a :class:`Homotopy`'s start)."""
+    raise NotImplementedError
+
+
 @overload(model_evaluate)
 def _evaluate_impl(q, lam, model, want_jac, r, J, work):
     mod = _module_for(model)
@@ -176,6 +182,15 @@ def _tension_impl(model, tension):
     if mod is not None:
         kernel = mod.with_tension
         return lambda model, tension: kernel(model, tension)
+    return None
+
+
+@overload(model_rest)
+def _rest_impl(model):
+    if _module_for(model) is not None:
+        return lambda model: model
+    if _homotopy_module(model) is not None:
+        return lambda model: model.start
     return None
 
 
@@ -690,7 +705,7 @@ def _follow(q, lam, m, atol, step_atol, max_iter, max_dtheta, work, target):
 @njit(cache=True)
 def _flow(q, lam, m, tol, max_iter, max_dtheta, work, J0, H0, sign0):
     """The snap-through: implicit Euler (in place) on the pseudo-time flow dq/dt = -J0^-1 r(q) at load factor
-    ``lam``, ``J0`` the Jacobian at the start of the path (``H0`` its inverse).
+    ``lam``, ``J0`` the unloaded, straight robot's Jacobian (``H0`` its inverse).
 
     J0^-1 pairs each residual with the unknown it is conjugate to (the raw residual of the PCC models is the
     bending moment rotated by 90 degrees against (beta, gamma): a flow dq/dt = -D^-1 r with a diagonal D turns
@@ -763,18 +778,20 @@ def _flow(q, lam, m, tol, max_iter, max_dtheta, work, J0, H0, sign0):
 
 
 @njit(cache=True)
-def snap_through(q, lam, m, atol, step_atol, max_iter, max_dtheta, work, qbase, target):
+def snap_through(q, lam, m, atol, step_atol, max_iter, max_dtheta, work, target):
     """From the last equilibrium ``q`` (in place) of a loading path that stalled at load factor ``lam``, reach
     full load: follow the branch in small steps (:func:`_follow`, which also carries on where the stall was no
     fold but a Newton failure), and at each fold relax :data:`_SNAP_DLAM` past it (:func:`_flow`; the robot
     snaps through to a neighbouring stable equilibrium) and follow on from there; where that relaxation fails,
-    relax at full load. ``qbase`` is the start of the path (lam = 0), whose Jacobian weighs the flow.
+    relax at full load. The unloaded, straight robot's Jacobian (its elastic stiffness) weighs the flow, on a
+    continuation too: there the Jacobian at the start of the path carries the start's loads, and a flow weighed
+    by it can fail to settle where the elastic one settles at once.
     Returns ``(converged, max|r|, iterations, jacobian evaluations, steps, snapped)``."""
     nq = q.shape[0]
     r = np.empty(nq)
     J0 = np.empty((nq, nq))
     H0 = np.empty((nq, nq))
-    model_evaluate(qbase, 0.0, m, True, r, J0, work)
+    model_evaluate(np.zeros(nq), 0.0, model_rest(m), True, r, J0, work)
     iters = 0
     njac = 1
     steps = 0
@@ -854,7 +871,9 @@ def solve_one(q0, m, settings, work):
     with the sign of det J changed from its start's has stepped over a fold
     pair onto another branch (an odd number of real eigenvalues crossed zero:
     the robot could not have got there quasi-statically); it is walked again
-    with load steps four times finer; so is one that found no way to full load.
+    with load steps four times finer, and once more if that one ends on the
+    other sign too (at most :data:`_WALKS` walks); a first walk that found no
+    way to full load is walked again once.
     ``settings`` (:class:`Settings`) carries ``stepping`` and the tolerances. Returns an :class:`Outcome`.
     """
     atol, max_iter, max_dtheta, stepping = settings.atol, settings.max_iter, settings.max_dtheta, settings.stepping
@@ -882,22 +901,17 @@ def solve_one(q0, m, settings, work):
     start = q.copy()
     scale = settings.step_scale
     steps = 0
-    first = np.empty(nq)  # the first walk's answer, where it reached full load on the other sign of det J
-    first_res = np.inf
-    first_path = PATH_LOADING
-    for attempt in range(2):
+    kept = np.empty(nq)  # the last answer that reached full load on the other sign of det J
+    kept_res = np.inf
+    kept_path = PATH_LOADING
+    for attempt in range(_WALKS):
         q[:] = start
         ok, lam, res, it, ne, st, path, sign0 = _walk(q, m, settings, work, H, scale, cont, r_full)
         iters += it
         nj += ne
         steps += st
-        if attempt == 1:
-            if lam < 1.0 and first_res <= atol:  # the finer walk found no way: the first walk's answer stands
-                q[:] = first
-                ok, lam, res, path = True, 1.0, first_res, first_path
-            break
         if lam >= 1.0:
-            if path == PATH_SNAP or sign0 == 0.0:
+            if path == PATH_SNAP or sign0 == 0.0 or attempt == _WALKS - 1:
                 break
             # the branch reached must be the one the path started on: det J keeps its sign along it
             J = np.empty((nq, nq))
@@ -906,9 +920,14 @@ def solve_one(q0, m, settings, work):
             nj += 1
             if _det_sign(J) == sign0:
                 break
-            first[:] = q
-            first_res = res
-            first_path = path
+            kept[:] = q
+            kept_res = res
+            kept_path = path
+        elif attempt > 0:  # a finer walk found no way: the answer a coarser one reached (if any) stands
+            if kept_res <= atol:
+                q[:] = kept
+                ok, lam, res, path = True, 1.0, kept_res, kept_path
+            break
         scale *= 0.25  # stepped over a fold pair, or stalled with no way on: walk again in finer steps
     if lam < 1.0:
         # last resort: any equilibrium at full load, from the last equilibrium, then from q0
@@ -938,7 +957,6 @@ def _walk(q, m, settings, work, H, scale, cont, r_full):
     start)``."""
     atol, max_iter, max_dtheta = settings.atol, settings.max_iter, settings.max_dtheta
     nq = q.shape[0]
-    q0 = q.copy()
     iters = 0
     nj = 0
     path = PATH_CONTINUED if cont else PATH_LOADING
@@ -1006,7 +1024,7 @@ def _walk(q, m, settings, work, H, scale, cont, r_full):
                 else:
                     # a stall: follow the branch on in small steps to its fold, snap through, follow on
                     ok, res, it, ne, st, turned = snap_through(qs, lam, m, atol, settings.step_atol, max_iter,
-                                                               max_dtheta, work, q0, target)
+                                                               max_dtheta, work, target)
                     steps += st
                     if not ok:  # relax at full load from the last equilibrium of the loading path
                         iters += it
