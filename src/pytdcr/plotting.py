@@ -28,6 +28,7 @@ __all__ = [
     "new_3d_axes",
     "plot_convergence",
     "plot_model_overlay",
+    "plot_multistability",
     "plot_order",
     "plot_reach_samples",
     "plot_region_3d",
@@ -76,7 +77,9 @@ def save_figure(fig: Any, out: Path, stem: str) -> list[str]:
     list of str
         The file names written.
     """
-    # the tight bounding box is measured once (it costs a full draw) and used for both formats
+    # the tight bounding box is measured once and used for both formats, after a draw: a layout engine
+    # (constrained, tight) places the axes only when the figure is drawn, and a box measured before that clips
+    fig.canvas.draw()
     bbox = fig.get_tightbbox(fig.canvas.get_renderer()).padded(0.1)
     names = []
     for ext in ("png", "pdf"):
@@ -341,6 +344,37 @@ def plot_region_slices(regions: dict[str, Any], length: float, title: str = "") 
         axes[0].plot([], [], color=colours[k % len(colours)], linestyle=("-", "--", ":", "-.")[k % 4],
                      label=label + empty)
     axes[0].legend(loc="lower left", fontsize=8)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def plot_multistability(tips: np.ndarray, checked: np.ndarray, other: np.ndarray, distinct: np.ndarray,
+                        length: float, labels: tuple[str, str], title: str = "") -> Any:
+    """Where a region's equilibria depend on the robot's history: the region's tips ``tips`` (M, 3) [m] in grey,
+    the checked ones ``checked`` (K, 3) [m], and where the other history reaches another equilibrium
+    (``distinct`` (K,) of bool) both tips joined by a line, ``other`` (K, 3) [m] the other history's.
+    ``labels`` name the two histories (the region's, the other). Three projections (xz, yz, xy). Returns the
+    figure."""
+    plt = pyplot()
+    fig, axes = plt.subplots(1, 3, figsize=(15, 5.2), layout="constrained")
+    same = ~distinct
+    for ax, (u, v, name) in zip(axes, ((0, 2, "xz"), (1, 2, "yz"), (0, 1, "xy")), strict=True):
+        ax.scatter(tips[:, u], tips[:, v], s=2, color="0.8", label="region", rasterized=True)
+        ax.scatter(checked[same, u], checked[same, v], s=9, color="tab:blue", label="checked: the same equilibrium")
+        for a, b in zip(checked[distinct], other[distinct], strict=True):
+            ax.plot([a[u], b[u]], [a[v], b[v]], color="tab:red", linewidth=0.6)
+        ax.scatter(checked[distinct, u], checked[distinct, v], s=16, color="tab:red",
+                   label=f"another equilibrium: {labels[0]}")
+        ax.scatter(other[distinct, u], other[distinct, v], s=16, facecolors="none", edgecolors="tab:red",
+                   label=f"... and {labels[1]}")
+        ax.set_title(f"{name} projection")
+        ax.set_aspect("equal")
+        ax.set_xlim(-length, length)
+        ax.set_ylim(-length if v != 2 else -0.5 * length, length)
+        ax.set_xlabel("xyz"[u] + " [m]")
+        ax.set_ylabel("xyz"[v] + " [m]")
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", ncols=4, fontsize=9)
     if title:
         fig.suptitle(title)
     return fig
