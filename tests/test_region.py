@@ -153,7 +153,14 @@ def test_tdcr_workspace_writes_the_named_files(capsys, tmp_path):
     html = (out / "workspace.html").read_text()
     assert "plotly" in html and '<script src="http' not in html  # opens with no network
     assert summary["inputs"]["seed"] == 2 and summary["counts"]["by_source"]["sobol"] == 64
-    assert summary["warm_start"]["checked"] == 64  # every edge point is checked: the plan is small
+    # by default each sample is continued from a parent (samples.npz keeps them) and 200 are checked from rest
+    assert summary["equilibria"] == "continuation" and summary["warm_start"]["mode"] == "continuation"
+    ms = summary["multistability"]
+    assert ms["checked"] == 200 and 0 <= ms["distinct"] <= ms["checked"] and ms["other"] == "loading path from rest"
+    assert "multistability" in text and (out / "multistability.png").is_file()
+    with np.load(out / "samples.npz") as npz:
+        parent = npz["parent"]
+        assert parent.shape == npz["converged"].shape and np.all(parent < np.arange(parent.size))
     mesh = trimesh.load(out / "fsw.ply")
     assert mesh.is_watertight and abs(mesh.volume) > 0
     for name in ("fsw_realisable.ply", "samples.npz", "slices.png", "slices.pdf", "report.md", "support.csv",
@@ -163,6 +170,30 @@ def test_tdcr_workspace_writes_the_named_files(capsys, tmp_path):
     assert "FSW: volume" in text and "cm³" in text
     code = main(["workspace", "--voxel", "5", "--out", str(tmp_path / "bad")])
     assert code == 2 and "--voxel = 5: must be in" in capsys.readouterr().err
+
+
+def test_tdcr_workspace_equilibria_both_compares_the_two_regions(capsys, tmp_path):
+    import json
+
+    from pytdcr.cli import main
+
+    out = tmp_path / "both"
+    code = main(["workspace", "--bounds", "0,3", "--n", "64", "--seed", "2", "--no-gravity", "--budget", "100",
+                 "--directions", "0", "--equilibria", "both", "--out", str(out)])
+    text, err = capsys.readouterr()
+    assert code == 0, err
+    for kind, other, mode in (("continuation", "loading path from rest", ("continuation",)),
+                              ("loading-path", "continuation from the root", ("warm", "loading path"))):
+        summary = json.loads((out / kind.replace("-", "_") / "workspace.json").read_text())
+        assert summary["equilibria"] == kind and summary["warm_start"]["mode"] in mode
+        assert summary["multistability"]["other"] == other
+    rows = json.loads((out / "comparison.json").read_text())["cases"]
+    assert [r["case"] for r in rows] == ["continuation", "loading-path"] and all(r["volume_m3"] > 0 for r in rows)
+    code = main(["workspace", "--equilibria", "both", "--compare-loads", "--out", str(tmp_path / "no")])
+    assert code == 2 and "choose one comparison" in capsys.readouterr().err
+    code = main(["workspace", "--model", "cosserat", "--friction", "none", "--equilibria", "continuation", "--out",
+                 str(tmp_path / "no")])
+    assert code == 2 and "cannot continue" in capsys.readouterr().err
 
 
 def test_tension_step_stays_in_the_box_and_moves_the_tip_as_asked():
@@ -300,7 +331,7 @@ def test_the_largest_reach_follows_its_rule():
     assert set(numbers) == {"volume_m3", "volume_err_m3", "dimension", "measure", "largest_reach_m", "reach_rule",
                             "points", "volume", "realisable",
                             "voxel_m", "counts", "warm_start", "boundary_sources", "boundary_search", "support",
-                            "largest_reach", "seconds_sampling"}
+                            "largest_reach", "seconds_sampling", "equilibria", "multistability"}
     # each largest reach says what it is: searched only where the search gave it
     searched = {"search": "the reach search's optimum",
                 "support": "the farthest tip attaining h(d), farther than the reach search's optimum",

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 from typing import Any
 
 from ..paper import workspace_load_cases
@@ -29,6 +30,10 @@ from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK, CliError
 
 __all__ = ["add_parser", "run"]
 
+#: the region's equilibria (:data:`pytdcr.region.EQUILIBRIA`: the parser is built without importing the region
+#: package, so they are named here and a test checks them against the library's)
+EQUILIBRIA_CHOICES = ("continuation", "loading-path")
+
 
 def add_parser(sub: Any) -> None:
     """The ``workspace`` command and its options."""
@@ -46,6 +51,11 @@ def add_parser(sub: Any) -> None:
                     help="the boundary search's budget of solves [25 n]")
     ws.add_argument("--directions", type=count_type, default=200,
                     help="directions of the support function h(d) on a Fibonacci sphere; 0: none [200]")
+    ws.add_argument("--equilibria", choices=[*EQUILIBRIA_CHOICES, "both"], default=None,
+                    help="which equilibrium of a tension vector the region holds: 'continuation', the one the robot "
+                    "reaches from rest by quasi-static tension changes (each sample continued from a solved "
+                    "parent), 'loading-path', each solved from rest with every load ramped together (the paper's), "
+                    "or 'both' (one sub-folder each, compared) [continuation where the model can]")
     ws.add_argument("--compare-loads", action="store_true",
                     help="compare load cases: no load, gravity only, payloads 5/10/20 g, the paper's wrench, and "
                     "--tip-force/--tip-moment when given; one sub-folder each")
@@ -63,9 +73,13 @@ def _workspace_lines(name: str, s: dict[str, Any]) -> list[str]:
         out.append(f"    {label}: {format_measure_of(d)}, largest reach {reach}")
     c = s["counts"]
     search = s.get("boundary_search") or {}
-    out.append(f"    {c['converged']} of {c['solved']} converged, {c['unstable']} unstable; warm starts: "
-               f"{s['warm_start']['mode']}; boundary search: {search.get('solves', 0)} solves, "
-               f"{search.get('stop', 'off')}")
+    how = s["equilibria"] if s["equilibria"] == "continuation" else f"{s['equilibria']} ({s['warm_start']['mode']})"
+    out.append(f"    {c['converged']} of {c['solved']} converged, {c['unstable']} unstable; equilibria: {how}; "
+               f"boundary search: {search.get('solves', 0)} solves, {search.get('stop', 'off')}")
+    ms = s.get("multistability")
+    if ms and ms["checked"]:
+        out.append(f"    multistability: {ms['distinct']} of {ms['checked']} checked samples reach another equilibrium "
+                   f"by the {ms['other']} ({100 * ms['fraction']:.1f} %)")
     return out
 
 
@@ -81,10 +95,21 @@ def run(args: argparse.Namespace) -> int:
     m, options = model_spec(args).resolve(robot, loads)
     try:  # the settings check their ranges (the only place they live); the message names the option
         settings = WorkspaceSettings(n=args.n, seed=args.seed, voxel=args.voxel, warm=not args.no_warm,
-                                     search=not args.no_search, budget=args.budget,
-                                     directions=args.directions).check(robot)
+                                     search=not args.no_search, budget=args.budget, directions=args.directions,
+                                     equilibria=None if args.equilibria == "both" else args.equilibria
+                                     ).check(robot)
     except ValueError as err:
         raise CliError(f"--{err}") from None
+    if args.equilibria is not None:
+        from ..region import equilibria_for
+
+        for kind in EQUILIBRIA_CHOICES if args.equilibria == "both" else (args.equilibria,):
+            try:
+                equilibria_for(m, kind)
+            except ValueError as err:
+                raise CliError(f"--{err}") from None
+    if args.equilibria == "both" and args.compare_loads:
+        raise CliError("--equilibria both and --compare-loads: choose one comparison")
     bars = Bars()
     kw = {"model": m.name, "options": options,
           "run_options": WorkspaceRunOptions(command=" ".join(["tdcr", *sys.argv[1:]]), progress=bars)}
@@ -92,6 +117,9 @@ def run(args: argparse.Namespace) -> int:
         if args.compare_loads:
             cases = workspace_load_cases(robot, loads)
             res = run_workspace_compare(robot, cases, bounds, settings, out, **kw)
+        elif args.equilibria == "both":
+            both = {k: (robot, loads, replace(settings, equilibria=k)) for k in EQUILIBRIA_CHOICES}
+            res = run_workspace_compare(robot, both, bounds, settings, out, **kw)
         else:
             res = run_workspace(robot, loads, bounds, settings, out, **kw)
     finally:

@@ -6,6 +6,7 @@ what is physically realisable. :func:`workspace_study` does it all, from one :cl
 from ._compute import WorkspaceRegion, workspace_region
 from ._frontier import BoundarySearch, GrowthSettings, SearchRound, SearchState, grow_region, tension_step
 from ._grid import MIN_MESH_POINTS, Region, inside, region_from_points
+from ._history import Multistability, measure_multistability
 from ._plan import SOURCES, TensionPlan, plan_tensions
 from ._settings import (
     REACH_RULES,
@@ -14,7 +15,20 @@ from ._settings import (
     WorkspaceSettings,
     search_budget,
 )
-from ._solve import AGREEMENT_REQUIRED, RegionSamples, WarmStartCheck, WarmStarts, solve_plan, solves_needed
+from ._solve import (
+    AGREEMENT_REQUIRED,
+    EQUILIBRIA,
+    FIRST_WAVE,
+    ROOT,
+    RegionSamples,
+    WarmStartCheck,
+    WarmStarts,
+    continue_plan,
+    equilibria_for,
+    same_tip,
+    solve_plan,
+    solves_needed,
+)
 from ._study import Reach, WorkspaceStudy, workspace_study
 from ._support import (
     LargestReach,
@@ -26,10 +40,54 @@ from ._support import (
 )
 from ._volume import MEASURES, RegionDimension, VolumeEstimate, estimate_volume, nested_stages, region_dimension
 
-__all__ = ["AGREEMENT_REQUIRED", "MEASURES", "MIN_MESH_POINTS", "REACH_RULES", "SOURCES", "VOXELS_PER_LENGTH",
-           "BoundarySearch", "GrowthSettings", "LargestReach", "Reach", "Region", "RegionDimension", "RegionSamples",
-           "SearchRound", "SearchState", "SupportFunction", "SupportSettings", "TensionPlan", "VolumeEstimate",
-           "WarmStartCheck", "WarmStarts", "WorkspaceHooks", "WorkspaceRegion", "WorkspaceSettings", "WorkspaceStudy",
-           "estimate_volume", "fibonacci_directions", "grow_region", "inside", "largest_reach", "nested_stages",
-           "plan_tensions", "region_dimension", "region_from_points", "search_budget", "solve_plan", "solves_needed",
-           "support_function", "tension_step", "workspace_region", "workspace_study"]
+__all__ = [
+    "AGREEMENT_REQUIRED",
+    "EQUILIBRIA",
+    "FIRST_WAVE",
+    "MEASURES",
+    "MIN_MESH_POINTS",
+    "REACH_RULES",
+    "ROOT",
+    "SOURCES",
+    "VOXELS_PER_LENGTH",
+    "BoundarySearch",
+    "GrowthSettings",
+    "LargestReach",
+    "Multistability",
+    "Reach",
+    "Region",
+    "RegionDimension",
+    "RegionSamples",
+    "SearchRound",
+    "SearchState",
+    "SupportFunction",
+    "SupportSettings",
+    "TensionPlan",
+    "VolumeEstimate",
+    "WarmStartCheck",
+    "WarmStarts",
+    "WorkspaceHooks",
+    "WorkspaceRegion",
+    "WorkspaceSettings",
+    "WorkspaceStudy",
+    "continue_plan",
+    "equilibria_for",
+    "estimate_volume",
+    "fibonacci_directions",
+    "grow_region",
+    "inside",
+    "largest_reach",
+    "measure_multistability",
+    "nested_stages",
+    "plan_tensions",
+    "region_dimension",
+    "region_from_points",
+    "same_tip",
+    "search_budget",
+    "solve_plan",
+    "solves_needed",
+    "support_function",
+    "tension_step",
+    "workspace_region",
+    "workspace_study",
+]

@@ -13,9 +13,19 @@ from ..loads import Loads
 from ..statics import Model, check_resources, resolve
 from ._frontier import BoundarySearch, GrowthSettings, SearchRound, SearchState, grow_region
 from ._grid import Region
+from ._history import Multistability, measure_multistability
 from ._plan import plan_tensions
 from ._settings import VOXELS_PER_LENGTH, WorkspaceHooks, WorkspaceSettings, search_budget
-from ._solve import RegionSamples, WarmStarts, _Solver, solve_plan, solves_needed
+from ._solve import (
+    EQUILIBRIA,
+    RegionSamples,
+    WarmStarts,
+    _Solver,
+    continue_plan,
+    equilibria_for,
+    solve_plan,
+    solves_needed,
+)
 from ._volume import VolumeEstimate, estimate_volume
 
 __all__ = ["VOXELS_PER_LENGTH", "WorkspaceRegion", "search_budget", "workspace_region"]
@@ -37,6 +47,10 @@ class WorkspaceRegion:
         The regions at n (occupancy grids; ``.mesh()`` for the boundary).
     search : BoundarySearch or None
         What the boundary search did (None when it was off).
+    equilibria : str
+        Which equilibria the region holds (:data:`~pytdcr.region.EQUILIBRIA`).
+    multistability : Multistability or None
+        Samples solved along the other history and compared (None when not measured).
     """
 
     samples: RegionSamples
@@ -46,6 +60,8 @@ class WorkspaceRegion:
     fsw_region: Region
     realisable_region: Region
     search: BoundarySearch | None
+    equilibria: str = EQUILIBRIA[1]
+    multistability: Multistability | None = None
 
 
 def _tail(rounds: list[SearchRound], key: str, voxel: float) -> float:
@@ -91,12 +107,16 @@ def workspace_region(robot: Robot, loads: Loads, bounds: TensionBounds, settings
     used here).
 
     ``settings.n`` scrambled Sobol tension vectors (``settings.seed``) and the box's corners and edges are
-    solved (:func:`solve_plan`, with checked warm starts when ``settings.warm``); with ``settings.search``, the
-    boundary search (:func:`grow_region`) then grows the region at n/4, n/2 and n base samples in turn, within
+    solved: by default each continued from a solved parent (:func:`continue_plan`; ``settings.equilibria``,
+    :func:`~pytdcr.region.equilibria_for`), or from rest along the loading path (:func:`solve_plan`, with
+    checked warm starts when ``settings.warm``); with ``settings.search``, the boundary search
+    (:func:`grow_region`) then grows the region at n/4, n/2 and n base samples in turn, within
     ``settings.search_budget`` solves (default 25 n), until a round adds less than ``settings.tol`` of the
-    voxels. The search's steps follow the loading path: warm starts from the equilibria they step from agree
-    with it on only about 91 % of a checked subset on the paper's case (the boundary lies near folds), so
-    checking them costs more than it saves (``GrowthSettings(warm=True)`` to try). The volume at each size by
+    voxels. Each search step is continued from the sample
+    it steps from in a continued region; in a loading-path region it follows the loading path (warm starts
+    from the equilibria they step from agree with it on only about 91 % of a checked subset on the paper's
+    case: the boundary lies near folds). ``settings.multistability`` of the region's samples are then solved
+    along the other history (:func:`~pytdcr.region.measure_multistability`). The volume at each size by
     two estimators gives the error (:func:`estimate_volume`), widened by the growth still expected when the
     budget stopped the search.
 
@@ -110,18 +130,26 @@ def workspace_region(robot: Robot, loads: Loads, bounds: TensionBounds, settings
     m, opts = resolve(model, robot, loads, options)
     voxel = s.voxel_for(robot)
     plan = plan_tensions(bounds, s.n, s.seed)
-    warm = WarmStarts(seed=s.seed) if s.warm else False
+    kind = equilibria_for(m, s.equilibria)
+    warm = WarmStarts(seed=s.seed) if s.warm and kind == EQUILIBRIA[1] else False
     step = hooks.progress("sampling", solves_needed(plan, warm)) if hooks.progress else None
-    samples = solve_plan(robot, loads, plan, model=m, options=opts, threads=s.threads, warm=warm, progress=step)
+    if kind == EQUILIBRIA[0]:
+        samples = continue_plan(robot, loads, plan, model=m, options=opts, threads=s.threads, progress=step)
+    else:
+        samples = solve_plan(robot, loads, plan, model=m, options=opts, threads=s.threads, warm=warm, progress=step)
     if hooks.checkpoint is not None:
         hooks.checkpoint(samples)
-    record = None
+    record, history = None, None
+    solver = _Solver(robot, loads.with_tensions(np.zeros(robot.n_tendons)), m, opts, s.threads, None,
+                     bool(m.capabilities.stability))
     if s.search:
         check_resources(m, robot, opts)
-        stability = bool(m.capabilities.stability)
-        solver = _Solver(robot, loads.with_tensions(np.zeros(robot.n_tendons)), m, opts, s.threads, None, stability)
         growth = GrowthSettings(tol=s.tol, budget=s.search_budget, warm=False, seed=s.seed)
         samples, record = _search(solver, samples, bounds, voxel, growth, hooks)
+    if s.multistability:
+        total = min(s.multistability, int(samples.feasible.sum()))
+        solver.progress = hooks.progress("multistability", total) if hooks.progress else None
+        history = measure_multistability(solver, samples, s.multistability, s.seed)
     # the tip is a smooth function of the tensions: k free tensions span at most k dimensions
     free = min(3, int(np.sum(bounds.upper > bounds.lower)))
     estimates = []
@@ -132,4 +160,4 @@ def workspace_region(robot: Robot, loads: Loads, bounds: TensionBounds, settings
             est = est.with_search_tail(_tail(list(record.rounds), key, voxel))
         estimates.append((est, region))
     (fsw, fsw_region), (real, real_region) = estimates
-    return WorkspaceRegion(samples, voxel, fsw, real, fsw_region, real_region, record)
+    return WorkspaceRegion(samples, voxel, fsw, real, fsw_region, real_region, record, kind, history)

@@ -54,8 +54,9 @@ class SearchRound:
         The realisable region's, likewise.
     seconds : float
     warm : str
-        How the steps were solved: ``"warm"`` (from the sample they step from, kept because a checked subset
-        agreed with the loading path) or ``"loading path"``.
+        How the steps were solved: ``"continuation"`` (continued from the sample they step from, in a region of
+        continued samples), ``"warm"`` (from the sample they step from, kept because a checked subset agreed with
+        the loading path) or ``"loading path"``.
     checked, agreed : int
         The round's checked subset (solved both ways) and how many reached the same equilibrium.
     """
@@ -229,20 +230,26 @@ def _steps(solver: _Solver, samples: RegionSamples, rows: np.ndarray, faces: np.
     return out
 
 
-def _solved(solver: _Solver, T: np.ndarray, q0: np.ndarray | None, stage: int, check: int,
-            seed: int) -> tuple[RegionSamples, WarmStartCheck]:
-    """Solve the search's tension vectors: warm from the samples they step from (``q0``) when a random subset
-    of ``check`` of them, solved both ways, agrees with the loading path (:func:`solve_plan`'s rule), else
-    along the loading path."""
+def _solved(solver: _Solver, samples: RegionSamples, T: np.ndarray, parents: np.ndarray, warm: bool, stage: int,
+            check: int, seed: int) -> tuple[RegionSamples, WarmStartCheck]:
+    """Solve the search's tension vectors ``T``, each a step from the sample ``parents[k]``: continued from it
+    where ``samples`` are continued samples (they have parents); otherwise warm from it (``warm``) when a
+    random subset of ``check`` of them, solved both ways, agrees with the loading path (:func:`solve_plan`'s
+    rule), else along the loading path."""
     t0 = time.perf_counter()
-    if q0 is None or check == 0:
+    parent = None
+    if samples.parent is not None:
+        got = solver.solve(T, start=samples.start_batch(parents, solver.loads, solver.model.name))
+        report, parent = WarmStartCheck("continuation"), parents.astype(np.int64)
+    elif not warm or check == 0:
         got, report = solver.solve(T), WarmStartCheck("loading path")
     else:
-        got, report = _checked(solver, T, q0, check, seed, 0)
+        assert samples.q is not None
+        got, report = _checked(solver, T, samples.q[parents], check, seed, 0)
     return RegionSamples(T, np.full(T.shape[0], SEARCH, dtype=np.int8), got["tip_position"], got["converged"],
                          got["stable"], got["below_base"], got["disks_touch"], 0, seconds=time.perf_counter() - t0,
-                         q=got["q"], stage=np.full(T.shape[0], stage, dtype=np.int8),
-                         curvature=got["curvature"]), report
+                         q=got["q"], stage=np.full(T.shape[0], stage, dtype=np.int8), curvature=got["curvature"],
+                         parent=parent, residual=got["residual"], atol=got["atol"]), report
 
 
 def _voxels(samples: RegionSamples, mask: np.ndarray, voxel: float) -> int:
@@ -289,8 +296,7 @@ def grow_region(solver: _Solver, samples: RegionSamples, bounds: TensionBounds, 
         T = _steps(solver, samples, rows, faces, bounds, g.step * voxel)
         ok = np.all(np.isfinite(T), axis=1)
         parents, T = rows[ok][: max(0, g.budget - spent)], T[ok][: max(0, g.budget - spent)]
-        assert samples.q is not None
-        new, report = _solved(solver, T, samples.q[parents] if g.warm else None, stage, g.check,
+        new, report = _solved(solver, samples, T, parents, g.warm, stage, g.check,
                               int(np.random.SeedSequence([g.seed, stage, k]).generate_state(1)[0]))
         spent += T.shape[0]
         samples = samples.joined(new)

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..limits import ResourceLimitError, check_memory
 from ..validate import check_count, show
+from ._solve import EQUILIBRIA
 from ._support import fibonacci_directions
 
 if TYPE_CHECKING:
@@ -20,8 +21,8 @@ if TYPE_CHECKING:
     from ._frontier import SearchRound
     from ._solve import RegionSamples
 
-__all__ = ["MAX_DIRECTIONS", "MIN_VOXEL", "REACH_RULES", "SEARCH_SOLVES_PER_SAMPLE", "VOXELS_PER_LENGTH",
-           "Progress", "WorkspaceHooks", "WorkspaceSettings", "search_budget"]
+__all__ = ["MAX_DIRECTIONS", "MIN_VOXEL", "MULTISTABILITY_CHECK", "REACH_RULES", "SEARCH_SOLVES_PER_SAMPLE",
+           "VOXELS_PER_LENGTH", "Progress", "WorkspaceHooks", "WorkspaceSettings", "search_budget"]
 
 #: voxels per robot length by default (12.5 mm for the paper robot's 0.4 m)
 VOXELS_PER_LENGTH = 32
@@ -33,6 +34,8 @@ SEARCH_SOLVES_PER_SAMPLE = 25
 MAX_DIRECTIONS = 100_000
 #: how the largest reach is chosen (:attr:`WorkspaceSettings.reach`)
 REACH_RULES = ("search", "farthest", "support", "samples")
+#: samples of a region also solved the other way to measure its multistability, by default
+MULTISTABILITY_CHECK = 200
 
 #: ``progress(stage, total)`` returns a callable advanced by the work done (total None: unknown)
 Progress = Callable[[str, "int | None"], Callable[[int], None]]
@@ -127,6 +130,17 @@ class WorkspaceSettings:
     threads : int or None
         Threads of the solves and searches, >= 1 (default: the cores this process may use); the results do not
         depend on them.
+    equilibria : str or None
+        Which equilibrium of a tension vector the region holds (:data:`pytdcr.region.EQUILIBRIA`):
+        ``"continuation"``, the one the robot reaches from rest by quasi-static tension changes (each sample
+        continued from a solved parent; the boundary search's steps from the samples they step from), or
+        ``"loading-path"``, each tension vector solved from rest with every load ramped together (the paper's).
+        None (default): ``"continuation"`` where the model can continue a solved state, else ``"loading-path"``.
+        ``warm`` applies to ``"loading-path"`` only.
+    multistability : int
+        Samples of the region also solved the other way (from rest along the loading path for a continued
+        region; continued from the root for a loading-path one) to measure how often the equilibrium depends
+        on the history, in [0, 100000] (0: not measured; fewer when the region has fewer).
     """
 
     n: int = 4000
@@ -139,6 +153,8 @@ class WorkspaceSettings:
     directions: int | tuple[tuple[float, float, float], ...] = 200
     reach: str = "search"
     threads: int | None = None
+    equilibria: str | None = None
+    multistability: int = MULTISTABILITY_CHECK
 
     def __post_init__(self) -> None:
         put = object.__setattr__
@@ -159,6 +175,10 @@ class WorkspaceSettings:
             raise ValueError(f"reach = {show(self.reach)}: must be one of {', '.join(map(repr, REACH_RULES))}")
         if self.threads is not None:
             put(self, "threads", check_count(self.threads, "threads", lo=1))
+        if self.equilibria is not None and self.equilibria not in EQUILIBRIA:
+            raise ValueError(f"equilibria = {show(self.equilibria)}: must be one of {', '.join(map(repr, EQUILIBRIA))}"
+                             " or None (continuation where the model can)")
+        put(self, "multistability", check_count(self.multistability, "multistability", lo=0, hi=100_000))
 
     def check(self, robot: Robot) -> WorkspaceSettings:
         """These settings if they suit ``robot``, before any work: the voxel lies in [0.0001, the robot's length]

@@ -21,8 +21,22 @@ from ..statics import Model, check_resources, resolve, solve_batch
 from ..validate import check_count
 from ._plan import TensionPlan
 
-__all__ = ["AGREEMENT_REQUIRED", "SAME_TIP", "SAME_TIP_LENGTH", "RegionSamples", "WarmStartCheck", "WarmStarts",
-           "plan_stages", "same_tip", "solve_plan", "solves_needed"]
+__all__ = [
+    "AGREEMENT_REQUIRED",
+    "EQUILIBRIA",
+    "FIRST_WAVE",
+    "ROOT",
+    "SAME_TIP",
+    "SAME_TIP_LENGTH",
+    "RegionSamples",
+    "WarmStartCheck",
+    "WarmStarts",
+    "equilibria_for",
+    "plan_stages",
+    "same_tip",
+    "solve_plan",
+    "solves_needed",
+]
 
 #: the share of checked warm starts that must land on the loading path's equilibrium for warm starts to be used
 AGREEMENT_REQUIRED = 0.999
@@ -36,6 +50,14 @@ SAME_TIP_LENGTH = 0.4
 BLOCK = 512
 #: warm-started samples also solved along the loading path, by default
 CHECK = 1000
+#: which equilibria a region holds: ``"continuation"`` those the robot reaches from rest by quasi-static tension
+#: paths (each sample continued from a solved parent), ``"loading-path"`` each tension vector's equilibrium
+#: reached from rest with every load ramped together (the paper's)
+EQUILIBRIA = ("continuation", "loading-path")
+#: the parent of a sample continued from the root: zero tension under the load, solved from rest
+ROOT = -1
+#: the size of the first wave of continued samples (each wave doubles the samples solved before it)
+FIRST_WAVE = 32
 
 
 @dataclass(frozen=True)
@@ -130,6 +152,13 @@ class RegionSamples:
     curvature : ndarray, shape (M,), or None
         The largest bending curvature of any subsegment [1/m] (:func:`pytdcr.contact.bending_curvature`); NaN
         where not converged. The backbone's peak bending stress is ``E * curvature * outer radius``.
+    parent : ndarray of int64, shape (M,), or None
+        Continued samples (:data:`EQUILIBRIA` ``"continuation"``): the row each was continued from along the
+        straight segment in tension space, :data:`ROOT` (-1) for the root (zero tension, solved from rest);
+        None for samples each solved from rest.
+    residual, atol : ndarray, shape (M,), or None
+        Each solve's max |residual| and the tolerance it was judged by [N m] (what a continuation from the
+        sample checks).
     """
 
     tensions: np.ndarray
@@ -145,6 +174,9 @@ class RegionSamples:
     q: np.ndarray | None = None
     stage: np.ndarray | None = None
     curvature: np.ndarray | None = None
+    parent: np.ndarray | None = None
+    residual: np.ndarray | None = None
+    atol: np.ndarray | None = None
 
     @property
     def feasible(self) -> np.ndarray:
@@ -157,27 +189,48 @@ class RegionSamples:
         return self.feasible & ~self.below_base & ~self.disks_touch
 
     def take(self, rows: np.ndarray) -> RegionSamples:
-        """The samples at ``rows`` (indices or a mask); ``n_base`` counts the Sobol rows kept."""
+        """The samples at ``rows`` (indices or a mask); ``n_base`` counts the Sobol rows kept. Parents are
+        renumbered to the rows kept; a parent left out becomes -2 (the path cannot be replayed from the subset)."""
         idx = np.arange(self.source.size)[rows]
+        parent = None
+        if self.parent is not None:
+            where = np.full(self.source.size, -2, dtype=np.int64)
+            where[idx] = np.arange(idx.size)
+            p = self.parent[idx]
+            parent = np.where(p >= 0, where[np.maximum(p, 0)], p)
+
+        def pick(a: np.ndarray | None) -> np.ndarray | None:
+            return None if a is None else a[idx]
+
         return RegionSamples(self.tensions[idx], self.source[idx], self.tip_position[idx], self.converged[idx],
                              self.stable[idx], self.below_base[idx], self.disks_touch[idx],
-                             int(np.sum(self.source[idx] == 0)), self.warm, self.seconds,
-                             None if self.q is None else self.q[idx],
-                             None if self.stage is None else self.stage[idx],
-                             None if self.curvature is None else self.curvature[idx])
+                             int(np.sum(self.source[idx] == 0)), self.warm, self.seconds, pick(self.q),
+                             pick(self.stage), pick(self.curvature), parent, pick(self.residual), pick(self.atol))
 
     def joined(self, other: RegionSamples) -> RegionSamples:
-        """These samples followed by ``other``'s (unknowns and stages kept when both have them)."""
-        cat = np.concatenate
-        q = cat([self.q, other.q]) if self.q is not None and other.q is not None else None
-        stage = cat([self.stage, other.stage]) if self.stage is not None and other.stage is not None else None
-        kappa = (cat([self.curvature, other.curvature])
-                 if self.curvature is not None and other.curvature is not None else None)
-        return RegionSamples(cat([self.tensions, other.tensions]), cat([self.source, other.source]),
-                             cat([self.tip_position, other.tip_position]), cat([self.converged, other.converged]),
-                             cat([self.stable, other.stable]), cat([self.below_base, other.below_base]),
-                             cat([self.disks_touch, other.disks_touch]), self.n_base + other.n_base, self.warm,
-                             self.seconds + other.seconds, q, stage, kappa)
+        """These samples followed by ``other``'s (unknowns, stages, parents and residuals kept when both have
+        them; ``other``'s parents number the rows of the joined samples)."""
+
+        def cat(a: np.ndarray | None, b: np.ndarray | None) -> np.ndarray | None:
+            return np.concatenate([a, b]) if a is not None and b is not None else None
+
+        return RegionSamples(cat(self.tensions, other.tensions), cat(self.source, other.source),
+                             cat(self.tip_position, other.tip_position), cat(self.converged, other.converged),
+                             cat(self.stable, other.stable), cat(self.below_base, other.below_base),
+                             cat(self.disks_touch, other.disks_touch), self.n_base + other.n_base, self.warm,
+                             self.seconds + other.seconds, cat(self.q, other.q), cat(self.stage, other.stage),
+                             cat(self.curvature, other.curvature), cat(self.parent, other.parent),
+                             cat(self.residual, other.residual), cat(self.atol, other.atol))
+
+    def start_batch(self, rows: np.ndarray, loads: Loads, model: str) -> BatchSolution:
+        """The samples at ``rows`` (indices) as a batch a continuation starts from (``solve_batch(...,
+        start=...)``), solved by ``model`` under ``loads`` (their tensions are the rows')."""
+        if self.q is None or self.residual is None or self.atol is None:
+            raise ValueError("these samples keep no unknowns and residuals: they cannot be continued from")
+        idx = np.asarray(rows, dtype=np.int64)
+        kept = {"converged": self.converged, "residual": self.residual, "q": self.q,
+                "tip_position": self.tip_position, "atol": self.atol}
+        return _batch_of(kept, self.tensions, idx, loads, model)
 
 
 @dataclass
@@ -192,10 +245,12 @@ class _Solver:
     progress: Callable[[int], None] | None
     stability: bool
 
-    def batch(self, tensions: np.ndarray, q0: np.ndarray | None = None, options: Any = None) -> BatchSolution:
-        """One solve_batch call on ``tensions`` (B, n_tendons)."""
+    def batch(self, tensions: np.ndarray, q0: np.ndarray | None = None, options: Any = None,
+              start: BatchSolution | None = None) -> BatchSolution:
+        """One solve_batch call on ``tensions`` (B, n_tendons), from rest, warm from ``q0`` or continued from
+        ``start``'s rows."""
         return solve_batch(self.robot, tensions, self.loads, model=self.model, options=options or self.options,
-                           q0=q0, threads=self.threads)
+                           q0=q0, threads=self.threads, start=start)
 
     def keep(self, b: BatchSolution) -> dict[str, np.ndarray]:
         """The tips, flags and unknowns of a solved block."""
@@ -207,18 +262,23 @@ class _Solver:
         q[~ok] = np.nan
         kappa = bending_curvature(rot, self.robot.subsegment_lengths).max(axis=1)
         kappa[~ok] = np.nan
+        atol = np.full(ok.shape, np.nan) if b.atol is None else np.asarray(b.atol, dtype=float)
         return {"tip_position": b.tip_position, "converged": ok, "stable": stable, "q": q, "curvature": kappa,
-                "plain": np.asarray(b.path == "loading", dtype=bool),
+                "plain": np.asarray(b.path == "loading", dtype=bool), "residual": np.asarray(b.residual, float),
+                "atol": atol,
                 "below_base": disks_below_base(pos, rot, r) & ok, "disks_touch": disks_touch(pos, rot, r) & ok}
 
-    def solve(self, tensions: np.ndarray, q0: np.ndarray | None = None) -> dict[str, np.ndarray]:
-        """Every row in blocks, warm from ``q0`` (per row) when given."""
+    def solve(self, tensions: np.ndarray, q0: np.ndarray | None = None,
+              start: BatchSolution | None = None) -> dict[str, np.ndarray]:
+        """Every row in blocks, warm from ``q0`` (per row) or continued from ``start`` (its row b to row b of
+        ``tensions``) when given."""
         parts = []
-        for start in range(0, tensions.shape[0], BLOCK):
-            stop = min(start + BLOCK, tensions.shape[0])
-            parts.append(self.keep(self.batch(tensions[start:stop], None if q0 is None else q0[start:stop])))
+        for first in range(0, tensions.shape[0], BLOCK):
+            stop = min(first + BLOCK, tensions.shape[0])
+            parts.append(self.keep(self.batch(tensions[first:stop], None if q0 is None else q0[first:stop],
+                                              start=None if start is None else start.rows(slice(first, stop)))))
             if self.progress is not None:
-                self.progress(stop - start)
+                self.progress(stop - first)
         if not parts:  # no rows: the same keys, empty (a search round whose steps all left the box)
             return self.keep(self.batch(tensions, q0))
         return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
@@ -271,27 +331,131 @@ def solves_needed(plan: TensionPlan, warm: bool | WarmStarts = True) -> int:
     return plan.tensions.shape[0] + (min(how.check, rest) if how is not None and rest > 0 else 0)
 
 
-def solve_plan(robot: Robot, loads: Loads, plan: TensionPlan, *, model: str | Model = "pcc", options: Any = None,
-               threads: int | None = None, warm: bool | WarmStarts = True,
-               progress: Callable[[int], None] | None = None) -> RegionSamples:
-    """Solve every tension vector of ``plan`` under ``loads`` and test each equilibrium.
+def equilibria_for(model: Model, equilibria: str | None) -> str:
+    """The :data:`EQUILIBRIA` a region of ``model`` holds: ``equilibria`` (checked), or by default
+    ``"continuation"`` where the model can continue a solved state, else ``"loading-path"``."""
+    if equilibria is None:
+        return EQUILIBRIA[0] if model.capabilities.continuation else EQUILIBRIA[1]
+    if equilibria not in EQUILIBRIA:
+        raise ValueError(f"equilibria must be one of {', '.join(EQUILIBRIA)}, got {equilibria!r}")
+    if equilibria == EQUILIBRIA[0] and not model.capabilities.continuation:
+        raise ValueError(f"equilibria: model '{model.name}' cannot continue a solved state; use 'loading-path'")
+    return equilibria
 
-    With ``warm`` (True, or :class:`WarmStarts` for its check), an eighth of the Sobol points (at least 64)
-    are solved along the loading path first; the rest start from the nearest of them (in tension space scaled
-    by the plan's bounds) that reached its equilibrium without a fold. Before they are used, a random subset of
-    ``warm.check`` warm-started samples (``warm.seed``) is solved both ways: warm starts are kept only if at
-    least :data:`AGREEMENT_REQUIRED` of them agree, otherwise every sample follows the loading path. Without
-    ``warm``, every sample follows the loading path. Neighbours and the subset do not depend on ``threads``, so
-    neither do the results. ``progress`` is advanced by the solves done (:func:`solves_needed` in all).
+
+def _waves(m: int) -> list[tuple[int, int]]:
+    """Rows [a, b) solved together: :data:`FIRST_WAVE`, then each wave as many as were solved before it."""
+    out, a = [], 0
+    while a < m:
+        b = min(m, max(a + FIRST_WAVE, 2 * a))
+        out.append((a, b))
+        a = b
+    return out
+
+
+def _continued(solver: _Solver, T: np.ndarray, bounds: TensionBounds) -> tuple[dict[str, np.ndarray], np.ndarray]:
+    """Every row of ``T`` (M, n_tendons) continued from a parent (see :func:`solve_plan`); returns what
+    :meth:`_Solver.keep` keeps, row by row, and the parents (:data:`ROOT` for the root; -2 where there was no
+    stable equilibrium to continue from)."""
+    nt = T.shape[1]
+    root = solver.keep(solver.batch(np.zeros((1, nt))))
+    # internal rows: 0 the root, k + 1 the plan's row k
+    store = {k: np.concatenate([v, np.full((T.shape[0], *v.shape[1:]), _blank(v.dtype), dtype=v.dtype)])
+             for k, v in root.items()}
+    tensions = np.concatenate([np.zeros((1, nt)), T])
+    parent = np.full(T.shape[0], -2, dtype=np.int64)
+    usable = np.zeros(T.shape[0] + 1, dtype=bool)
+    usable[0] = bool(root["converged"][0] and root["stable"][0] != 0.0)
+    scale = bounds.span
+    for a, b in _waves(T.shape[0]):
+        pool = np.flatnonzero(usable)
+        if pool.size == 0:
+            if solver.progress is not None:
+                solver.progress(b - a)
+            continue
+        _, near = cKDTree(tensions[pool] / scale).query(T[a:b] / scale)
+        p = pool[near]
+        start = _batch_of(store, tensions, p, solver.loads, solver.model.name)
+        got = solver.solve(T[a:b], start=start)
+        for k, v in got.items():
+            store[k][a + 1:b + 1] = v
+        parent[a:b] = p - 1
+        usable[a + 1:b + 1] = got["converged"] & (got["stable"] != 0.0)
+    return {k: v[1:] for k, v in store.items()}, parent
+
+
+def _blank(dtype: np.dtype) -> Any:
+    """What an unsolved row holds: NaN, False or 0."""
+    if np.issubdtype(dtype, np.floating):
+        return np.nan
+    return False if np.issubdtype(dtype, np.bool_) else 0
+
+
+def _batch_of(store: dict[str, np.ndarray], tensions: np.ndarray, rows: np.ndarray, loads: Loads,
+              model: str) -> BatchSolution:
+    """The solved rows ``rows`` of ``store`` (:meth:`_Solver.keep`'s arrays: converged, residual, q,
+    tip_position, atol) at ``tensions``, solved by ``model`` under ``loads``, as a batch to continue from."""
+    return BatchSolution(tensions=tensions[rows], converged=store["converged"][rows],
+                         residual=store["residual"][rows], iterations=np.zeros(rows.size, dtype=np.int64),
+                         q=store["q"][rows], tip_position=store["tip_position"][rows], seconds=0.0,
+                         path=np.full(rows.size, "", dtype=object), model=model, atol=store["atol"][rows],
+                         loads=loads)
+
+
+def continue_plan(robot: Robot, loads: Loads, plan: TensionPlan, *, model: str | Model = "pcc",
+                  options: Any = None, threads: int | None = None,
+                  progress: Callable[[int], None] | None = None) -> RegionSamples:
+    """Solve every tension vector of ``plan`` under ``loads`` as the robot reaches it from rest by quasi-static
+    tension changes (:data:`EQUILIBRIA` ``"continuation"``), and test each equilibrium.
+
+    The root, zero tension under the load, is solved from rest (every load ramped together); the plan's rows are
+    then solved in waves (:data:`FIRST_WAVE` rows, then each wave as many as were solved before it), each row
+    continued from its parent, the nearest stable equilibrium solved in an earlier wave or the root (in tension
+    space scaled by the bounds' span; ties to the lower row), along the straight segment between their
+    tensions (following the branch, snapping where it folds). ``parent`` records it, so that any row can be
+    replayed; waves and parents do not depend on ``threads``, nor do the results. ``progress`` is advanced by
+    the rows solved. The model must continue solved states (:func:`equilibria_for`).
     """
-    how = _warm_starts(warm)
-    m, opts = resolve(model, robot, loads, options)
+    m, opts = resolve(model, robot, loads, options, continuation=True)
+    solver = _plan_solver(robot, loads, plan, m, opts, threads, progress)
+    t0 = time.perf_counter()
+    got, parent = _continued(solver, plan.tensions, plan.bounds)
+    return RegionSamples(plan.tensions, plan.source, got["tip_position"], got["converged"], got["stable"],
+                         got["below_base"], got["disks_touch"], plan.n_base, WarmStartCheck("continuation"),
+                         time.perf_counter() - t0, got["q"], plan_stages(plan), got["curvature"], parent,
+                         got["residual"], got["atol"])
+
+
+def _plan_solver(robot: Robot, loads: Loads, plan: TensionPlan, m: Model, opts: Any, threads: int | None,
+                 progress: Callable[[int], None] | None) -> _Solver:
+    """The solver of a plan's rows, once the memory they keep is checked."""
     res = check_resources(m, robot, opts)
-    per_row = 8.0 * ((res.unknowns if res else 3 * robot.n_disks) + robot.n_tendons + 16)
+    per_row = 8.0 * ((res.unknowns if res else 3 * robot.n_disks) + robot.n_tendons + 18)
     check_memory(f"a workspace study of {plan.tensions.shape[0]:,} tension vectors on robot '{robot.name}'",
                  plan.tensions.shape[0] * per_row, f"{per_row:.0f} bytes per sample kept")
     stability = bool(getattr(m, "capabilities", None) and m.capabilities.stability)
-    solver = _Solver(robot, loads.with_tensions(np.zeros(robot.n_tendons)), m, opts, threads, progress, stability)
+    return _Solver(robot, loads.with_tensions(np.zeros(robot.n_tendons)), m, opts, threads, progress, stability)
+
+
+def solve_plan(robot: Robot, loads: Loads, plan: TensionPlan, *, model: str | Model = "pcc", options: Any = None,
+               threads: int | None = None, warm: bool | WarmStarts = True,
+               progress: Callable[[int], None] | None = None) -> RegionSamples:
+    """Solve every tension vector of ``plan`` under ``loads`` from rest, every load ramped together (the loading
+    path, :data:`EQUILIBRIA` ``"loading-path"``: the paper's), and test each equilibrium (:func:`continue_plan`
+    for the equilibria the robot reaches by its own history of tension changes).
+
+    With ``warm`` (True, or :class:`WarmStarts` for its check), an eighth of the Sobol
+    points (at least 64) are solved along the loading path first; the rest start from the nearest of them (in
+    tension space scaled by the plan's bounds) that reached its equilibrium without a fold. Before they are
+    used, a random subset of ``warm.check`` warm-started samples (``warm.seed``) is solved both ways: warm
+    starts are kept only if at least :data:`AGREEMENT_REQUIRED` of them agree, otherwise every sample follows
+    the loading path. Without ``warm``, every sample follows the loading path. Neighbours and the subset do not
+    depend on ``threads``, so neither do the results. ``progress`` is advanced by the solves done
+    (:func:`solves_needed` in all).
+    """
+    how = _warm_starts(warm)
+    m, opts = resolve(model, robot, loads, options)
+    solver = _plan_solver(robot, loads, plan, m, opts, threads, progress)
     T = plan.tensions
     t0 = time.perf_counter()
     n_anchor = _anchors(plan, how is not None)
@@ -303,11 +467,11 @@ def solve_plan(robot: Robot, loads: Loads, plan: TensionPlan, *, model: str | Mo
         out, report = _checked(solver, rest, q0, how.check, how.seed, n_anchor)
     else:
         out = solver.solve(rest) if rest.shape[0] else {}
-    keys = ("tip_position", "converged", "stable", "below_base", "disks_touch", "q", "curvature")
+    keys = ("tip_position", "converged", "stable", "below_base", "disks_touch", "q", "curvature", "residual", "atol")
     got = {k: np.concatenate([anchors[k], out[k]]) if out else anchors[k] for k in keys}
     return RegionSamples(T, plan.source, got["tip_position"], got["converged"], got["stable"], got["below_base"],
                          got["disks_touch"], plan.n_base, report, time.perf_counter() - t0, got["q"],
-                         plan_stages(plan), got["curvature"])
+                         plan_stages(plan), got["curvature"], None, got["residual"], got["atol"])
 
 
 def plan_stages(plan: TensionPlan) -> np.ndarray:

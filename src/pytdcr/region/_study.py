@@ -174,7 +174,8 @@ class WorkspaceStudy:
         """The numbers, JSON-ready: the FSW's volume, error, largest reach and what it is (``reach_rule``),
         points and estimate at the top level, the realisable region's under ``realisable`` (its largest reach is
         the farthest realisable sample, not searched); the voxel, the samples' counts, the warm starts, the
-        boundary voxels' sources, the boundary search, h(d), the reach search and the sampling time."""
+        boundary voxels' sources, the boundary search, h(d), the reach search, the sampling time, which
+        equilibria the region holds and its multistability."""
         wr, s = self.region, self.region.samples
         searched = self.reach_search is not None
         real = "none" if self.realisable_reach is None else "samples"
@@ -187,7 +188,8 @@ class WorkspaceStudy:
                 "boundary_search": wr.search.to_dict() if wr.search is not None else None,
                 "support": self.support.to_dict() if self.support is not None else None,
                 "largest_reach": self.reach_search.to_dict() if self.reach_search is not None else None,
-                "seconds_sampling": s.seconds}
+                "seconds_sampling": s.seconds, "equilibria": wr.equilibria,
+                "multistability": wr.multistability.to_dict() if wr.multistability is not None else None}
 
 
 def workspace_study(robot: Robot, loads: Loads, bounds: TensionBounds, settings: WorkspaceSettings | None = None,

@@ -4,7 +4,7 @@ and realisability, for one load or a comparison of loads."""
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -13,7 +13,14 @@ import numpy as np
 from ..bounds import TensionBounds
 from ..design import Robot
 from ..loads import Loads
-from ..plotting import plot_region_3d, plot_region_slices, plot_support_map, save_figure, write_region_html
+from ..plotting import (
+    plot_multistability,
+    plot_region_3d,
+    plot_region_slices,
+    plot_support_map,
+    save_figure,
+    write_region_html,
+)
 from ..region import (
     MIN_MESH_POINTS,
     SOURCES,
@@ -170,7 +177,8 @@ def _case(name: str, robot: Robot, loads: Loads, bounds: TensionBounds, settings
     summary["inputs"] = inputs_record(robot, loads, bounds=bounds.to_dict(), n=settings.n, seed=settings.seed,
                                       solver=options_record(ws.model, ws.options), warm_starts=settings.warm,
                                       boundary_search=settings.search, search_budget=settings.budget,
-                                      directions=_directions_record(settings))
+                                      directions=_directions_record(settings), equilibria=settings.equilibria,
+                                      multistability=settings.multistability)
     summary["warnings"] = _warnings(summary)
     return WorkspaceCase(name, loads, ws, summary)
 
@@ -179,9 +187,10 @@ def _save_samples(out: Path, s: RegionSamples) -> None:
     """``samples.npz`` in ``out``, written aside and renamed (a reader never sees half of it)."""
     def write(tmp: Path) -> None:
         with open(tmp, "wb") as f:
+            extra = {} if s.parent is None else {"parent": s.parent}
             np.savez_compressed(f, tensions=s.tensions, source=s.source, tip=s.tip_position, stage=s.stage,
                                 converged=s.converged, stable=s.stable, below_base=s.below_base,
-                                disks_touch=s.disks_touch, sources=np.array(SOURCES))
+                                disks_touch=s.disks_touch, sources=np.array(SOURCES), **extra)
 
     atomic_write(out / "samples.npz", write)
 
@@ -236,6 +245,13 @@ def _write_case(out: Path, case: WorkspaceCase, robot: Robot, command: str) -> l
                          out, "slices")
     files += save_figure(plot_region_3d(meshes, pose, f"robot '{robot.name}': FSW boundary, {case.name}"),
                          out, "boundary_3d")
+    ms = wr.multistability
+    if ms is not None and ms.checked:
+        files += save_figure(plot_multistability(s.tip_position[s.feasible], s.tip_position[ms.rows], ms.other_tip,
+                                                 ms.distinct, robot.length, (ms.equilibria, ms.other),
+                                                 f"robot '{robot.name}': {int(ms.distinct.sum())} of {ms.checked} "
+                                                 f"checked tension vectors hold the robot in two equilibria, "
+                                                 f"{case.name}"), out, "multistability")
     write_region_html(out / "workspace.html", meshes, {"feasible tips": s.tip_position[s.feasible]}, pose,
                       f"robot '{robot.name}': feasible static workspace, {case.name}")
     files.append("workspace.html")
@@ -266,7 +282,6 @@ def run_workspace(robot: Robot, loads: Loads, bounds: TensionBounds, settings: W
 
 def _report(summary: dict[str, Any], command: str) -> str:
     f, r, c = summary, summary["realisable"], summary["counts"]
-    w = summary["warm_start"]
 
     def pct(d: dict[str, Any]) -> str:
         return f" ({d['volume_err_m3'] / d['volume_m3']:.0%})" if d["volume_m3"] else ""
@@ -304,8 +319,7 @@ def _report(summary: dict[str, Any], command: str) -> str:
     lines += [f"Samples: {c['solved']} solved ({c['by_source']}), {c['converged']} converged, {c['unstable']} "
               f"unstable; of the converged, {c['fraction_below_base']:.1%} have a disk below the base plane, "
               f"{c['fraction_disks_touch']:.1%} two disks touching; {c['fraction_realisable']:.1%} are realisable.",
-              "", f"Warm starts: {w['mode']} ({w['agreed']} of {w['checked']} checked warm starts agreed with the "
-              f"loading path; {w['required']:.1%} required).", "",
+              "", _equilibria_note(summary), "",
               "Boundary voxels holding a sample, by source: "
               + ", ".join(f"{k} {v:.0%}" for k, v in summary["boundary_sources"].items()) + ".", ""]
     sup = summary.get("support")
@@ -314,6 +328,22 @@ def _report(summary: dict[str, Any], command: str) -> str:
         lines += [f"Support function over {h.size} directions: h(d) from {h.min() * 1e3:.1f} to {h.max() * 1e3:.1f} mm "
                   "(support.csv, support_map.png).", ""]
     return "\n".join(lines)
+
+
+def _equilibria_note(summary: dict[str, Any]) -> str:
+    """Which equilibria the region holds, how its samples were solved and how often the history mattered."""
+    w, ms = summary["warm_start"], summary.get("multistability")
+    if summary["equilibria"] == "continuation":
+        text = ("Equilibria: each sample continued from a solved parent (the robot's own history of quasi-static "
+                "tension changes from rest; samples.npz holds each sample's parent).")
+    else:
+        text = (f"Equilibria: each sample solved from rest with every load ramped together (the loading path); "
+                f"warm starts: {w['mode']} ({w['agreed']} of {w['checked']} checked warm starts agreed with the "
+                f"loading path; {w['required']:.1%} required).")
+    if ms and ms["checked"]:
+        text += (f" Multistability: {ms['distinct']} of {ms['checked']} checked samples ({ms['fraction']:.1%}) reach "
+                 f"another equilibrium by the {ms['other']} (multistability.png).")
+    return text
 
 
 def _reach_note(fsw: dict[str, Any], real: dict[str, Any]) -> str:
@@ -386,26 +416,28 @@ def _compare_report(rows: list[dict[str, Any]], cases: list[WorkspaceCase], comm
     return "\n".join([*lines, ""])
 
 
-def run_workspace_compare(robot: Robot, cases: dict[str, tuple[Robot, Loads]], bounds: TensionBounds,
+def run_workspace_compare(robot: Robot, cases: dict[str, tuple[Any, ...]], bounds: TensionBounds,
                           settings: WorkspaceSettings, out: str | Path, *, model: str | Model = "pcc",
                           options: Any = None, run_options: WorkspaceRunOptions | None = None) -> WorkspaceRun:
     """The workspace of each load case (name → (robot, loads): :func:`pytdcr.paper.workspace_load_cases`), one
     sub-folder each with :func:`run_workspace`'s files, and their comparison in ``out``: ``comparison.json``,
     ``comparison.md``, ``support_compare.csv``, overlaid slices and 3D boundaries (PNG, PDF) and
     ``comparison.html``. Every case has ``robot``'s voxel (:meth:`~pytdcr.region.WorkspaceSettings.voxel_for`:
-    one grid)."""
+    one grid). A case given as (robot, loads, settings) has settings of its own (``tdcr workspace --equilibria
+    both``: the same loads, each equilibria in turn), with the run's voxel."""
     how = run_options if run_options is not None else WorkspaceRunOptions()
     settings = settings.check(robot).with_voxel_for(robot)
     done: list[WorkspaceCase] = []
     with output_folder(out, "workspace --compare-loads", {"n": settings.n, "seed": settings.seed,
                                                           "bounds": bounds.to_dict(), "cases": list(cases)}) as run:
         files = []
-        for name, (case_robot, loads) in cases.items():
+        for name, (case_robot, loads, *own) in cases.items():
             sub = run.staging / _slug(name)
             sub.mkdir()
             whole = f"saved {len(done)} of {len(cases)} load cases whole; "
             hooks = WorkspaceHooks(how.progress, how.on_round, _checkpoint(sub, run, whole, f"{sub.name}/"))
-            case = _case(name, case_robot, loads, bounds, settings, model, options, hooks)
+            s = replace(own[0], voxel=settings.voxel).check(case_robot) if own else settings
+            case = _case(name, case_robot, loads, bounds, s, model, options, hooks)
             with saving():
                 _write_case(sub, case, case_robot, how.command)
             done.append(case)
