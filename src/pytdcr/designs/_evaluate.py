@@ -35,12 +35,13 @@ def _workspace_settings(study: DesignStudy, base: Any, seed: int) -> WorkspaceSe
     """The workspace study of every design and load case of ``study``: its budget, seeded by the design's
     ``seed``, h(d) along the study's named directions, on one thread (designs run side by side), on one grid
     for every design (the voxel of the base robot ``base``). The largest reach is the farthest of the feasible
-    samples and the tips attaining h(d), and of the reach search with ``budget.reach_search``."""
+    samples and the tips attaining h(d), and of the reach search with ``budget.reach_search``. No multistability
+    check: it would cost 200 solves a design and rank nothing."""
     directions = tuple(tuple(v) for v in study.measures.directions.values())
     return WorkspaceSettings(n=study.budget.samples, seed=seed, voxel=study.budget.voxel,
                              search=study.budget.search > 0, budget=study.budget.search, directions=directions or 0,
                              reach="farthest" if study.budget.reach_search else "support",
-                             threads=1).with_voxel_for(base)
+                             threads=1, multistability=0).with_voxel_for(base)
 
 
 def _case_row(study: DesignStudy, settings: WorkspaceSettings, robot: Any, loads: Any) -> dict[str, Any]:
