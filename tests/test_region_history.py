@@ -120,3 +120,24 @@ def test_equilibria_are_named_and_checked(paper):
         WorkspaceSettings(equilibria="sideways")
     with pytest.raises(ValueError, match="multistability"):
         WorkspaceSettings(multistability=-1)
+
+
+def test_h_and_the_largest_reach_come_from_stable_equilibria(paper):
+    """Under the paper's load the support function and the reach search refuse unstable equilibria (issue 27,
+    item 3): every row is marked stable, and the searched rows' tensions solve (from rest, as the search does) to
+    a stable equilibrium at the reported tip."""
+    from pytdcr.region import workspace_study
+
+    ws = workspace_study(paper, paper_loads(), paper_bounds(),
+                         WorkspaceSettings(n=48, seed=4, search=False, directions=6, multistability=0, threads=2))
+    sf = ws.support
+    assert sf is not None and np.all(sf.stable == 1.0) and all(r["stable"] for r in sf.table())
+    assert ws.reach_search is not None
+    searched = [k for k in range(sf.h.size) if not sf.from_sample[k]]
+    assert searched
+    for k in searched:
+        sol = solve(paper, paper_loads(sf.tensions[k]))
+        assert sol.converged and sol.stable
+        assert np.linalg.norm(sol.tip_position - sf.tip_position[k]) <= 1e-6
+    best = solve(paper, paper_loads(ws.reach_search.tensions))
+    assert best.converged and best.stable

@@ -216,7 +216,9 @@ def workspace_study(robot: Robot, loads: Loads, bounds: TensionBounds, settings:
     far = _farthest_sample(samples, samples.feasible)
     support, search = None, None
     if far.reach is not None and m.capabilities.gradient is not None:
-        problem = ReachProblem.create(robot, loads, bounds, model=m, options=opts)
+        # h(d) and the largest reach from stable equilibria only, as the region (where the model can tell)
+        problem = ReachProblem.create(robot, loads, bounds, model=m, options=opts,
+                                      stable_only=bool(m.capabilities.stability))
         T, tips = samples.tensions[samples.feasible], samples.tip_position[samples.feasible]
         D = s.direction_vectors()
         if D is not None:

@@ -97,6 +97,9 @@ class SupportFunction:
         Wall time [s].
     settings : dict
         The problem's and the search's settings.
+    stable : ndarray, shape (K,), or None
+        1.0 where the equilibrium attaining h is known stable: the search ran with ``problem.stable_only``
+        (unstable equilibria refused) from stable samples; NaN where that was not asked (untested).
     """
 
     directions: np.ndarray
@@ -110,6 +113,7 @@ class SupportFunction:
     starts: np.ndarray
     seconds: float
     settings: dict[str, Any] = field(default_factory=dict)
+    stable: np.ndarray | None = None
 
     @property
     def gain(self) -> np.ndarray:
@@ -121,9 +125,13 @@ class SupportFunction:
         return [{"direction": self.directions[k].tolist(), "h_m": float(self.h[k]),
                  "sample_h_m": float(self.sample_h[k]), "gain_m": float(self.gain[k]),
                  "from_sample": bool(self.from_sample[k]), "exchanged": bool(self.exchanged[k]),
-                 "evaluations": int(self.evaluations[k]),
+                 "evaluations": int(self.evaluations[k]), "stable": self._stable(k),
                  "tensions": self.tensions[k].tolist(), "tip": self.tip_position[k].tolist()}
                 for k in range(self.h.size)]
+
+    def _stable(self, k: int) -> bool | None:
+        """Row k's stability: True (known stable) or None (untested)."""
+        return None if self.stable is None or not np.isfinite(self.stable[k]) else bool(self.stable[k])
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form: the arrays as lists, and a summary."""
@@ -131,7 +139,7 @@ class SupportFunction:
         return {"directions": self.directions.tolist(), "h": self.h.tolist(), "tensions": self.tensions.tolist(),
                 "tips": self.tip_position.tolist(), "sample_h": self.sample_h.tolist(),
                 "from_sample": self.from_sample.tolist(), "exchanged": self.exchanged.tolist(),
-                "evaluations": self.evaluations.tolist(),
+                "evaluations": self.evaluations.tolist(), "stable": [self._stable(k) for k in range(self.h.size)],
                 "starts": self.starts.tolist(), "seconds": self.seconds, "settings": self.settings,
                 "summary": {"directions": int(self.h.size), "improved": int(np.sum(gain > 0)),
                             "exchanged": int(np.sum(self.exchanged)),
@@ -401,7 +409,8 @@ def support_function(problem: ReachProblem, samples_tensions: np.ndarray, sample
         sample_h=_dots(P[best], D),
         from_sample=np.array([b.from_sample for b in found], dtype=bool), exchanged=exchanged,
         evaluations=np.array([b.evaluations for b in found], dtype=int),
-        starts=np.array([b.starts for b in found], dtype=int), seconds=time.perf_counter() - t0, settings=record)
+        starts=np.array([b.starts for b in found], dtype=int), seconds=time.perf_counter() - t0, settings=record,
+        stable=np.full(D.shape[0], 1.0 if problem.stable_only else np.nan))
 
 
 def largest_reach(problem: ReachProblem, samples_tensions: np.ndarray, samples_tip_position: np.ndarray,

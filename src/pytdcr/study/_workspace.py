@@ -230,10 +230,12 @@ def _write_case(out: Path, case: WorkspaceCase, robot: Robot, command: str) -> l
     files.append("samples.npz")
     if case.support is not None:
         sf = case.support
+        stable = sf.stable if sf.stable is not None else np.full(sf.h.size, np.nan)
         write_csv(out / "support.csv", ["dx", "dy", "dz", "h_m", "tip_x_m", "tip_y_m", "tip_z_m",
-                                        *[f"T{k + 1}_N" for k in range(robot.n_tendons)]],
-                  ([*d, h, *tip, *t] for d, h, tip, t in zip(sf.directions, sf.h, sf.tip_position, sf.tensions,
-                                                               strict=True)))
+                                        *[f"T{k + 1}_N" for k in range(robot.n_tendons)], "stable"],
+                  ([*d, h, *tip, *t, "" if not np.isfinite(st) else int(st)]
+                   for d, h, tip, t, st in zip(sf.directions, sf.h, sf.tip_position, sf.tensions, stable,
+                                               strict=True)))
         files.append("support.csv")
         files += save_figure(plot_support_map(sf.directions, sf.h, f"robot '{robot.name}': h(d), {case.name}"),
                              out, "support_map")
