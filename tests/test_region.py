@@ -181,6 +181,7 @@ def test_tdcr_workspace_equilibria_both_compares_the_two_regions(capsys, tmp_pat
     code = main(["workspace", "--bounds", "0,3", "--n", "64", "--seed", "2", "--no-gravity", "--budget", "100",
                  "--directions", "0", "--equilibria", "both", "--out", str(out)])
     text, err = capsys.readouterr()
+    assert "  continuation:" in text and "  loading-path:" in text and "multistability" in text
     assert code == 0, err
     for kind, other, mode in (("continuation", "loading path from rest", ("continuation",)),
                               ("loading-path", "continuation from the root", ("warm", "loading path"))):
