@@ -270,7 +270,8 @@ def test_a_region_with_too_few_converged_samples_is_reported_and_not_meshed(tmp_
     # one Newton iteration from the straight robot at full load, no load steps: no solve converges, so neither
     # region has a point (with load steps, one exact Newton iteration per small step does converge)
     run = run_workspace(paper_robot(), paper_loads(), paper_bounds(),
-                        WorkspaceSettings(n=32, seed=1, budget=50, directions=4), tmp_path / "ws",
+                        WorkspaceSettings(n=32, seed=1, budget=50, directions=4, equilibria="loading-path"),
+                        tmp_path / "ws",
                         options=SolverOptions(max_iter=1, load_stepping="never"))
     summary = json.loads((tmp_path / "ws" / "workspace.json").read_text())
     assert summary["counts"]["converged"] == 0 and summary["mesh"] is None
@@ -332,7 +333,7 @@ def test_the_largest_reach_follows_its_rule():
     assert set(numbers) == {"volume_m3", "volume_err_m3", "dimension", "measure", "largest_reach_m", "reach_rule",
                             "points", "volume", "realisable",
                             "voxel_m", "counts", "warm_start", "boundary_sources", "boundary_search", "support",
-                            "largest_reach", "seconds_sampling", "equilibria", "multistability"}
+                            "largest_reach", "seconds_sampling", "equilibria", "multistability", "root"}
     # each largest reach says what it is: searched only where the search gave it
     searched = {"search": "the reach search's optimum",
                 "support": "the farthest tip attaining h(d), farther than the reach search's optimum",

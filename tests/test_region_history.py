@@ -141,3 +141,24 @@ def test_h_and_the_largest_reach_come_from_stable_equilibria(paper):
         assert np.linalg.norm(sol.tip_position - sf.tip_position[k]) <= 1e-6
     best = solve(paper, paper_loads(ws.reach_search.tensions))
     assert best.converged and best.stable
+
+
+def test_an_unstable_root_leaves_the_continued_region_empty_and_says_so(paper, tmp_path):
+    """An axial tip force of twice Euler's load (clamped-free, pi^2 EI / (4 L^2)), no gravity: the straight
+    robot at zero tension is an unstable equilibrium. The continued region holds no sample (none has a stable
+    parent), has no largest reach, and the run says why."""
+    from pytdcr import Loads
+    from pytdcr.study import run_workspace
+
+    robot = paper.with_gravity(None)
+    euler = np.pi**2 * robot.backbone.bending_stiffness / (4 * robot.length**2)
+    loads = Loads(np.zeros(8), tip_force=(0.0, 0.0, -2.0 * euler))
+    assert not solve(robot, loads).stable
+    settings = WorkspaceSettings(n=32, seed=1, search=False, directions=0, multistability=0, reach="samples")
+    run = run_workspace(robot, loads, paper_bounds(), settings, tmp_path / "ws")
+    s = run.summary
+    assert s["equilibria"] == "continuation" and s["root"] == "unstable"
+    assert s["points"] == 0 and s["largest_reach_m"] is None
+    assert any("not stable at zero tension" in w for w in s["warnings"])
+    samples = run.cases[0].region.samples
+    assert not samples.converged.any() and np.all(samples.parent == -2)

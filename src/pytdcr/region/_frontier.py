@@ -249,7 +249,8 @@ def _solved(solver: _Solver, samples: RegionSamples, T: np.ndarray, parents: np.
     return RegionSamples(T, np.full(T.shape[0], SEARCH, dtype=np.int8), got["tip_position"], got["converged"],
                          got["stable"], got["below_base"], got["disks_touch"], 0, seconds=time.perf_counter() - t0,
                          q=got["q"], stage=np.full(T.shape[0], stage, dtype=np.int8), curvature=got["curvature"],
-                         parent=parent, residual=got["residual"], atol=got["atol"]), report
+                         parent=parent, residual=got["residual"], atol=got["atol"],
+                         root=samples.root), report
 
 
 def _voxels(samples: RegionSamples, mask: np.ndarray, voxel: float) -> int:

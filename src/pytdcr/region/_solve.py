@@ -159,6 +159,10 @@ class RegionSamples:
     residual, atol : ndarray, shape (M,), or None
         Each solve's max |residual| and the tolerance it was judged by [N m] (what a continuation from the
         sample checks).
+    root : str or None
+        Continued samples: the root (zero tension under the load, solved from rest): ``"stable"``,
+        ``"unstable"`` (an axial load past buckling) or ``"not converged"``; unless it is stable no sample has
+        a parent and none is solved. None for samples each solved from rest.
     """
 
     tensions: np.ndarray
@@ -177,6 +181,7 @@ class RegionSamples:
     parent: np.ndarray | None = None
     residual: np.ndarray | None = None
     atol: np.ndarray | None = None
+    root: str | None = None
 
     @property
     def feasible(self) -> np.ndarray:
@@ -205,7 +210,8 @@ class RegionSamples:
         return RegionSamples(self.tensions[idx], self.source[idx], self.tip_position[idx], self.converged[idx],
                              self.stable[idx], self.below_base[idx], self.disks_touch[idx],
                              int(np.sum(self.source[idx] == 0)), self.warm, self.seconds, pick(self.q),
-                             pick(self.stage), pick(self.curvature), parent, pick(self.residual), pick(self.atol))
+                             pick(self.stage), pick(self.curvature), parent, pick(self.residual), pick(self.atol),
+                             self.root)
 
     def joined(self, other: RegionSamples) -> RegionSamples:
         """These samples followed by ``other``'s (unknowns, stages, parents and residuals kept when both have
@@ -220,7 +226,7 @@ class RegionSamples:
                              cat(self.disks_touch, other.disks_touch), self.n_base + other.n_base, self.warm,
                              self.seconds + other.seconds, cat(self.q, other.q), cat(self.stage, other.stage),
                              cat(self.curvature, other.curvature), cat(self.parent, other.parent),
-                             cat(self.residual, other.residual), cat(self.atol, other.atol))
+                             cat(self.residual, other.residual), cat(self.atol, other.atol), self.root)
 
     def start_batch(self, rows: np.ndarray, loads: Loads, model: str) -> BatchSolution:
         """The samples at ``rows`` (indices) as a batch a continuation starts from (``solve_batch(...,
@@ -353,10 +359,11 @@ def _waves(m: int) -> list[tuple[int, int]]:
     return out
 
 
-def _continued(solver: _Solver, T: np.ndarray, bounds: TensionBounds) -> tuple[dict[str, np.ndarray], np.ndarray]:
-    """Every row of ``T`` (M, n_tendons) continued from a parent (see :func:`solve_plan`); returns what
-    :meth:`_Solver.keep` keeps, row by row, and the parents (:data:`ROOT` for the root; -2 where there was no
-    stable equilibrium to continue from)."""
+def _continued(solver: _Solver, T: np.ndarray,
+               bounds: TensionBounds) -> tuple[dict[str, np.ndarray], np.ndarray, str]:
+    """Every row of ``T`` (M, n_tendons) continued from a parent (see :func:`continue_plan`); returns what
+    :meth:`_Solver.keep` keeps, row by row, the parents (:data:`ROOT` for the root; -2 where there was no
+    stable equilibrium to continue from) and the root's state (:attr:`RegionSamples.root`)."""
     nt = T.shape[1]
     root = solver.keep(solver.batch(np.zeros((1, nt))))
     # internal rows: 0 the root, k + 1 the plan's row k
@@ -381,7 +388,8 @@ def _continued(solver: _Solver, T: np.ndarray, bounds: TensionBounds) -> tuple[d
             store[k][a + 1:b + 1] = v
         parent[a:b] = p - 1
         usable[a + 1:b + 1] = got["converged"] & (got["stable"] != 0.0)
-    return {k: v[1:] for k, v in store.items()}, parent
+    state = "stable" if usable[0] else ("unstable" if root["converged"][0] else "not converged")
+    return {k: v[1:] for k, v in store.items()}, parent, state
 
 
 def _blank(dtype: np.dtype) -> Any:
@@ -419,11 +427,11 @@ def continue_plan(robot: Robot, loads: Loads, plan: TensionPlan, *, model: str |
     m, opts = resolve(model, robot, loads, options, continuation=True)
     solver = _plan_solver(robot, loads, plan, m, opts, threads, progress)
     t0 = time.perf_counter()
-    got, parent = _continued(solver, plan.tensions, plan.bounds)
+    got, parent, root = _continued(solver, plan.tensions, plan.bounds)
     return RegionSamples(plan.tensions, plan.source, got["tip_position"], got["converged"], got["stable"],
                          got["below_base"], got["disks_touch"], plan.n_base, WarmStartCheck("continuation"),
                          time.perf_counter() - t0, got["q"], plan_stages(plan), got["curvature"], parent,
-                         got["residual"], got["atol"])
+                         got["residual"], got["atol"], root)
 
 
 def _plan_solver(robot: Robot, loads: Loads, plan: TensionPlan, m: Model, opts: Any, threads: int | None,

@@ -188,7 +188,7 @@ class WorkspaceStudy:
                 "boundary_search": wr.search.to_dict() if wr.search is not None else None,
                 "support": self.support.to_dict() if self.support is not None else None,
                 "largest_reach": self.reach_search.to_dict() if self.reach_search is not None else None,
-                "seconds_sampling": s.seconds, "equilibria": wr.equilibria,
+                "seconds_sampling": s.seconds, "equilibria": wr.equilibria, "root": s.root,
                 "multistability": wr.multistability.to_dict() if wr.multistability is not None else None}
 
 

@@ -139,6 +139,12 @@ def _warnings(summary: dict[str, Any]) -> list[str]:
     """One line per region with too few points to mesh (what was not written, and why), and one when the
     boundary search ran out of budget before the region converged (the volume is then a lower bound)."""
     out = []
+    root = summary.get("root")
+    if root is not None and root != "stable":
+        why = ("is not stable at zero tension under this load (an axial load past buckling?)" if root == "unstable"
+               else "did not converge at zero tension under this load")
+        out.append(f"the robot {why}: the root every continued sample is reached from is missing, no sample has a "
+                   "stable parent and the region is empty; --equilibria loading-path solves each sample from rest")
     search, vol = summary.get("boundary_search"), summary["volume"]
     if search is not None and search["stop"] == "budget" and summary["points"] and summary["dimension"] == 3:
         why = (f"is mostly the growth the last rounds point to ({vol['search_m3'] * 1e6:.0f} cm³)"
