@@ -480,14 +480,15 @@ def workspace_section(robot: Robot, bounds: TensionBounds, s: Any, seed: int, ou
     """``tdcr reproduce``'s workspace section: the FSW under the paper's tip wrench next to no load, at the
     budget of ``s`` (:class:`~pytdcr.study.ReproduceSettings`); writes ``workspace_slices`` (PNG, PDF) and the
     two boundaries (``workspace_fsw_paper.ply``, ``workspace_fsw_no_load.ply``), appends them to ``files``.
-    No multistability check (``tdcr workspace`` has it): at the demo's budget it would cost more than the
-    region."""
+    The paper's definition of the equilibria (each sample from rest, ``equilibria="loading-path"``: this is the
+    paper's study), and no multistability check (``tdcr workspace`` has both): at the demo's budget it would
+    cost more than the region."""
     from ..paper import workspace_load_cases
 
     cases = {k: v for k, v in workspace_load_cases(robot).items() if k in ("no load", "paper wrench")}
     voxel = robot.length / s.workspace_voxels  # the demo's own grid, coarser than the default
     settings = WorkspaceSettings(n=s.workspace_n, seed=seed, voxel=voxel, budget=s.workspace_budget,
-                                 directions=s.workspace_directions, multistability=0,
+                                 directions=s.workspace_directions, multistability=0, equilibria="loading-path",
                                  reach="search" if s.workspace_directions else "samples")
     done = [_case(name, r, loads, bounds, settings, "pcc", None, WorkspaceHooks()) for name, (r, loads) in
             cases.items()]
