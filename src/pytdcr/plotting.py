@@ -77,9 +77,11 @@ def save_figure(fig: Any, out: Path, stem: str) -> list[str]:
     list of str
         The file names written.
     """
-    # the tight bounding box is measured once and used for both formats, after a draw: a layout engine
-    # (constrained, tight) places the axes only when the figure is drawn, and a box measured before that clips
-    fig.canvas.draw()
+    # the tight bounding box is measured once (it costs a full draw) and used for both formats; a figure with a
+    # layout engine (constrained, tight) is drawn first: the engine places the axes only when the figure is
+    # drawn, and a box measured before that clips
+    if fig.get_layout_engine() is not None:
+        fig.canvas.draw()
     bbox = fig.get_tightbbox(fig.canvas.get_renderer()).padded(0.1)
     names = []
     for ext in ("png", "pdf"):
