@@ -4,11 +4,12 @@ Three measurements (2-core figures are in the README):
 - sampling: ``solve_plan`` on ``--samples`` Sobol points (with the box's corners and edges, and the checked
   warm starts), solves per second; the issue's target is 20,000 samples in 10 s (2,000 solves/s);
 - support: h(d) on ``--directions`` Fibonacci directions from ``--n`` samples (target 200 in 60 s);
-- region: ``workspace_region`` at ``--n`` base samples with the boundary search (its default budget): the
-  seconds, the solves, the FSW's volume and error.
+- region: ``workspace_region`` at ``--n`` base samples with the boundary search (its default budget, or
+  ``--budget`` solves): the seconds, the solves, the FSW's volume and error.
 Each is repeated ``--repeat`` times; medians are printed and written to ``bench/results/workspace.json``.
 
-Usage: python bench/workspace.py [--samples 20000] [--n 4000] [--directions 200] [--repeat 1] [--skip region]
+Usage: python bench/workspace.py [--samples 20000] [--n 4000] [--budget N] [--directions 200] [--repeat 1]
+       [--skip region]
 """
 
 from __future__ import annotations
@@ -55,10 +56,10 @@ def support(n: int, k: int, seed: int) -> dict[str, float]:
             "improved": int(np.sum(sf.gain > 0)), "gain_median_m": float(np.median(sf.gain))}
 
 
-def region(n: int, seed: int) -> dict[str, float]:
+def region(n: int, seed: int, budget: int | None = None) -> dict[str, float]:
     robot, loads, b = paper_robot(), paper_loads(), paper_bounds()
     t0 = time.perf_counter()
-    wr = workspace_region(robot, loads, b, WorkspaceSettings(n=n, seed=seed))
+    wr = workspace_region(robot, loads, b, WorkspaceSettings(n=n, seed=seed, budget=budget))
     sec = time.perf_counter() - t0
     assert wr.search is not None
     return {"n": n, "seconds": sec, "solves": int(wr.samples.source.size + wr.samples.warm.checked),
@@ -78,6 +79,7 @@ def main() -> None:
     ap.add_argument("--samples", type=int, default=20_000)
     ap.add_argument("--n", type=int, default=4000)
     ap.add_argument("--directions", type=int, default=200)
+    ap.add_argument("--budget", type=int, default=None, help="the boundary search's solves (default 25 n)")
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--seed", type=int, default=5)
     ap.add_argument("--skip", default="", help="comma-separated: sampling, support, region")
@@ -88,7 +90,7 @@ def main() -> None:
     out = {}
     jobs = {"sampling": lambda: sampling(args.samples, args.seed),
             "support": lambda: support(args.n, args.directions, args.seed),
-            "region": lambda: region(args.n, args.seed)}
+            "region": lambda: region(args.n, args.seed, args.budget)}
     for name, job in jobs.items():
         if name in skip:
             continue

@@ -12,7 +12,10 @@ solver, a fixed bug) regenerates them, and its commit says which moved and why::
 Another CPU or another version of NumPy, Numba or LLVM may compute other last bits (README, "Repeatable
 runs"). Each baseline records the installation it was made on; on the same one
 the comparison is exact. On another, floats are compared to 1e-9 relative and arrays by their values rather than
-their hashes, and the test says so in its output.
+their hashes, and the test says so in its output. The chaotic cases (:data:`CHAOTIC`: a genetic algorithm, a
+boundary search, a design study) amplify a last bit into another trajectory: on another CPU they reach other
+samples and another optimum, so there only their structure is compared (every key of the baseline's records, at
+every depth, and no other key), and the test says so.
 """
 
 from __future__ import annotations
@@ -221,6 +224,20 @@ CASES: dict[str, Callable[[Path], dict[str, Any]]] = {
     "compare": _compare, "designs": _designs, "reproduce": _reproduce, "reproduce_demo": _reproduce_demo,
 }
 SLOW = {"reproduce_demo", "designs", "workspace"}
+#: cases whose results depend on the last bits of every solve (seen: another CPU's flags move all five)
+CHAOTIC = {"workspace", "optimize", "designs", "reproduce", "reproduce_demo"}
+
+
+def _keys(data: Any, where: str, out: set[str]) -> set[str]:
+    """Every dictionary key path in ``data`` (list items merged: their count may differ)."""
+    if isinstance(data, dict):
+        for k, v in data.items():
+            out.add(f"{where}.{k}")
+            _keys(v, f"{where}.{k}", out)
+    elif isinstance(data, list):
+        for v in data:
+            _keys(v, f"{where}[]", out)
+    return out
 
 
 # ---------------------------------------------------------------- comparing
@@ -287,6 +304,13 @@ def test_golden(name):
     got = compute(name)
     exact = baseline["installation"] == installation()
     problems: list[str] = []
+    if not exact and name in CHAOTIC:
+        got_keys, want_keys = _keys(got, name, set()), _keys(baseline["data"], name, set())
+        problems = [f"{k}: missing" for k in sorted(want_keys - got_keys)][:20]
+        problems += [f"{k}: not in the baseline" for k in sorted(got_keys - want_keys)][:20]
+        assert not problems, f"{name}'s records differ in structure from its baseline:\n" + "\n".join(problems)
+        pytest.skip(f"{name} is chaotic and its baseline was made on another installation ({installation()}): "
+                    "its structure matches; its values are compared on the baseline's installation only")
     _differences(got, baseline["data"], name, exact, problems)
     how = "bit for bit" if exact else f"to {OTHER_INSTALLATION_RTOL:g} (another installation: {installation()})"
     assert not problems, f"{name} differs from its baseline ({how}):\n" + "\n".join(problems)

@@ -24,6 +24,7 @@ from ..validate import check_count
 from ._grid import region_from_points
 from ._plan import SOURCES
 from ._solve import RegionSamples, WarmStartCheck, _checked, _Solver
+from ._step_kernel import box_least_squares
 
 __all__ = ["BoundarySearch", "GrowthSettings", "SearchRound", "SearchState", "grow_region"]
 
@@ -118,11 +119,14 @@ class GrowthSettings:
 @dataclass
 class SearchState:
     """What the boundary search has tried, carried from one stage to the next: per sample, face and region
-    (FSW, realisable) whether it was tried (``tried``, (M, 6, 2) of bool, None before the first stage), and
-    per region how often each voxel's face was tried (``counts``)."""
+    (FSW, realisable) whether it was tried (``tried``, (M, 6, 2) of bool, None before the first stage), per
+    region how often each voxel's face was tried (``counts``), and the tip's derivative by the tensions at
+    each sample where it was computed (``gradients``, sample row -> (3, n_tendons) [m/N]: a sample steps
+    across several faces, in several rounds, from one equilibrium)."""
 
     tried: np.ndarray | None = None
     counts: tuple[dict, dict] = field(default_factory=lambda: ({}, {}))
+    gradients: dict[int, np.ndarray] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -190,8 +194,9 @@ def _faces(tip: np.ndarray, rows: np.ndarray, tried: np.ndarray, voxel: float, c
 
 def tension_step(J: np.ndarray, t: np.ndarray, lower: np.ndarray, upper: np.ndarray, dp: np.ndarray) -> np.ndarray:
     """The tension step ``dt`` (n,) [N] with ``J dt`` closest to ``dp`` (3,) [m] and ``t + dt`` in the bounds,
-    the smallest such: the least-norm solution when it stays inside, else bounded least squares (BVLS) with a
-    small damping of the step (``J`` (3, n) [m/N] scaled by its largest entry times 1e-3)."""
+    the smallest such: the least-norm solution when it stays inside, else bounded least squares with a small
+    damping of the step (``J`` (3, n) [m/N] scaled by its largest entry times 1e-3;
+    :func:`~pytdcr.region._step_kernel.box_least_squares`)."""
     free = upper > lower
     dt = np.zeros(t.size)
     A = J[:, free]
@@ -202,23 +207,34 @@ def tension_step(J: np.ndarray, t: np.ndarray, lower: np.ndarray, upper: np.ndar
     dt[free] = A.T @ np.linalg.solve(G, dp)
     if np.all(t + dt >= lower) and np.all(t + dt <= upper):
         return dt
-    from scipy.optimize import lsq_linear
-
     damp = 1e-3 * float(np.abs(A).max())
-    M = np.vstack([A, damp * np.eye(A.shape[1])])
-    y = np.concatenate([dp, np.zeros(A.shape[1])])
-    res = lsq_linear(M, y, bounds=((lower - t)[free], (upper - t)[free]), method="bvls")
-    dt[free] = np.clip(res.x, (lower - t)[free], (upper - t)[free])
+    lo, hi = np.minimum((lower - t)[free], 0.0), np.maximum((upper - t)[free], 0.0)
+    x = box_least_squares(np.ascontiguousarray(A), np.ascontiguousarray(dp, dtype=float), damp, lo, hi)
+    dt[free] = np.clip(x, (lower - t)[free], (upper - t)[free])
     return dt
 
 
-def _steps(solver: _Solver, samples: RegionSamples, rows: np.ndarray, faces: np.ndarray, bounds: TensionBounds,
-           length: float) -> np.ndarray:
-    """The tension vectors the faces ask for; rows whose step the bounds forbid (the tip moves less than a
-    third of the asked length across the face, to first order) are NaN."""
-    T = samples.tensions[rows]
+def _gradients(solver: _Solver, samples: RegionSamples, rows: np.ndarray, cache: dict[int, np.ndarray]) -> np.ndarray:
+    """The tip's derivative by the tensions at the samples ``rows`` (K, 3, n_tendons) [m/N]: from ``cache``
+    where a sample's is there, else computed once per distinct sample and added to it."""
     assert samples.q is not None
-    J = solver.model.tip_gradients(solver.robot, T, solver.loads, samples.q[rows], solver.options, solver.threads)
+    new = np.array(sorted({int(b) for b in rows} - cache.keys()), dtype=np.int64)
+    if new.size:
+        got = solver.model.tip_gradients(solver.robot, samples.tensions[new], solver.loads, samples.q[new],
+                                         solver.options, solver.threads)
+        cache.update(zip(new.tolist(), got, strict=True))
+    if rows.size == 0:
+        return np.zeros((0, 3, samples.tensions.shape[1]))
+    return np.stack([cache[int(b)] for b in rows])
+
+
+def _steps(solver: _Solver, samples: RegionSamples, rows: np.ndarray, faces: np.ndarray, bounds: TensionBounds,
+           length: float, cache: dict[int, np.ndarray]) -> np.ndarray:
+    """The tension vectors the faces ask for; rows whose step the bounds forbid (the tip moves less than a
+    third of the asked length across the face, to first order) are NaN. ``cache``: the samples' tip
+    derivatives computed so far (:func:`_gradients`)."""
+    T = samples.tensions[rows]
+    J = _gradients(solver, samples, rows, cache)
     out = np.full(T.shape, np.nan)
     for k in range(rows.size):
         if not np.all(np.isfinite(J[k])):
@@ -294,7 +310,7 @@ def grow_region(solver: _Solver, samples: RegionSamples, bounds: TensionBounds, 
         if rows.size == 0:
             stop = "no boundary left"
             break
-        T = _steps(solver, samples, rows, faces, bounds, g.step * voxel)
+        T = _steps(solver, samples, rows, faces, bounds, g.step * voxel, state.gradients)
         ok = np.all(np.isfinite(T), axis=1)
         parents, T = rows[ok][: max(0, g.budget - spent)], T[ok][: max(0, g.budget - spent)]
         new, report = _solved(solver, samples, T, parents, g.warm, stage, g.check,
