@@ -14,12 +14,14 @@ __all__ = ["add_parser", "run"]
 
 def add_parser(sub: Any) -> None:
     """The ``reproduce`` command and its options."""
-    rp = sub.add_parser("reproduce", help="the paper's whole study: figures, data and report.md")
+    rp = sub.add_parser("reproduce", help="the paper's study at a modest budget (--full: all of it): figures, data "
+                        "and report.md")
     add_robot_and_loads(rp)
     add_seed(rp)
     rp.add_argument("--full", action="store_true",
-                    help="the heavy version: the better models re-optimise the paper's optimum with the GA too "
-                    "(default: a gradient polish from it)")
+                    help="the paper's whole study: GA populations 50, 100 and 200 (default 50 and 100), bounds 10, 20 "
+                    "and 40 N (default 20 and 40), the better models re-optimising the paper's optimum with the GA too "
+                    "(default: a gradient polish from it) and the workspace at tdcr workspace's defaults")
     add_out(rp, "out/reproduce")
     rp.set_defaults(func=run)
 
