@@ -217,3 +217,18 @@ def test_importing_the_study_leaves_the_matplotlib_backend_alone():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
     assert out == "svg"
+
+
+def test_the_specification_is_in_the_project_and_nothing_points_outside_it():
+    """docs/MODEL.md is the specification every "MODEL.md" in the code and docs means; no tracked file points
+    to a folder beside the checkout (a user's clone has none)."""
+    root = SRC.parents[1]
+    if not (root / ".git").exists():
+        pytest.skip("not a git checkout: the tracked files are unknown")
+    spec = root / "docs" / "MODEL.md"
+    assert spec.exists() and "## Appendix" in spec.read_text(encoding="utf-8")
+    tracked = subprocess.run(["git", "ls-files"], cwd=root, capture_output=True, text=True, check=True).stdout.split()
+    outside = "../" + "shared"
+    pointing = [f for f in tracked if (root / f).is_file()
+                and outside in (root / f).read_text(encoding="utf-8", errors="ignore")]
+    assert not pointing, f"these tracked files point outside the project: {pointing}"
