@@ -39,7 +39,7 @@ def commands(tmp: Path) -> dict[str, tuple[list[str], str]]:
         "sample": (["sample", "--n", "400000"], r"\d{4,}/400000"),
         "optimize": (["optimize", "--pop", "200", "--max-gen", "500", "--tol", "1e-15", "--window", "400"],
                      r"GA: .*?[1-9]\d*/500"),
-        "reproduce": (["reproduce"], r"GA population 200: .*?[1-9]\d*/"),
+        "reproduce": (["reproduce"], r"GA population 100: .*?[1-9]\d*/"),
         "compare": (["compare", "--n", "2000", "--models", "pcc,sscr"], r"[1-9]\d*/2000"),
         "accuracy": (["accuracy", "--n", "50"], r"accuracy"),
     }
