@@ -124,23 +124,35 @@ def test_equilibria_are_named_and_checked(paper):
 
 def test_h_and_the_largest_reach_come_from_stable_equilibria(paper):
     """Under the paper's load the support function and the reach search refuse unstable equilibria (issue 27,
-    item 3): every row is marked stable, and the searched rows' tensions solve (from rest, as the search does) to
-    a stable equilibrium at the reported tip."""
+    item 3), and report the equilibria of the continued region: every row is marked stable, and each searched
+    row's tip is what continuing its parent sample's equilibrium to its tensions reaches, a stable equilibrium."""
     from pytdcr.region import workspace_study
 
     ws = workspace_study(paper, paper_loads(), paper_bounds(),
                          WorkspaceSettings(n=48, seed=4, search=False, directions=6, multistability=0, threads=2))
-    sf = ws.support
+    sf, samples = ws.support, ws.samples
     assert sf is not None and np.all(sf.stable == 1.0) and all(r["stable"] for r in sf.table())
-    assert ws.reach_search is not None
+    assert sf.parent is not None and ws.reach_search is not None
+    assert sf.settings["equilibria"] == "continued"
+
+    def replayed(t: np.ndarray, parent: int):
+        assert samples.feasible[parent]
+        start = solve(paper, paper_loads(samples.tensions[parent]), q0=samples.q[parent])
+        np.testing.assert_allclose(start.tip_position, samples.tip_position[parent], atol=1e-6)
+        return solve(paper, paper_loads(t), start=start)
+
     searched = [k for k in range(sf.h.size) if not sf.from_sample[k]]
     assert searched
     for k in searched:
-        sol = solve(paper, paper_loads(sf.tensions[k]))
+        sol = replayed(sf.tensions[k], int(sf.parent[k]))
         assert sol.converged and sol.stable
         assert np.linalg.norm(sol.tip_position - sf.tip_position[k]) <= 1e-6
-    best = solve(paper, paper_loads(ws.reach_search.tensions))
+    for k in np.flatnonzero(sf.from_sample):
+        np.testing.assert_array_equal(sf.tensions[k], samples.tensions[sf.parent[k]])
+    rs = ws.reach_search
+    best = replayed(rs.tensions, rs.parent)
     assert best.converged and best.stable
+    assert np.linalg.norm(best.tip_position - rs.tip_position) <= 1e-6
 
 
 def test_an_unstable_root_leaves_the_continued_region_empty_and_says_so(paper, tmp_path):

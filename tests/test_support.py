@@ -12,6 +12,7 @@ from pytdcr import solve
 from pytdcr.optimize import MemeticGA, ReachProblem, SearchFailed, Termination, maximize_reach
 from pytdcr.paper import paper_bounds, paper_loads, paper_robot
 from pytdcr.region import (
+    SampleStates,
     SupportFunction,
     SupportSettings,
     fibonacci_directions,
@@ -35,6 +36,13 @@ def case():
     samples = solve_plan(robot, loads, plan_tensions(bounds, 256, seed=0))
     ok = samples.feasible
     return ReachProblem.create(robot, loads, bounds), samples.tensions[ok], samples.tip_position[ok]
+
+
+@pytest.fixture(scope="module")
+def states() -> SampleStates:
+    """The states of the ``case`` fixture's feasible samples (the same plan, solved along the loading path)."""
+    samples = solve_plan(paper_robot(), paper_loads(), plan_tensions(paper_bounds(), 256, seed=0))
+    return SampleStates(samples.q[samples.feasible], continued=False)
 
 
 @pytest.fixture(scope="module")
@@ -104,6 +112,32 @@ def test_results_do_not_depend_on_the_threads(case):
     two = support_function(problem, T, P, d, settings=settings, threads=2)
     for name in ("h", "tensions", "tip_position", "evaluations", "from_sample", "exchanged"):
         np.testing.assert_array_equal(getattr(one, name), getattr(two, name))
+
+
+def test_warm_searches_still_report_the_loading_paths_equilibria(case, states, support):
+    """With the samples' states the searches run warm from the samples' equilibria, and each end is solved by
+    the samples' definition (here from rest): every reported tip is the cold solve of its tensions, h is never
+    below a sample, it does about as well as the cold searches, and it does not depend on the threads."""
+    problem, T, P = case
+    d = fibonacci_directions(12)
+    warm = support_function(problem, T, P, d, threads=2, states=states)
+    assert warm.parent is not None and warm.settings["equilibria"] == "loading path"
+    assert np.all(warm.h >= (P @ d.T).max(axis=0) - SLACK)
+    assert np.mean(warm.h) >= np.mean(support.h) - 1e-3
+    for k in range(warm.h.size):
+        sol = solve(problem.robot, problem.loads.with_tensions(warm.tensions[k]))
+        assert sol.converged and np.linalg.norm(sol.tip_position - warm.tip_position[k]) <= SAME_TIP
+    np.testing.assert_array_equal(warm.tensions[warm.from_sample], T[warm.parent[warm.from_sample]])
+    one = support_function(problem, T, P, d[[2, 7, 9]], threads=1, states=states,
+                           settings=SupportSettings(max_iter=4, restarts=0, exchange_rounds=1))
+    two = support_function(problem, T, P, d[[2, 7, 9]], threads=2, states=states,
+                           settings=SupportSettings(max_iter=4, restarts=0, exchange_rounds=1))
+    for name in ("h", "tensions", "tip_position", "evaluations", "parent"):
+        np.testing.assert_array_equal(getattr(one, name), getattr(two, name))
+    far = largest_reach(problem, T, P, warm, starts=2, states=states)
+    assert far.reach >= np.linalg.norm(P, axis=1).max() - SLACK and far.parent >= 0
+    sol = solve(problem.robot, problem.loads.with_tensions(far.tensions))
+    assert np.linalg.norm(sol.tip_position - far.tip_position) <= SAME_TIP
 
 
 def test_the_best_sample_is_kept_when_every_search_fails(case, monkeypatch):

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -50,6 +50,9 @@ class ReachProblem:
     stable_only : bool
         An equilibrium that fails the static stability test is infeasible
         (:mod:`pytdcr.statics.stability`; the model must have the test).
+    anchor : StaticSolution or None
+        A solved equilibrium (of this model, robot and loads) that every solve continues along its branch
+        (:meth:`continued_from`); None: every solve from rest, along the loading path (or from ``q0``).
     """
 
     robot: Robot
@@ -59,6 +62,7 @@ class ReachProblem:
     options: Any
     direction: np.ndarray | None = None
     stable_only: bool = False
+    anchor: StaticSolution | None = None
 
     @classmethod
     def create(cls, robot: Robot, loads: Loads, bounds: TensionBounds, *, model: str | Model = "pcc",
@@ -82,8 +86,17 @@ class ReachProblem:
 
     def with_direction(self, direction: np.ndarray | None) -> ReachProblem:
         """The same problem along another direction (None: the paper's objective)."""
-        return ReachProblem.create(self.robot, self.loads, self.bounds, model=self.model, options=self.options,
-                                   direction=direction, stable_only=self.stable_only)
+        p = ReachProblem.create(self.robot, self.loads, self.bounds, model=self.model, options=self.options,
+                                direction=direction, stable_only=self.stable_only)
+        return replace(p, anchor=self.anchor)
+
+    def continued_from(self, anchor: StaticSolution | None) -> ReachProblem:
+        """The same problem with every solve continued from the equilibrium ``anchor`` along the straight
+        segment of tensions (following its branch, snapping where it folds), so that each cost is the
+        equilibrium the robot reaches from there; None: from rest again. The model must continue states."""
+        if anchor is not None and not self.model.capabilities.continuation:
+            raise ValueError(f"model '{self.model.name}' cannot continue a solved state")
+        return replace(self, anchor=anchor)
 
     @property
     def free(self) -> np.ndarray:
@@ -117,7 +130,8 @@ class ReachProblem:
         return -(self.direction @ dtip)
 
     def evaluate(self, tensions: np.ndarray, q0: np.ndarray | None = None) -> Evaluated:
-        """Solve every row of ``tensions`` (B, n_tendons) [N]: the batch and each row's cost."""
+        """Solve every row of ``tensions`` (B, n_tendons) [N] from ``q0`` or from rest (never from
+        :attr:`anchor`): the batch and each row's cost."""
         batch = self.model.solve_batch(self.robot, np.ascontiguousarray(tensions, dtype=float), self.loads, q0,
                                        self.options)
         ok = batch.converged.copy()
@@ -128,9 +142,14 @@ class ReachProblem:
         return Evaluated(batch, ok, cost)
 
     def solve(self, tensions: np.ndarray, q0: np.ndarray | None = None, atol: float | None = None) -> StaticSolution:
-        """One equilibrium at ``tensions`` (n_tendons,) [N], at the problem's tolerance or ``atol`` [N m]."""
+        """One equilibrium at ``tensions`` (n_tendons,) [N], at the problem's tolerance or ``atol`` [N m]:
+        continued from :attr:`anchor` when it is set (``q0`` is then ignored), else from ``q0`` or from rest."""
         opts = self.options if atol is None else configure(self.model, self.options, atol=atol)
-        sol = self.model.solve(self.robot, self.loads.with_tensions(tensions), q0, opts)
+        loads = self.loads.with_tensions(tensions)
+        if self.anchor is not None:
+            sol = self.model.solve_from(self.robot, loads, self.anchor, opts)
+        else:
+            sol = self.model.solve(self.robot, loads, q0, opts)
         if sol.converged:
             self.check_reach(sol.reach)
         return sol

@@ -32,6 +32,7 @@ from ._solve import (
 from ._study import Reach, WorkspaceStudy, workspace_study
 from ._support import (
     LargestReach,
+    SampleStates,
     SupportFunction,
     SupportSettings,
     fibonacci_directions,
@@ -58,6 +59,7 @@ __all__ = [
     "Region",
     "RegionDimension",
     "RegionSamples",
+    "SampleStates",
     "SearchRound",
     "SearchState",
     "SupportFunction",

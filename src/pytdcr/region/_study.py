@@ -3,7 +3,7 @@ the numbers ``tdcr workspace``, ``tdcr reproduce`` and ``tdcr designs`` report."
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -19,7 +19,7 @@ from ._grid import Region
 from ._plan import SOURCES
 from ._settings import WorkspaceHooks, WorkspaceSettings
 from ._solve import RegionSamples
-from ._support import LargestReach, SupportFunction, largest_reach, support_function
+from ._support import LargestReach, SampleStates, SupportFunction, largest_reach, support_function
 from ._volume import VolumeEstimate
 
 __all__ = ["Reach", "WorkspaceStudy", "workspace_study"]
@@ -192,6 +192,16 @@ class WorkspaceStudy:
                 "multistability": wr.multistability.to_dict() if wr.multistability is not None else None}
 
 
+def _parents_as_rows(support: SupportFunction | None, search: LargestReach | None,
+                     rows: np.ndarray) -> tuple[SupportFunction | None, LargestReach | None]:
+    """The searches' parents (indices into the feasible samples ``rows`` they were given) as sample rows."""
+    if support is not None and support.parent is not None:
+        support = replace(support, parent=np.where(support.parent >= 0, rows[np.maximum(support.parent, 0)], -1))
+    if search is not None and search.parent >= 0:
+        search = replace(search, parent=int(rows[search.parent]))
+    return support, search
+
+
 def workspace_study(robot: Robot, loads: Loads, bounds: TensionBounds, settings: WorkspaceSettings | None = None,
                     *, model: str | Model = "pcc", options: Any = None,
                     hooks: WorkspaceHooks | None = None) -> WorkspaceStudy:
@@ -220,11 +230,14 @@ def workspace_study(robot: Robot, loads: Loads, bounds: TensionBounds, settings:
         problem = ReachProblem.create(robot, loads, bounds, model=m, options=opts,
                                       stable_only=bool(m.capabilities.stability))
         T, tips = samples.tensions[samples.feasible], samples.tip_position[samples.feasible]
+        # searches start warm from the samples' equilibria; their ends are solved by the region's definition
+        states = None if samples.q is None else SampleStates(samples.q[samples.feasible], samples.parent is not None)
         D = s.direction_vectors()
         if D is not None:
             step = hooks.progress("support function h(d)", D.shape[0]) if hooks.progress else None
-            support = support_function(problem, T, tips, D, threads=s.threads, progress=step)
+            support = support_function(problem, T, tips, D, threads=s.threads, progress=step, states=states)
         if s.reach in ("search", "farthest"):
-            search = largest_reach(problem, T, tips, support=support, threads=s.threads)
+            search = largest_reach(problem, T, tips, support=support, threads=s.threads, states=states)
+        support, search = _parents_as_rows(support, search, np.flatnonzero(samples.feasible))
     real = _farthest_sample(samples, samples.realisable)
     return WorkspaceStudy(s, m, opts, wr, support, search, _by_rule(s.reach, far, support, search), real.reach)

@@ -10,8 +10,14 @@ sample: rounds of searches from the other directions' tips follow, until none be
 largest reach ``max ||tip||`` (the paper's Eq. 29) is found by the same optimiser, from the samples farthest
 from the base and from the tensions that attain h(d).
 
-Every reported tip is the cold solve of the reported tensions (or, where no search beat it, the sample's own),
-so re-solving the tensions reproduces it; h(d) is never below the best sample's ``d . tip``. Searches run in
+Which equilibrium a tip is: without the samples' states (:class:`SampleStates`) every cost is a cold solve
+along the loading path, and every reported tip is the cold solve of the reported tensions. With them, each
+search starts from its sample's equilibrium and solves every cost warm from the last (five times cheaper than
+cold solves under a load), and only the end is solved by the region's own definition: along the loading path,
+or continued from the sample's equilibrium along the straight segment of tensions (``parent``: the sample), so
+that the reported tip is the equilibrium the robot reaches there, replayable from rest through its parent. A
+search whose end, so solved, lies lower than the sample does not count. Either way h(d) is never below the
+best sample's ``d . tip``. Searches run in
 parallel threads (the compiled solvers release the GIL); which searches run, and from where, does not depend
 on the number of threads, and neither do the results.
 """
@@ -27,11 +33,13 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from ..optimize import ReachProblem, SearchFailed, polish_reach
+from ..results import StaticSolution
 from ..runtime import default_threads, worker_pool
+from ..statics import TIGHT_ATOL
 from ..validate import check_count
 
-__all__ = ["DEFAULT_DIRECTIONS", "LargestReach", "SupportFunction", "SupportSettings", "fibonacci_directions",
-           "largest_reach", "support_function"]
+__all__ = ["DEFAULT_DIRECTIONS", "LargestReach", "SampleStates", "SupportFunction", "SupportSettings",
+           "fibonacci_directions", "largest_reach", "support_function"]
 
 #: directions of the support function by default (a Fibonacci sphere)
 DEFAULT_DIRECTIONS = 200
@@ -39,6 +47,8 @@ DEFAULT_DIRECTIONS = 200
 EXCHANGE_TOL = 1e-7
 #: rounding allowed in ``h[k] = max_j d_k . tip_j`` [m]
 TAKE_TOL = 1e-12
+#: a warm search's end and the samples' definition's solve of its tensions are one equilibrium within this [m]
+SAME_END = 1e-6
 #: two starts are distinct when they differ by more than this fraction of the bounds' span in some tension
 _DISTINCT = 0.05
 
@@ -100,6 +110,9 @@ class SupportFunction:
     stable : ndarray, shape (K,), or None
         1.0 where the equilibrium attaining h is known stable: the search ran with ``problem.stable_only``
         (unstable equilibria refused) from stable samples; NaN where that was not asked (untested).
+    parent : ndarray of int, shape (K,), or None
+        With the samples' states: the sample (index into the samples given) whose equilibrium each row's was
+        continued from, or which the row is; -1 where the row was solved from rest. None without states.
     """
 
     directions: np.ndarray
@@ -114,6 +127,7 @@ class SupportFunction:
     seconds: float
     settings: dict[str, Any] = field(default_factory=dict)
     stable: np.ndarray | None = None
+    parent: np.ndarray | None = None
 
     @property
     def gain(self) -> np.ndarray:
@@ -141,6 +155,7 @@ class SupportFunction:
                 "from_sample": self.from_sample.tolist(), "exchanged": self.exchanged.tolist(),
                 "evaluations": self.evaluations.tolist(), "stable": [self._stable(k) for k in range(self.h.size)],
                 "starts": self.starts.tolist(), "seconds": self.seconds, "settings": self.settings,
+                "parent": None if self.parent is None else self.parent.tolist(),
                 "summary": {"directions": int(self.h.size), "improved": int(np.sum(gain > 0)),
                             "exchanged": int(np.sum(self.exchanged)),
                             "gain_median_m": float(np.median(gain)) if gain.size else 0.0,
@@ -171,6 +186,9 @@ class LargestReach:
         Searches run (distinct starts: samples, and tensions of the support function).
     seconds : float
         Wall time [s].
+    parent : int
+        With the samples' states: the sample whose equilibrium the reported one was continued from, or which it
+        is (-1: solved from rest).
     """
 
     tensions: np.ndarray
@@ -181,12 +199,14 @@ class LargestReach:
     evaluations: int
     starts: int
     seconds: float
+    parent: int = -1
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form."""
         return {"tensions": self.tensions.tolist(), "tip": self.tip_position.tolist(), "reach": self.reach,
                 "sample_reach": self.sample_reach, "from_sample": self.from_sample,
-                "evaluations": self.evaluations, "starts": self.starts, "seconds": self.seconds}
+                "evaluations": self.evaluations, "starts": self.starts, "seconds": self.seconds,
+                "parent": self.parent}
 
 
 @dataclass(frozen=True)
@@ -214,8 +234,37 @@ class SupportSettings:
             object.__setattr__(self, name, check_count(getattr(self, name), name, lo=lo))
 
 
+@dataclass(frozen=True, eq=False)
+class SampleStates:
+    """The samples' equilibria, for searches that start from them (see the module).
+
+    Attributes
+    ----------
+    q : ndarray, shape (M, ...)
+        Each sample's state, in the order of the samples given (``RegionSamples.q`` rows).
+    continued : bool
+        The samples' equilibria were continued from parents: a search's end is continued from its sample's
+        equilibrium. Otherwise it is solved from rest, along the loading path.
+    """
+
+    q: np.ndarray
+    continued: bool
+
+
+class _Start(NamedTuple):
+    """Where a search starts: tensions [N], the sample it starts from (-1: none), the state its first solve
+    starts from (None: cold) and the sample's equilibrium it is continued from (None: solved from rest)."""
+
+    tensions: np.ndarray
+    parent: int = -1
+    q: np.ndarray | None = None
+    anchor: StaticSolution | None = None
+
+
 class _Best(NamedTuple):
-    """The outcome on one objective: tensions, tip, value, whether the sample was kept, solves, searches."""
+    """The outcome on one objective: tensions, tip, value, whether the sample was kept, solves, searches; the
+    sample it continues from or is (-1: none), its equilibrium where a search solved it, and the sample's
+    equilibrium it was continued from."""
 
     tensions: np.ndarray
     tip_position: np.ndarray
@@ -223,6 +272,33 @@ class _Best(NamedTuple):
     from_sample: bool
     evaluations: int
     starts: int
+    parent: int = -1
+    state: StaticSolution | None = None
+    anchor: StaticSolution | None = None
+
+    def restart(self) -> _Start:
+        """A search from this outcome: its tensions, from its equilibrium, continued from its sample's."""
+        q = self.state.q if self.state is not None else (self.anchor.q if self.anchor is not None else None)
+        return _Start(self.tensions, self.parent, q, self.anchor)
+
+
+def _start(problem: ReachProblem, T: np.ndarray, states: SampleStates | None, k: int) -> _Start:
+    """A search from sample ``k``: cold without states; else warm from the sample's equilibrium, tightened
+    (Newton from its own state: the same equilibrium), which the search's end is continued from."""
+    if states is None:
+        return _Start(T[k], k)
+    sol = problem.solve(T[k], states.q[k], atol=TIGHT_ATOL)
+    if not sol.converged or (problem.stable_only and not sol.stable):
+        return _Start(T[k], k, states.q[k], None)
+    return _Start(T[k], k, sol.q, sol)
+
+
+def _definition(problem: ReachProblem, states: SampleStates, start: _Start) -> ReachProblem | None:
+    """``problem`` solving as the samples were: from rest, or continued from the search's sample's equilibrium
+    (None when it has none to continue)."""
+    if not states.continued:
+        return problem
+    return None if start.anchor is None else problem.continued_from(start.anchor)
 
 
 def _check_samples(problem: ReachProblem, tensions: np.ndarray,
@@ -273,22 +349,51 @@ def _top_distinct(values: np.ndarray, tensions: np.ndarray, count: int, scale: n
     return picked
 
 
-def _climb(problem: ReachProblem, starts: list[np.ndarray], best_start: tuple[np.ndarray, np.ndarray],
-           max_iter: int, restarts: int = 3) -> _Best:
-    """Polish every start on ``problem``'s objective and keep the best; the sample ``best_start`` (tensions,
-    tip) is kept when no search ends above it."""
-    t_best, tip_best = best_start
-    sample_value = float(problem.value(tip_best))
-    best = _Best(t_best, tip_best, sample_value, True, 0, len(starts))
+def _polish(problem: ReachProblem, st: _Start, max_iter: int, restarts: int,
+            states: SampleStates | None) -> tuple[np.ndarray, np.ndarray, StaticSolution | None, int] | None:
+    """One search from ``st``: its tensions, tip, reported equilibrium (None without states) and solves; None
+    when it failed. With ``states`` it runs warm (each cost from the last equilibrium) and its end is solved by
+    the samples' definition; where that equilibrium is not the warm search's (another branch), the search runs
+    again with every cost so solved."""
+    if states is None:
+        r = polish_reach(problem, st.tensions, max_iter=max_iter, restarts=restarts)
+        return r.tensions, r.tip_position, None, r.evaluations
+    strict = _definition(problem, states, st)
+    if strict is None:
+        return None
+    r = polish_reach(problem, st.tensions, q0=st.q, warm=st.q is not None, max_iter=max_iter, restarts=restarts)
+    end = strict.solve(r.tensions, atol=TIGHT_ATOL)
+    n = r.evaluations + 1
+    if not (end.converged and np.linalg.norm(end.tip_position - r.tip_position) <= SAME_END):
+        r = polish_reach(strict, st.tensions, max_iter=max_iter, restarts=restarts)
+        end = strict.solve(r.tensions, atol=TIGHT_ATOL)
+        n += r.evaluations + 1
+    if not end.converged or (problem.stable_only and not end.stable):
+        return None
+    return r.tensions, end.tip_position, end, n
+
+
+def _climb(problem: ReachProblem, starts: list[_Start], sample: tuple[_Start, np.ndarray], max_iter: int,
+           restarts: int = 3, states: SampleStates | None = None) -> _Best:
+    """Polish every start on ``problem``'s objective and keep the best; the ``sample`` (its start, its tip) is
+    kept when no search ends above it. With ``states``, each search runs warm and its end is the samples'
+    definition's equilibrium (:func:`_polish`)."""
+    first, tip0 = sample
+    best = _Best(first.tensions, tip0, float(problem.value(tip0)), True, 0, len(starts), first.parent,
+                 None, first.anchor)
     evaluations = 0
-    for t in starts:
+    for st in starts:
         try:
-            r = polish_reach(problem, t, max_iter=max_iter, restarts=restarts)
+            got = _polish(problem, st, max_iter, restarts, states)
         except SearchFailed:
             continue
-        evaluations += r.evaluations
-        if r.value > best.value:
-            best = _Best(r.tensions, r.tip_position, float(r.value), False, 0, len(starts))
+        if got is None:
+            continue
+        t, tip, end, n = got
+        evaluations += n
+        value = float(problem.value(tip))
+        if value > best.value:
+            best = _Best(t, tip, value, False, 0, len(starts), st.parent, end, st.anchor)
     return best._replace(evaluations=evaluations)
 
 
@@ -307,7 +412,7 @@ def _run(jobs: list[Callable[[], _Best]], threads: int | None,
 
 
 def _exchange(problem: ReachProblem, D: np.ndarray, found: list[_Best], max_iter: int, restarts: int,
-              threads: int | None, search: bool = True) -> list[int]:
+              threads: int | None, search: bool = True, states: SampleStates | None = None) -> list[int]:
     """One exchange round, in place on ``found``: each direction whose h another direction's tip beats (by more
     than :data:`EXCHANGE_TOL`) is searched again from that tip's tensions, keeping at least that tip; without
     ``search``, each that a tip beats by more than :data:`TAKE_TOL` takes it as it is (no solve). Returns the
@@ -321,10 +426,11 @@ def _exchange(problem: ReachProblem, D: np.ndarray, found: list[_Best], max_iter
 
     def job(k: int) -> Callable[[], _Best]:
         j = int(donor[k])
-        start = (found[j].tensions, found[j].tip_position)
         if not search:
-            return lambda: _Best(*start, float(values[j, k]), False, 0, 0)
-        return lambda: _climb(problem.with_direction(D[k]), [start[0]], start, max_iter, restarts)
+            return lambda: found[j]._replace(value=float(values[j, k]), from_sample=False, evaluations=0, starts=0)
+        start = found[j].restart()
+        return lambda: _climb(problem.with_direction(D[k]), [start], (start, found[j].tip_position), max_iter,
+                              restarts, states)
 
     again = _run([job(k) for k in todo], threads if search else 1, None)
     for k, b in zip(todo, again, strict=True):
@@ -335,7 +441,8 @@ def _exchange(problem: ReachProblem, D: np.ndarray, found: list[_Best], max_iter
 
 def support_function(problem: ReachProblem, samples_tensions: np.ndarray, samples_tip_position: np.ndarray,
                      directions: np.ndarray | None = None, *, settings: SupportSettings | None = None,
-                     threads: int | None = None, progress: Callable[[int], None] | None = None) -> SupportFunction:
+                     threads: int | None = None, progress: Callable[[int], None] | None = None,
+                     states: SampleStates | None = None) -> SupportFunction:
     """The support function ``h(d) = max d . tip`` over the feasible tensions, along each direction.
 
     First, for each direction d, the ``settings.starts`` samples with the largest ``d . tip`` (with distinct
@@ -345,9 +452,10 @@ def support_function(problem: ReachProblem, samples_tensions: np.ndarray, sample
     ``settings.exchange_rounds`` rounds, every direction whose h another direction's tip beats is searched again
     from that tip's tensions (``exchanged``). A last pass takes, without a solve, any tip that still beats a
     direction's h, so that h is the support function of the reported tips themselves:
-    ``h[k] = max_j directions[k] . tip_position[j]`` (to 1e-12 m). Every reported tip is the cold solve of its
-    tensions (or a sample's, as given). With ``problem.stable_only`` the search refuses unstable equilibria
-    (pass stable samples).
+    ``h[k] = max_j directions[k] . tip_position[j]`` (to 1e-12 m). Without ``states`` every reported tip is the
+    cold solve of its tensions (or a sample's, as given); with them, the equilibrium the samples' definition
+    gives there (see the module), and ``parent`` names the sample it continues. With ``problem.stable_only``
+    the search refuses unstable equilibria (pass stable samples).
 
     Parameters
     ----------
@@ -366,6 +474,8 @@ def support_function(problem: ReachProblem, samples_tensions: np.ndarray, sample
     progress : callable, optional
         Called as ``progress(1)`` after each direction's first search (an increment, as for a tqdm bar); the
         exchange rounds that follow are not counted.
+    states : SampleStates, optional
+        The samples' equilibria: searches start warm from them (see the module).
 
     Returns
     -------
@@ -380,9 +490,9 @@ def support_function(problem: ReachProblem, samples_tensions: np.ndarray, sample
 
     def job(d: np.ndarray) -> Callable[[], _Best]:
         def run() -> _Best:
-            picked = _top_distinct(P @ d, T, starts, scale)
-            return _climb(problem.with_direction(d), [T[k] for k in picked], (T[picked[0]], P[picked[0]]),
-                          max_iter, restarts)
+            pr = problem.with_direction(d)
+            picked = [_start(pr, T, states, k) for k in _top_distinct(P @ d, T, starts, scale)]
+            return _climb(pr, picked, (picked[0], P[picked[0].parent]), max_iter, restarts, states)
         return run
 
     found = _run([job(d) for d in D], threads, progress)
@@ -391,7 +501,7 @@ def support_function(problem: ReachProblem, samples_tensions: np.ndarray, sample
             "seconds": time.perf_counter() - t0}]
     while len(log) <= exchange_rounds:
         t1, before = time.perf_counter(), sum(b.evaluations for b in found)
-        todo = _exchange(problem, D, found, max_iter, restarts, threads)
+        todo = _exchange(problem, D, found, max_iter, restarts, threads, states=states)
         if not todo:
             break
         exchanged[todo] = True
@@ -400,6 +510,7 @@ def support_function(problem: ReachProblem, samples_tensions: np.ndarray, sample
     taken = _exchange(problem, D, found, max_iter, restarts, threads, search=False)
     exchanged[taken] = True
     record = {**problem.describe(), "objective": "support", "direction": None, "starts": starts,
+              "equilibria": "cold" if states is None else ("continued" if states.continued else "loading path"),
               "max_iter": max_iter, "restarts": restarts, "exchange_rounds": exchange_rounds, "rounds": log,
               "taken_without_search": len(taken), "samples": int(T.shape[0])}
     tips = np.array([b.tip_position for b in found])
@@ -410,12 +521,13 @@ def support_function(problem: ReachProblem, samples_tensions: np.ndarray, sample
         from_sample=np.array([b.from_sample for b in found], dtype=bool), exchanged=exchanged,
         evaluations=np.array([b.evaluations for b in found], dtype=int),
         starts=np.array([b.starts for b in found], dtype=int), seconds=time.perf_counter() - t0, settings=record,
-        stable=np.full(D.shape[0], 1.0 if problem.stable_only else np.nan))
+        stable=np.full(D.shape[0], 1.0 if problem.stable_only else np.nan),
+        parent=None if states is None else np.array([b.parent for b in found], dtype=np.int64))
 
 
 def largest_reach(problem: ReachProblem, samples_tensions: np.ndarray, samples_tip_position: np.ndarray,
                   support: SupportFunction | None = None, *, starts: int = 4, max_iter: int = 200,
-                  threads: int | None = None) -> LargestReach:
+                  threads: int | None = None, states: SampleStates | None = None) -> LargestReach:
     """The largest reach ``max ||tip||`` over the feasible tensions (the paper's Eq. 29), by the same search.
 
     Polished by :func:`pytdcr.optimize.polish_reach` on ``problem.with_direction(None)`` from the ``starts``
@@ -438,6 +550,9 @@ def largest_reach(problem: ReachProblem, samples_tensions: np.ndarray, samples_t
         L-BFGS-B iterations per search (and per restart).
     threads : int, optional
         Searches run at once (default: the cores); the result does not depend on it.
+    states : SampleStates, optional
+        The samples' equilibria: searches start warm from them, as :func:`support_function`'s (pass the
+        support function computed with the same states).
 
     Returns
     -------
@@ -451,16 +566,22 @@ def largest_reach(problem: ReachProblem, samples_tensions: np.ndarray, samples_t
     scale = problem.bounds.span
     reach = np.linalg.norm(P, axis=1)
     first = _top_distinct(reach, T, starts, scale)
-    begin = [T[k] for k in first]
+    begin = [_start(reach_problem, T, states, k) for k in first]
     if support is not None:
         far = np.linalg.norm(support.tip_position, axis=1)
-        cand = [support.tensions[k] for k in _top_distinct(far, support.tensions, starts, scale)]
-        begin += [t for t in cand if all(np.max(np.abs(t - s) / scale) > _DISTINCT for s in begin)]
-    sample = (T[first[0]], P[first[0]])
-    jobs = [lambda t=t: _climb(reach_problem, [t], sample, max_iter) for t in begin]
+        for k in _top_distinct(far, support.tensions, starts, scale):
+            t = support.tensions[k]
+            if any(np.max(np.abs(t - b.tensions) / scale) <= _DISTINCT for b in begin):
+                continue
+            parent = -1 if support.parent is None else int(support.parent[k])
+            anchor = _start(reach_problem, T, states, parent) if states is not None and parent >= 0 else None
+            begin.append(_Start(t, parent, None if anchor is None else anchor.q,
+                                None if anchor is None else anchor.anchor))
+    sample = (begin[0], P[first[0]])
+    jobs = [lambda st=st: _climb(reach_problem, [st], sample, max_iter, states=states) for st in begin]
     found = _run(jobs, threads, None)
     best = max(found, key=lambda b: (b.value, not b.from_sample))
     return LargestReach(tensions=np.array(best.tensions), tip_position=np.array(best.tip_position),
                         reach=float(best.value), sample_reach=float(reach[first[0]]), from_sample=best.from_sample,
                         evaluations=int(sum(b.evaluations for b in found)), starts=len(begin),
-                        seconds=time.perf_counter() - t0)
+                        seconds=time.perf_counter() - t0, parent=int(best.parent) if states is not None else -1)
