@@ -1,5 +1,6 @@
 """``tdcr workspace``: the feasible static workspace as a region (volume, boundary, realisability), under the
-loads given or, with ``--compare-loads``, under each of the paper's load cases."""
+loads given or, with ``--compare-loads``, under each of the paper's load cases, or with ``--compare-models``,
+by each of several models."""
 
 from __future__ import annotations
 
@@ -59,8 +60,40 @@ def add_parser(sub: Any) -> None:
     ws.add_argument("--compare-loads", action="store_true",
                     help="compare load cases: no load, gravity only, payloads 5/10/20 g, the paper's wrench, and "
                     "--tip-force/--tip-moment when given; one sub-folder each")
+    ws.add_argument("--compare-models", metavar="M1,M2,...", default=None,
+                    help="compare the regions of several models under the same loads (e.g. pcc,pcc2,sscr): "
+                    "volumes, the Hausdorff distance between boundaries, the share of each inside the others; one "
+                    "sub-folder each")
     add_out(ws, "out/workspace")
     ws.set_defaults(func=run)
+
+
+def _compare_models(args: argparse.Namespace, robot: Any, loads: Any) -> dict[str, tuple[Any, ...]] | None:
+    """The cases of ``--compare-models`` (name → robot, loads, no settings of its own, model, options), or None
+    without it; CliError for an unknown model, a repeated one, fewer than two, or another comparison asked."""
+    from ..region import equilibria_for
+    from ..statics import MODELS
+    from ..study import ModelSpec
+
+    if args.compare_models is None:
+        return None
+    names = [n.strip() for n in args.compare_models.split(",")]
+    unknown = [n for n in names if n not in MODELS]
+    if unknown or len(set(names)) != len(names) or len(names) < 2:
+        raise CliError(f"--compare-models: two or more distinct models of {', '.join(MODELS)}, comma-separated, "
+                       f"got {escape_controls(args.compare_models)!r}")
+    if args.compare_loads or args.equilibria == "both":
+        raise CliError("--compare-models with --compare-loads or --equilibria both: choose one comparison")
+    cases = {}
+    for name in names:
+        m, options = ModelSpec(name, shear_extension=args.shear_extension).resolve(robot, loads)
+        if args.equilibria is not None:
+            try:
+                equilibria_for(m, args.equilibria)
+            except ValueError as err:
+                raise CliError(f"--{err}") from None
+        cases[name] = (robot, loads, None, m.name, options)
+    return cases
 
 
 def _workspace_lines(name: str, s: dict[str, Any]) -> list[str]:
@@ -110,11 +143,14 @@ def run(args: argparse.Namespace) -> int:
                 raise CliError(f"--{err}") from None
     if args.equilibria == "both" and args.compare_loads:
         raise CliError("--equilibria both and --compare-loads: choose one comparison")
+    by_model = _compare_models(args, robot, loads)
     bars = Bars()
     kw = {"model": m.name, "options": options,
           "run_options": WorkspaceRunOptions(command=" ".join(["tdcr", *sys.argv[1:]]), progress=bars)}
     try:
-        if args.compare_loads:
+        if by_model is not None:
+            res = run_workspace_compare(robot, by_model, bounds, settings, out, **kw)
+        elif args.compare_loads:
             cases = workspace_load_cases(robot, loads)
             res = run_workspace_compare(robot, cases, bounds, settings, out, **kw)
         elif args.equilibria == "both":

@@ -7,6 +7,7 @@ from ._compute import WorkspaceRegion, workspace_region
 from ._frontier import BoundarySearch, GrowthSettings, SearchRound, SearchState, grow_region, tension_step
 from ._grid import MIN_MESH_POINTS, Region, inside, region_from_points
 from ._history import Multistability, measure_multistability
+from ._overlap import RegionOverlap, region_overlap
 from ._plan import SOURCES, TensionPlan, plan_tensions
 from ._settings import (
     REACH_RULES,
@@ -58,6 +59,7 @@ __all__ = [
     "Reach",
     "Region",
     "RegionDimension",
+    "RegionOverlap",
     "RegionSamples",
     "SampleStates",
     "SearchRound",
@@ -84,6 +86,7 @@ __all__ = [
     "plan_tensions",
     "region_dimension",
     "region_from_points",
+    "region_overlap",
     "same_tip",
     "search_budget",
     "solve_plan",

@@ -26,6 +26,7 @@ from ._solve import SolveRun, check_figure_path, run_solve
 from ._specs import MAX_FRICTION, BoundsSpec, LoadSpec, ModelSpec, RobotSpec, RunInputs
 from ._workspace import (
                          WorkspaceCase,
+                         WorkspaceCaseSpec,
                          WorkspaceRun,
                          WorkspaceRunOptions,
                          format_measure_of,
@@ -36,6 +37,7 @@ from ._workspace import (
 __all__ = ["MAX_FRICTION", "AccuracyRun", "AccuracySettings", "BoundsSpec", "CompareRun",
            "CompareSettings", "LoadSpec", "ModelSpec", "OptimizeRun", "OptimizeSettings", "ReproduceRun",
            "ReproduceSettings", "RobotSpec", "RunInputs", "SampleRun", "SampleSettings", "SolveRun", "SolveSettings",
-           "WorkspaceCase", "WorkspaceRun", "WorkspaceRunOptions", "check_figure_path", "format_measure_of",
-           "inputs_record", "read_cases", "run_accuracy", "run_compare", "run_optimize", "run_reproduce", "run_sample",
-           "run_solve", "run_workspace", "run_workspace_compare", "sample_into", "write_optimize"]
+           "WorkspaceCase", "WorkspaceCaseSpec", "WorkspaceRun", "WorkspaceRunOptions", "check_figure_path",
+           "format_measure_of", "inputs_record", "read_cases", "run_accuracy", "run_compare", "run_optimize",
+           "run_reproduce", "run_sample", "run_solve", "run_workspace", "run_workspace_compare", "sample_into",
+           "write_optimize"]

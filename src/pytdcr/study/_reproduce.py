@@ -70,6 +70,12 @@ class ReproduceSettings:
     verdict_ga_pop : int
         Their GA population; 0 (the modest default): a gradient polish from the paper's optimum only, at most
         ``verdict_polish_iter`` iterations (an ``sscr`` solve near that optimum crosses folds: about 0.4 s).
+    workspace_models : tuple of str
+        Models whose FSWs under the paper's load the workspace section compares (volumes, the Hausdorff distance
+        between boundaries, the share of each inside the others): how much of the paper's workspace is its
+        model's error. None by default (the demo); :meth:`full`: pcc, pcc2 and sscr.
+    models_n, models_voxels : int
+        That comparison's base samples and voxels per robot length (its boundary search has 25 n solves).
     """
 
     pops: tuple[int, ...] = (50, 100)
@@ -87,14 +93,19 @@ class ReproduceSettings:
     workspace_budget: int = 300
     workspace_voxels: int = 10
     workspace_directions: int = 0
+    workspace_models: tuple[str, ...] = ()
+    models_n: int = 1000
+    models_voxels: int = 16
 
     @classmethod
     def full(cls) -> ReproduceSettings:
         """The paper's whole study (``tdcr reproduce --full``): populations 50, 100 and 200, bounds 10, 20 and
-        40 N, the better models re-optimising with the memetic GA too, and the workspace section at ``tdcr
-        workspace``'s defaults (n 4000, 12.5 mm voxels, 200 directions)."""
+        40 N, the better models re-optimising with the memetic GA too, the workspace section at ``tdcr
+        workspace``'s defaults (n 4000, 12.5 mm voxels, 200 directions), and the FSWs of pcc, pcc2 and sscr
+        under the paper's load compared (n 1000, 25 mm voxels)."""
         return cls(pops=(50, 100, 200), bound_uppers=(10.0, 20.0, 40.0), verdict_ga_pop=50, verdict_polish_iter=8,
-                   workspace_n=4000, workspace_budget=25 * 4000, workspace_voxels=32, workspace_directions=200)
+                   workspace_n=4000, workspace_budget=25 * 4000, workspace_voxels=32, workspace_directions=200,
+                   workspace_models=("pcc", "pcc2", "sscr"))
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -33,14 +33,22 @@ from ..region import (
     WorkspaceRegion,
     WorkspaceSettings,
     WorkspaceStudy,
+    region_overlap,
     workspace_study,
 )
 from ..runtime import atomic_write, atomic_write_text, output_folder, write_csv, write_json
 from ..statics import Model, options_record, saving, solve
 from ._output import inputs_record
 
-__all__ = ["WorkspaceCase", "WorkspaceRun", "WorkspaceRunOptions", "format_measure_of", "run_workspace",
-           "run_workspace_compare"]
+__all__ = [
+    "WorkspaceCase",
+    "WorkspaceCaseSpec",
+    "WorkspaceRun",
+    "WorkspaceRunOptions",
+    "format_measure_of",
+    "run_workspace",
+    "run_workspace_compare",
+]
 
 #: ``progress(stage, total)`` returns a callable advanced by the work done (total None: unknown)
 Progress = Callable[[str, "int | None"], Callable[[int], None]]
@@ -63,6 +71,17 @@ class WorkspaceRunOptions:
     command: str = "tdcr workspace"
     progress: Progress | None = None
     on_round: Callable[[SearchRound], None] | None = None
+
+
+class WorkspaceCaseSpec(NamedTuple):
+    """One case of :func:`run_workspace_compare`: its robot and loads, and where it differs from the run, its
+    settings (the run's voxel still holds) or its model (with options; None: the model's defaults)."""
+
+    robot: Robot
+    loads: Loads
+    settings: WorkspaceSettings | None = None
+    model: str | Model | None = None
+    options: Any = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -378,6 +397,12 @@ def _centroid(region: Region) -> np.ndarray:
     return region.origin + (idx.mean(axis=0) + 0.5) * region.voxel
 
 
+def _pairs(cases: list[WorkspaceCase]) -> list[dict[str, Any]]:
+    """Per pair of cases (a before b): how their FSWs differ (:func:`pytdcr.region.region_overlap`)."""
+    return [{"a": a.name, "b": b.name, **region_overlap(a.region.fsw_region, b.region.fsw_region).to_dict()}
+            for i, a in enumerate(cases) for b in cases[i + 1:]]
+
+
 def _comparison(cases: list[WorkspaceCase]) -> list[dict[str, Any]]:
     """Per case: volumes, largest reach, and how far the region shrank and shifted from the first case."""
     ref = cases[0]
@@ -386,7 +411,8 @@ def _comparison(cases: list[WorkspaceCase]) -> list[dict[str, Any]]:
     for c in cases:
         s = c.summary
         shift = _centroid(c.region.fsw_region) - c0
-        rows.append({"case": c.name, "volume_m3": s["volume_m3"], "volume_err_m3": s["volume_err_m3"],
+        rows.append({"case": c.name, "model": c.study.model.name, "equilibria": s["equilibria"],
+                     "volume_m3": s["volume_m3"], "volume_err_m3": s["volume_err_m3"],
                      "realisable_m3": s["realisable"]["volume_m3"],
                      "realisable_err_m3": s["realisable"]["volume_err_m3"],
                      "largest_reach_m": s["largest_reach_m"], "reach_rule": s["reach_rule"],
@@ -396,8 +422,23 @@ def _comparison(cases: list[WorkspaceCase]) -> list[dict[str, Any]]:
     return rows
 
 
-def _compare_report(rows: list[dict[str, Any]], cases: list[WorkspaceCase], command: str) -> str:
-    lines = ["# Feasible static workspace under several loads", "", f"Made by `{command}`. Each case's folder "
+def _pairs_lines(pairs: list[dict[str, Any]]) -> list[str]:
+    """The pairs' table: Hausdorff distance between the boundaries, and the share of each FSW inside the other."""
+    def pct(x: float | None) -> str:
+        return "—" if x is None else f"{100 * x:.1f} %"
+
+    lines = ["", "How the FSWs differ, pair by pair: the Hausdorff distance between their boundaries (the farthest a "
+             "point of either lies from the other, to about half a voxel) and the share of each region's voxels "
+             "inside the other's:", "", "| a | b | Hausdorff [mm] | a in b | b in a |", "|---|---|---|---|---|"]
+    for p in pairs:
+        h = "—" if p["hausdorff_m"] is None else f"{p['hausdorff_m'] * 1e3:.0f}"
+        lines.append(f"| {p['a']} | {p['b']} | {h} | {pct(p['a_in_b'])} | {pct(p['b_in_a'])} |")
+    return lines
+
+
+def _compare_report(rows: list[dict[str, Any]], cases: list[WorkspaceCase], command: str,
+                    pairs: list[dict[str, Any]]) -> str:
+    lines = ["# Feasible static workspaces compared", "", f"Made by `{command}`. Each case's folder "
              "holds its own workspace.json, meshes, figures and report.", "",
              "| case | FSW [cm³] | ± | realisable [cm³] | ± | largest reach [m] | FSW / first | centroid shift "
              "[mm] |", "|---|---|---|---|---|---|---|---|"]
@@ -407,6 +448,9 @@ def _compare_report(rows: list[dict[str, Any]], cases: list[WorkspaceCase], comm
                      f"{r['realisable_m3'] * 1e6:.0f} | {r['realisable_err_m3'] * 1e6:.0f} | "
                      f"{_cell(r['largest_reach_m'])} | {_cell(r['volume_ratio'], '.2f')} | "
                      + ("—" if not np.all(np.isfinite(sh)) else f"({sh[0]:.0f}, {sh[1]:.0f}, {sh[2]:.0f})") + " |")
+    lines += ["", "Models and equilibria: " + "; ".join(f"{r['case']}: {r['model']}, {r['equilibria']}"
+                                                       for r in rows) + "."]
+    lines += _pairs_lines(pairs)
     rules = dict.fromkeys(r["reach_rule"] for r in rows)
     lines += ["", "Largest reach: the FSW's, " + ("; ".join(f"{r['case']}: {r['reach_rule']}" for r in rows)
                                                   if len(rules) > 1 else next(iter(rules))) + "."]
@@ -427,51 +471,59 @@ def _compare_report(rows: list[dict[str, Any]], cases: list[WorkspaceCase], comm
 def run_workspace_compare(robot: Robot, cases: dict[str, tuple[Any, ...]], bounds: TensionBounds,
                           settings: WorkspaceSettings, out: str | Path, *, model: str | Model = "pcc",
                           options: Any = None, run_options: WorkspaceRunOptions | None = None) -> WorkspaceRun:
-    """The workspace of each load case (name → (robot, loads): :func:`pytdcr.paper.workspace_load_cases`), one
-    sub-folder each with :func:`run_workspace`'s files, and their comparison in ``out``: ``comparison.json``,
-    ``comparison.md``, ``support_compare.csv``, overlaid slices and 3D boundaries (PNG, PDF) and
-    ``comparison.html``. Every case has ``robot``'s voxel (:meth:`~pytdcr.region.WorkspaceSettings.voxel_for`:
-    one grid). A case given as (robot, loads, settings) has settings of its own (``tdcr workspace --equilibria
-    both``: the same loads, each equilibria in turn), with the run's voxel."""
+    """The workspace of each case (name → :class:`WorkspaceCaseSpec`, or a tuple of its fields: robot, loads,
+    and optionally settings, model and options; :func:`pytdcr.paper.workspace_load_cases` gives the load
+    cases), one sub-folder each with :func:`run_workspace`'s files, and their comparison in ``out``:
+    ``comparison.json`` (per case, and per pair the Hausdorff distance between the boundaries and the share of
+    each region inside the other), ``comparison.md``, ``support_compare.csv``, overlaid slices and 3D
+    boundaries (PNG, PDF) and ``comparison.html``. Every case has ``robot``'s voxel
+    (:meth:`~pytdcr.region.WorkspaceSettings.voxel_for`: one grid). A case with settings of its own (``tdcr
+    workspace --equilibria both``) keeps the run's voxel; one with a model of its own (``--compare-models``)
+    is solved by it, the others by ``model``."""
     how = run_options if run_options is not None else WorkspaceRunOptions()
     settings = settings.check(robot).with_voxel_for(robot)
+    specs = {name: WorkspaceCaseSpec(*value) for name, value in cases.items()}
     done: list[WorkspaceCase] = []
-    with output_folder(out, "workspace --compare-loads", {"n": settings.n, "seed": settings.seed,
-                                                          "bounds": bounds.to_dict(), "cases": list(cases)}) as run:
+    with output_folder(out, "workspace --compare", {"n": settings.n, "seed": settings.seed,
+                                                    "bounds": bounds.to_dict(), "cases": list(cases)}) as run:
         files = []
-        for name, (case_robot, loads, *own) in cases.items():
+        for name, spec in specs.items():
             sub = run.staging / _slug(name)
             sub.mkdir()
-            whole = f"saved {len(done)} of {len(cases)} load cases whole; "
+            whole = f"saved {len(done)} of {len(cases)} cases whole; "
             hooks = WorkspaceHooks(how.progress, how.on_round, _checkpoint(sub, run, whole, f"{sub.name}/"))
-            s = replace(own[0], voxel=settings.voxel).check(case_robot) if own else settings
-            case = _case(name, case_robot, loads, bounds, s, model, options, hooks)
+            s = replace(spec.settings, voxel=settings.voxel).check(spec.robot) if spec.settings else settings
+            m, opts = (model, options) if spec.model is None else (spec.model, spec.options)
+            case = _case(name, spec.robot, spec.loads, bounds, s, m, opts, hooks)
             with saving():
-                _write_case(sub, case, case_robot, how.command)
+                _write_case(sub, case, spec.robot, how.command)
             done.append(case)
             files.append(sub.name)
-            run.interrupted_note = f"saved {len(done)} of {len(cases)} load cases whole, not their comparison"
+            run.interrupted_note = f"saved {len(done)} of {len(cases)} cases whole, not their comparison"
+        pairs = _pairs(done)
         with saving():
-            files += _write_comparison(run.staging, done, robot, how.command)
-    return WorkspaceRun(done, {"cases": _comparison(done)}, files)
+            files += _write_comparison(run.staging, done, robot, how.command, pairs)
+    return WorkspaceRun(done, {"cases": _comparison(done), "pairs": pairs}, files)
 
 
-def _write_comparison(out: Path, cases: list[WorkspaceCase], robot: Robot, command: str) -> list[str]:
+def _write_comparison(out: Path, cases: list[WorkspaceCase], robot: Robot, command: str,
+                      pairs: list[dict[str, Any]]) -> list[str]:
     rows = _comparison(cases)
     files = save_figure(plot_region_slices({c.name: c.region.fsw_region for c in cases}, robot.length,
-                                           f"robot '{robot.name}': FSW under each load"), out, "slices_compare")
+                                           f"robot '{robot.name}': FSW of each case"), out, "slices_compare")
     meshes = {c.name: c.region.fsw_region.mesh() for c in cases if c.region.fsw.has_volume}
     files += save_figure(plot_region_3d(meshes, None, f"robot '{robot.name}': FSW boundaries"), out,
                          "boundaries_compare")
-    write_region_html(out / "comparison.html", meshes, None, None, f"robot '{robot.name}': FSW under each load")
+    write_region_html(out / "comparison.html", meshes, None, None, f"robot '{robot.name}': FSW of each case")
     files.append("comparison.html")
     if all(c.support is not None for c in cases):
         d = cases[0].support.directions
         write_csv(out / "support_compare.csv", ["dx", "dy", "dz", *[f"h_{_slug(c.name)}_m" for c in cases]],
                   ([*d[k], *[c.support.h[k] for c in cases]] for k in range(d.shape[0])))
         files.append("support_compare.csv")
-    atomic_write_text(out / "comparison.md", _compare_report(rows, cases, command))
-    write_json(out / "comparison.json", {"cases": rows, "files": [*files, "comparison.md", "comparison.json"]})
+    atomic_write_text(out / "comparison.md", _compare_report(rows, cases, command, pairs))
+    write_json(out / "comparison.json", {"cases": rows, "pairs": pairs,
+                                         "files": [*files, "comparison.md", "comparison.json"]})
     return [*files, "comparison.md", "comparison.json"]
 
 
@@ -482,7 +534,7 @@ def workspace_section(robot: Robot, bounds: TensionBounds, s: Any, seed: int, ou
     two boundaries (``workspace_fsw_paper.ply``, ``workspace_fsw_no_load.ply``), appends them to ``files``.
     The paper's definition of the equilibria (each sample from rest, ``equilibria="loading-path"``: this is the
     paper's study), and no multistability check (``tdcr workspace`` has both): at the demo's budget it would
-    cost more than the region."""
+    cost more than the region. With ``s.workspace_models``, also :func:`_models_section`."""
     from ..paper import workspace_load_cases
 
     cases = {k: v for k, v in workspace_load_cases(robot).items() if k in ("no load", "paper wrench")}
@@ -499,7 +551,26 @@ def workspace_section(robot: Robot, bounds: TensionBounds, s: Any, seed: int, ou
     files += save_figure(plot_region_slices({c.name: c.region.fsw_region for c in done}, robot.length,
                                             f"robot '{robot.name}': FSW, no load and the paper's wrench"),
                          out, "workspace_slices")
-    return {"n": s.workspace_n, "voxel_m": voxel, "budget": s.workspace_budget, "cases": _comparison(done)}
+    section = {"n": s.workspace_n, "voxel_m": voxel, "budget": s.workspace_budget, "cases": _comparison(done)}
+    if s.workspace_models:
+        section["models"] = _models_section(robot, cases["paper wrench"][1], bounds, s, seed, out, files)
+    return section
+
+
+def _models_section(robot: Robot, loads: Loads, bounds: TensionBounds, s: Any, seed: int, out: Path,
+                    files: list[str]) -> dict[str, Any]:
+    """The FSWs of ``s.workspace_models`` under ``loads`` (the paper's), each model's own equilibria
+    (continued where it can), at ``s.models_n`` samples and ``s.models_voxels`` voxels per length, compared:
+    per model its volume with its error, per pair the Hausdorff distance and the share of each inside the
+    other; writes ``workspace_models_slices`` (PNG, PDF)."""
+    voxel = robot.length / s.models_voxels
+    settings = WorkspaceSettings(n=s.models_n, seed=seed, voxel=voxel, directions=0, multistability=0,
+                                 reach="samples")
+    done = [_case(m, robot, loads, bounds, settings, m, None, WorkspaceHooks()) for m in s.workspace_models]
+    files += save_figure(plot_region_slices({c.name: c.region.fsw_region for c in done}, robot.length,
+                                            f"robot '{robot.name}': FSW under the paper's wrench, by model"),
+                         out, "workspace_models_slices")
+    return {"n": s.models_n, "voxel_m": voxel, "cases": _comparison(done), "pairs": _pairs(done)}
 
 
 def workspace_text(ws: dict[str, Any], s: Any) -> list[str]:
@@ -516,4 +587,15 @@ def workspace_text(ws: dict[str, Any], s: Any) -> list[str]:
         lines.append(f"| {r['case']} | {r['volume_m3'] * 1e6:.0f} | {r['volume_err_m3'] * 1e6:.0f} | "
                      f"{r['realisable_m3'] * 1e6:.0f} | {r['realisable_err_m3'] * 1e6:.0f} | "
                      f"{_cell(r['largest_reach_m'])} |")
+    models = ws.get("models")
+    if models:
+        lines += ["", "### The workspace by model", "",
+                  f"The FSW under the paper's wrench by each model (n = {models['n']}, voxels of "
+                  f"{models['voxel_m'] * 1e3:.1f} mm, each model's own equilibria; sscr, the subsegment Cosserat "
+                  "rod, is the reference): how much of the paper's workspace is its model's error. Slices: "
+                  "workspace_models_slices.png.", "",
+                  "| model | FSW volume [cm³] | ± | FSW / pcc's |", "|---|---|---|---|"]
+        lines += [f"| {r['model']} | {r['volume_m3'] * 1e6:.0f} | {r['volume_err_m3'] * 1e6:.0f} | "
+                  f"{_cell(r['volume_ratio'], '.2f')} |" for r in models["cases"]]
+        lines += _pairs_lines(models["pairs"])
     return [*lines, ""]
