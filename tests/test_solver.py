@@ -129,3 +129,22 @@ def test_batch_results_do_not_depend_on_what_ran_first():
     out = [subprocess.run([sys.executable, "-c", code, mode], capture_output=True, text=True, check=True).stdout
            for mode in ("batch-first", "serial-first")]
     assert out[0] == out[1] and len(out[0].strip()) == 40
+
+
+@pytest.mark.parametrize("model", ["sscr", "pcc"])
+def test_a_converged_solve_is_an_equilibrium_at_full_load(paper, model):
+    """Every row reported converged satisfies the equations at full load, re-evaluated at its own unknowns
+    (to its own tolerance). Under the paper's load the sscr solver's arclength continuation once let its
+    corrector carry the load factor past 1 and reported that equilibrium as the one at full load: row 30 of
+    this batch, 2e-3 N m out of balance."""
+    from pytdcr.paper import paper_loads
+    from pytdcr.statics import resolve
+
+    T = np.random.default_rng(0).uniform(0, 20, (40, paper.n_tendons))
+    loads = paper_loads()
+    batch = solve_batch(paper, T, loads, model=model)
+    m, opts = resolve(model, paper, loads, None)
+    assert batch.converged.sum() >= 38
+    for k in np.flatnonzero(batch.converged):
+        r = m.equilibrium_residual(paper, loads.with_tensions(T[k]), batch.q[k], opts)
+        assert r <= max(batch.atol[k], batch.residual[k]) * 10, (k, r, batch.residual[k])

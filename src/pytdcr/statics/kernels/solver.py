@@ -470,9 +470,10 @@ def arclength(q, lam, m, atol, max_iter, max_dtheta, work):
 
     The tangent t of the curve r(q, lam) = 0 in (q, lam) comes from J dq = -dr/dlam; each step predicts along
     it and corrects with Newton on the bordered system [J, dr/dlam; t^T] (the step's length fixed). Where a
-    step would pass lam = 1, it corrects at lam = 1 instead. Returns ``(converged, max|r|, iterations,
-    jacobian evaluations, steps, turned)``, ``turned`` when lam decreased somewhere (a turning point was
-    passed: the branch reached at full load is not the one the loading path started on).
+    step would pass lam = 1, or its corrector carries lam past 1, it corrects at lam = 1 instead. Returns
+    ``(converged, max|r|, iterations, jacobian evaluations, steps, turned)``, ``turned`` when lam decreased
+    somewhere (a turning point was passed: the branch reached at full load is not the one the loading path
+    started on).
     """
     nq = q.shape[0]
     r = np.empty(nq)
@@ -548,6 +549,11 @@ def arclength(q, lam, m, atol, max_iter, max_dtheta, work):
                 alpha = _step_scale(dz[:nq], m, max_dtheta)
                 for u in range(nq + 1):
                     zs[u] += alpha * dz[u]
+                if not at_end and zs[nq] > 1.0:
+                    # the corrector carried lam past full load: hold it at 1 and finish in q alone (an
+                    # equilibrium at lam > 1 is not one at full load)
+                    zs[nq] = 1.0
+                    at_end = True
             if not accepted:
                 ds *= 0.5
         if not accepted:
