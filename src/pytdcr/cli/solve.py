@@ -25,6 +25,11 @@ def add_parser(sub: Any) -> None:
                         f"problem's moment scale (docs/models.md) [{DEFAULT_ATOL:g}]")
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.add_argument("--plot", metavar="FILE", help="write a 3D figure of the robot (PNG, PDF, SVG)")
+    s.add_argument("--compliance", action="store_true",
+                   help="the tip's 6x6 compliance, tensions held (displacement, rotation by force, moment; base "
+                   "frame) and its translational stiffness: exact, models pcc, pcc2, sscr")
+    s.add_argument("--jacobians", action="store_true",
+                   help="the tip's position and axis and every disk's position by the tensions (exact; in --json)")
     s.set_defaults(func=run)
 
 
@@ -42,6 +47,21 @@ def stability_text(st: Any) -> str:
     return f"stability: {words}"
 
 
+def _derivative_lines(res: Any) -> None:
+    """The compliance's and the Jacobians' summary lines (when computed)."""
+    import numpy as np
+
+    if res.compliance is not None:
+        c = res.compliance.matrix
+        lo, hi = res.compliance.to_dict()["translational_stiffness_range_N_per_m"]
+        print(f"  tip compliance diag [{', '.join(f'{x:.3g}' for x in np.diag(c)[:3])}] m/N, "
+              f"[{', '.join(f'{x:.3g}' for x in np.diag(c)[3:])}] rad/(N m); translational stiffness "
+              f"{lo:.3g} to {hi:.3g} N/m")
+    if res.jacobians is not None:
+        g = np.linalg.norm(res.jacobians.tip_position, axis=0) * 1e3
+        print(f"  tip moves per newton of each tension [{', '.join(f'{x:.2f}' for x in g)}] mm/N")
+
+
 def run(args: argparse.Namespace) -> int:
     """Solve; print a summary (or one JSON object) and write the figure asked for."""
     from ..study import SolveSettings, check_figure_path, run_solve
@@ -50,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
         check_figure_path(args.plot)
     settings = SolveSettings(tensions=tuple(parse_floats(args.tensions, "--tensions")), robot=robot_spec(args),
                              loads=load_spec(args), model=model_spec(args, atol=args.atol))
-    res = run_solve(settings, plot=args.plot)
+    res = run_solve(settings, plot=args.plot, compliance=args.compliance, jacobians=args.jacobians)
     robot, sol = res.robot, res.solution
     if args.json:
         print(dump_json(res.to_dict()))
@@ -68,6 +88,7 @@ def run(args: argparse.Namespace) -> int:
             z = sol.tip_rotation[:, 2]
             print(f"  tip direction [{z[0]: .4f}, {z[1]: .4f}, {z[2]: .4f}]")
             print(f"  {stability_text(sol.stability)}")
+            _derivative_lines(res)
     if args.plot is not None and not sol.converged:
         print("tdcr: not plotting: the solve did not converge", file=sys.stderr)
     return EXIT_OK if sol.converged else EXIT_NOT_CONVERGED

@@ -12,11 +12,13 @@ from .options import DEFAULT_ATOL, PATH_NAMES, TIGHT_ATOL, CosseratOptions, Solv
 from .pcc import PCCEquations, PCCModel
 from .pcc2 import PCC2Model
 from .registry import MODELS, check_resources, configure, get_model, get_models, options_record, resolve
+from .sensitivity import Jacobians, TipCompliance, equilibrium_jacobians, tip_compliance
 from .solving import solve, solve_batch, tip_gradient, warmup
 from .sscr import SSCREquations, SSCRModel
 
 __all__ = ["DEFAULT_ATOL", "MODELS", "PATH_NAMES", "TIGHT_ATOL", "CancelScope", "Cancelled", "Capabilities",
-           "CosseratModel", "CosseratOptions", "CosseratShooting", "Model", "PCC2Model", "PCCEquations", "PCCModel",
-           "SSCREquations", "SSCRModel", "SSCROptions", "SolverOptions", "UnsupportedFeatureError", "cancellable",
-           "check_cancelled", "check_resources", "configure", "get_model", "get_models", "mark_saving",
-           "options_record", "resolve", "saving", "solve", "solve_batch", "tip_gradient", "warmup"]
+           "CosseratModel", "CosseratOptions", "CosseratShooting", "Jacobians", "Model", "PCC2Model", "PCCEquations",
+           "PCCModel", "SSCREquations", "SSCRModel", "SSCROptions", "SolverOptions", "TipCompliance",
+           "UnsupportedFeatureError", "cancellable", "check_cancelled", "check_resources", "configure",
+           "equilibrium_jacobians", "get_model", "get_models", "mark_saving", "options_record", "resolve", "saving",
+           "solve", "solve_batch", "tip_compliance", "tip_gradient", "warmup"]

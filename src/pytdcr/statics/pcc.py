@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..design import ConstantFriction, ExponentialFriction, NoFriction, Robot
-from ..kinematics import tip_jacobian
+from ..kinematics import subsegment_derivatives, tip_jacobian
 from ..loads import Loads
 from .base import Capabilities
 from .kernels import pcc as K
@@ -149,6 +149,31 @@ class PCCEquations(PackedEquations):
     def tip_jacobian(self, q: np.ndarray) -> np.ndarray:
         """Exact derivative of the tip by the unknowns, shape (3, 3N) (:func:`pytdcr.kinematics.tip_jacobian`)."""
         return tip_jacobian(self.check_q(q), self.packed.sub)
+
+    def pose_jacobians(self, q: np.ndarray) -> np.ndarray:
+        """Exact derivatives of every disk's pose by the unknowns, shape (N+1, 6, 3N): rows 0-2 the position
+        [m per unit of q], rows 3-5 the rotation (the angular change w, base frame, dR = [w]x R) [rad per unit].
+
+        Moving subsegment i moves every disk j >= i rigidly: d p_j = R_(i-1) (dd + dR x_j), x_j the disk in
+        frame i, and turns it by R_(i-1) vee(dR Rloc_i^T) (the closed-form subsegment derivatives,
+        :func:`pytdcr.kinematics.subsegment_derivatives`); disks before i do not move."""
+        q = self.check_q(q)
+        n = self.n_disks
+        pos, rot, _ = self.shape(q)
+        out = np.zeros((n + 1, 6, 3 * n))
+        dR = np.empty((3, 3, 3))
+        dd = np.empty((3, 3))
+        for i in range(1, n + 1):
+            k = 3 * (i - 1)
+            subsegment_derivatives(q[k], q[k + 1], q[k + 2], self.packed.sub[i - 1, 0], dR, dd)
+            P = rot[i - 1]
+            local = P.T @ rot[i]  # the subsegment's own rotation
+            x = (pos[i:] - pos[i]) @ rot[i]  # disks i..N in frame i, (N+1-i, 3)
+            for a in range(3):
+                out[i:, :3, k + a] = (dd[a] + x @ dR[a].T) @ P.T
+                W = dR[a] @ local.T
+                out[i:, 3:, k + a] = P @ np.array([W[2, 1] - W[1, 2], W[0, 2] - W[2, 0], W[1, 0] - W[0, 1]]) / 2
+        return out
 
 
 class PCCModel(CompiledModel):

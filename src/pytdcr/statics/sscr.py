@@ -100,6 +100,12 @@ class SSCREquations(PackedEquations):
         work = self._run(q, 1.0, True)[2]
         return work.S[self.n_disks, :3, :].copy()
 
+    def pose_jacobians(self, q: np.ndarray) -> np.ndarray:
+        """Exact derivatives of every disk's pose by the unknowns, shape (N+1, 6, 6N): position [m per unit of
+        q], then rotation (the angular change w, base frame, dR = [w]x R) (the chained sensitivities)."""
+        work = self._run(q, 1.0, True)[2]
+        return work.S[: self.n_disks + 1, :6, :].copy()
+
 
 class SSCRModel(CompiledModel):
     """The registry's entry for the subsegment Cosserat rod (see the module docstring)."""

@@ -13,7 +13,7 @@ from ..loads import Loads
 from ..plotting import plot_robot, save_figure_as
 from ..results import StaticSolution
 from ..runtime import FileRefused, writable_file
-from ..statics import Model, solve
+from ..statics import Jacobians, Model, TipCompliance, equilibrium_jacobians, solve, tip_compliance
 from ..validate import SettingsError, show_path
 from ._settings import SolveSettings
 
@@ -37,6 +37,10 @@ class SolveRun:
     solution : StaticSolution
     plot : Path or None
         The figure written (None when none was asked for or the solve did not converge).
+    compliance : TipCompliance or None
+        The tip's compliance, when asked for and the solve converged.
+    jacobians : Jacobians or None
+        The shape's derivatives by the tensions, likewise.
     """
 
     robot: Robot
@@ -44,10 +48,18 @@ class SolveRun:
     model: Model
     solution: StaticSolution
     plot: Path | None = None
+    compliance: TipCompliance | None = None
+    jacobians: Jacobians | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready: the robot's name and :meth:`StaticSolution.to_dict` (what ``tdcr solve --json`` prints)."""
-        return {"robot": self.robot.name, **self.solution.to_dict()}
+        """JSON-ready: the robot's name and :meth:`StaticSolution.to_dict` (what ``tdcr solve --json`` prints),
+        with ``compliance`` and ``jacobians`` when computed."""
+        out = {"robot": self.robot.name, **self.solution.to_dict()}
+        if self.compliance is not None:
+            out["compliance"] = self.compliance.to_dict()
+        if self.jacobians is not None:
+            out["jacobians"] = self.jacobians.to_dict()
+        return out
 
 
 def check_figure_path(path: str | Path) -> Path:
@@ -68,19 +80,29 @@ def check_figure_path(path: str | Path) -> Path:
     return p
 
 
-def run_solve(settings: SolveSettings, plot: str | Path | None = None) -> SolveRun:
+def run_solve(settings: SolveSettings, plot: str | Path | None = None, *, compliance: bool = False,
+              jacobians: bool = False) -> SolveRun:
     """Solve the settings' tensions under their loads; with ``plot``, a 3D figure of the converged robot there
-    (PNG, PDF or SVG by its suffix; whole or absent). Everything is checked before the solve."""
+    (PNG, PDF or SVG by its suffix; whole or absent); with ``compliance`` or ``jacobians``, the tip's
+    compliance (:func:`~pytdcr.statics.tip_compliance`) or the shape's derivatives by the tensions
+    (:func:`~pytdcr.statics.equilibrium_jacobians`) of a converged solve. Everything is checked before the solve
+    (SettingsError naming ``compliance`` or ``jacobians`` for a model without exact derivatives)."""
     figure = check_figure_path(plot) if plot is not None else None
     robot = settings.robot.build()
     tensions = settings.tensions_for(robot)
     loads = settings.loads.build(robot).with_tensions(tensions)
     model, options = settings.model.resolve(robot, loads)
+    for name, asked in (("compliance", compliance), ("jacobians", jacobians)):
+        if asked and model.capabilities.gradient != "exact":
+            raise SettingsError(name, f": model '{model.name}' has no exact derivatives; use pcc, pcc2 or sscr")
     sol = solve(robot, loads, model=model, options=options)
-    if figure is None or not sol.converged:
+    if not sol.converged:
         return SolveRun(robot, loads, model, sol)
-    _plot_solution(sol, robot, loads, figure)
-    return SolveRun(robot, loads, model, sol, figure)
+    c = tip_compliance(robot, loads, sol, model=model, options=options) if compliance else None
+    j = equilibrium_jacobians(robot, loads, sol, model=model, options=options) if jacobians else None
+    if figure is not None:
+        _plot_solution(sol, robot, loads, figure)
+    return SolveRun(robot, loads, model, sol, figure, c, j)
 
 
 def _plot_solution(sol: StaticSolution, robot: Robot, loads: Loads, path: Path) -> None:
