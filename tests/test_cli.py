@@ -264,3 +264,37 @@ def test_accuracy_refuses_what_it_cannot_do(capsys, tmp_path):
     assert code == 2 and "--disks" in err
     code, _, err = run(capsys, "accuracy", "--tip-force", "0,0,1", "--out", str(tmp_path / "out"))
     assert code == 2 and "load groups" in err
+
+
+def test_version_names_pytdcr_and_the_libraries_results_depend_on(capsys):
+    from pytdcr import __version__
+    from pytdcr.cli import main
+
+    with pytest.raises(SystemExit) as stop:
+        main(["--version"])
+    assert stop.value.code == 0
+    out = capsys.readouterr().out
+    assert out.count("\n") == 1 and f"pytdcr) {__version__}" in out
+    assert all(name in out for name in ("numpy", "scipy", "numba", "pymoo"))
+
+
+def test_solve_writes_every_disks_pose_as_csv(tmp_path, capsys):
+    import csv
+
+    from pytdcr import Loads, paper_robot, solve
+    from pytdcr.cli import main
+
+    out = tmp_path / "shape.csv"
+    assert main(["solve", "--tensions", "3,0,0,0,2,0,0,0", "--tip-force", "0.1,0.1,-0.1", "--csv", str(out)]) == 0
+    rows = list(csv.DictReader(out.open()))
+    robot = paper_robot()
+    sol = solve(robot, Loads(np.array([3.0, 0, 0, 0, 2, 0, 0, 0]), tip_force=(0.1, 0.1, -0.1)))
+    assert len(rows) == robot.n_disks + 1 and [int(r["disk"]) for r in rows] == list(range(robot.n_disks + 1))
+    pos = np.array([[float(r[k]) for k in ("x_m", "y_m", "z_m")] for r in rows])
+    rot = np.array([[float(r[f"R{i}{j}"]) for i in range(1, 4) for j in range(1, 4)] for r in rows]).reshape(-1, 3, 3)
+    np.testing.assert_allclose(pos, sol.disk_positions, atol=1e-12)
+    np.testing.assert_allclose(rot, sol.disk_rotations, atol=1e-12)
+    capsys.readouterr()
+    for bad in (str(tmp_path), str(tmp_path / "shape.txt")):
+        assert main(["solve", "--tensions", "3,0,0,0,2,0,0,0", "--csv", bad]) == 2
+        assert "--csv" in capsys.readouterr().err

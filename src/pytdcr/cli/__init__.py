@@ -11,6 +11,7 @@ and the heavy libraries are imported when a command runs, not for ``--help``.
 
 from __future__ import annotations
 
+import argparse
 import os
 import signal
 import sys
@@ -34,9 +35,37 @@ from ._runtime import (
 __all__ = ["build_parser", "entry", "main"]
 
 
+def version_text() -> str:
+    """``tdcr --version``: pytdcr's version and those of the libraries its results depend on (read from the
+    installed packages' metadata, without importing them)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    from .._version import __version__
+
+    def of(name: str) -> str:
+        try:
+            return version(name)
+        except PackageNotFoundError:  # pragma: no cover - a dependency is always installed with pytdcr
+            return "not installed"
+
+    libs = ", ".join(f"{n} {of(n)}" for n in ("numpy", "scipy", "numba", "pymoo"))
+    return f"tdcr (pytdcr) {__version__}; Python {sys.version.split()[0]}; {libs}"
+
+
+class _Version(argparse.Action):
+    """``--version``: print :func:`version_text` on one line (argparse's own action wraps it) and exit 0."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: object,
+                 option_string: str | None = None) -> None:
+        print(version_text())
+        parser.exit(0)
+
+
 def build_parser() -> Parser:
     """The argument parser of ``tdcr``."""
     p = Parser(prog="tdcr", description="Statics and workspace of tendon-driven continuum robots.")
+    p.add_argument("--version", action=_Version, nargs=0,
+                   help="print the version of pytdcr and of the libraries its results depend on, and exit")
     sub = p.add_subparsers(dest="command", required=True)
     for add in (solve.add_parser, sample.add_parser, workspace.add_parser, optimize.add_parser,
                 reproduce.add_parser, compare.add_parser, compare.add_accuracy_parser, designs.add_parser,

@@ -25,6 +25,8 @@ def add_parser(sub: Any) -> None:
                         f"problem's moment scale (docs/models.md) [{DEFAULT_ATOL:g}]")
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.add_argument("--plot", metavar="FILE", help="write a 3D figure of the robot (PNG, PDF, SVG)")
+    s.add_argument("--csv", metavar="FILE", help="write every disk's centre [m] and frame (rotation, base from disk) "
+                   "as CSV, one row per disk from the base")
     s.add_argument("--compliance", action="store_true",
                    help="the tip's 6x6 compliance, tensions held (displacement, rotation by force, moment; base "
                    "frame) and its translational stiffness: exact, models pcc, pcc2, sscr")
@@ -70,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
         check_figure_path(args.plot)
     settings = SolveSettings(tensions=tuple(parse_floats(args.tensions, "--tensions")), robot=robot_spec(args),
                              loads=load_spec(args), model=model_spec(args, atol=args.atol))
-    res = run_solve(settings, plot=args.plot, compliance=args.compliance, jacobians=args.jacobians)
+    res = run_solve(settings, plot=args.plot, compliance=args.compliance, jacobians=args.jacobians, csv=args.csv)
     robot, sol = res.robot, res.solution
     if args.json:
         print(dump_json(res.to_dict()))
@@ -91,4 +93,6 @@ def run(args: argparse.Namespace) -> int:
             _derivative_lines(res)
     if args.plot is not None and not sol.converged:
         print("tdcr: not plotting: the solve did not converge", file=sys.stderr)
+    if args.csv is not None and not sol.converged:
+        print("tdcr: no shape written: the solve did not converge", file=sys.stderr)
     return EXIT_OK if sol.converged else EXIT_NOT_CONVERGED

@@ -12,12 +12,16 @@ from ..design import Robot
 from ..loads import Loads
 from ..plotting import plot_robot, save_figure_as
 from ..results import StaticSolution
-from ..runtime import FileRefused, writable_file
+from ..runtime import FileRefused, writable_file, write_csv
 from ..statics import Jacobians, Model, TipCompliance, equilibrium_jacobians, solve, tip_compliance
 from ..validate import SettingsError, show_path
 from ._settings import SolveSettings
 
-__all__ = ["FIGURE_SUFFIXES", "SolveRun", "check_figure_path", "run_solve"]
+__all__ = ["FIGURE_SUFFIXES", "SHAPE_COLUMNS", "SolveRun", "check_csv_path", "check_figure_path", "run_solve",
+           "write_shape_csv"]
+
+#: the columns of ``tdcr solve --csv``: the disk (0 the base), its centre [m] and its frame (base from disk)
+SHAPE_COLUMNS = ["disk", "x_m", "y_m", "z_m", *[f"R{i}{j}" for i in range(1, 4) for j in range(1, 4)]]
 
 #: the figure formats a file name may ask for
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
@@ -80,14 +84,40 @@ def check_figure_path(path: str | Path) -> Path:
     return p
 
 
+def check_csv_path(path: str | Path) -> Path:
+    """The shape's CSV file: a name ending in .csv, never a folder or a device (SettingsError naming ``csv``)."""
+    p = Path(path)
+    if p.is_dir() or p.suffix.lower() != ".csv":
+        raise SettingsError("csv", f" {show_path(path)}: give a file name ending in .csv")
+    if p.parent.exists() and not p.parent.is_dir():
+        raise SettingsError("csv", f" {show_path(path)}: {show_path(p.parent)} is a file, not a folder")
+    if p.parent.is_dir():
+        try:
+            writable_file(p)
+        except FileRefused as err:
+            raise SettingsError("csv", f" {err}") from None
+    return p
+
+
+def write_shape_csv(path: str | Path, solution: StaticSolution) -> Path:
+    """Every disk's centre [m] and frame (rotation base from disk, row by row) of a converged ``solution``, one
+    row per disk from the base (:data:`SHAPE_COLUMNS`), written whole or not at all."""
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    pos, rot = solution.disk_positions, solution.disk_rotations
+    return write_csv(p, SHAPE_COLUMNS, ([k, *pos[k], *rot[k].reshape(-1)] for k in range(pos.shape[0])))
+
+
 def run_solve(settings: SolveSettings, plot: str | Path | None = None, *, compliance: bool = False,
-              jacobians: bool = False) -> SolveRun:
+              jacobians: bool = False, csv: str | Path | None = None) -> SolveRun:
     """Solve the settings' tensions under their loads; with ``plot``, a 3D figure of the converged robot there
     (PNG, PDF or SVG by its suffix; whole or absent); with ``compliance`` or ``jacobians``, the tip's
     compliance (:func:`~pytdcr.statics.tip_compliance`) or the shape's derivatives by the tensions
     (:func:`~pytdcr.statics.equilibrium_jacobians`) of a converged solve. Everything is checked before the solve
-    (SettingsError naming ``compliance`` or ``jacobians`` for a model without exact derivatives)."""
+    (SettingsError naming ``compliance`` or ``jacobians`` for a model without exact derivatives); with ``csv``,
+    every disk's centre and frame of a converged solve (:func:`write_shape_csv`)."""
     figure = check_figure_path(plot) if plot is not None else None
+    table = check_csv_path(csv) if csv is not None else None
     robot = settings.robot.build()
     tensions = settings.tensions_for(robot)
     loads = settings.loads.build(robot).with_tensions(tensions)
@@ -102,6 +132,8 @@ def run_solve(settings: SolveSettings, plot: str | Path | None = None, *, compli
     j = equilibrium_jacobians(robot, loads, sol, model=model, options=options) if jacobians else None
     if figure is not None:
         _plot_solution(sol, robot, loads, figure)
+    if table is not None:
+        write_shape_csv(table, sol)
     return SolveRun(robot, loads, model, sol, figure, c, j)
 
 
