@@ -298,3 +298,25 @@ def test_solve_writes_every_disks_pose_as_csv(tmp_path, capsys):
     for bad in (str(tmp_path), str(tmp_path / "shape.txt")):
         assert main(["solve", "--tensions", "3,0,0,0,2,0,0,0", "--csv", bad]) == 2
         assert "--csv" in capsys.readouterr().err
+
+
+def test_loads_on_any_disk_from_the_command_line(capsys):
+    """--disk-force and --disk-moment put point loads on disks, as PointLoad does in Python (repeated options
+    add up); a disk the robot does not have, or a malformed value, is refused with the option's name."""
+    import json
+
+    from pytdcr import Loads, PointLoad, paper_robot, solve
+    from pytdcr.cli import main
+
+    t = "3,0,0,0,2,0,0,0"
+    assert main(["solve", "--tensions", t, "--disk-force", "10:0,0,-0.05", "--disk-force", "10:0.01,0,0",
+                 "--disk-moment", "20:0,0.01,0", "--json"]) == 0
+    tip = np.array(json.loads(capsys.readouterr().out)["tip_position"])
+    loads = Loads(np.array([3.0, 0, 0, 0, 2, 0, 0, 0]),
+                  point_loads=(PointLoad(10, force=[0.01, 0.0, -0.05]), PointLoad(20, moment=[0.0, 0.01, 0.0])))
+    np.testing.assert_allclose(tip, solve(paper_robot(), loads).tip_position, atol=1e-9)
+    for bad, says in ((["--disk-force", "21:0,0,1"], "has disks 1 to 20"), (["--disk-force", "0:0,0,1"], "from 1"),
+                      (["--disk-moment", "3:0,0"], "3 comma-separated"), (["--disk-force", "3:0,0,nan"], "finite")):
+        assert main(["solve", "--tensions", t, *bad]) == 2
+        err = capsys.readouterr().err
+        assert bad[0] in err and says in err, err

@@ -34,6 +34,7 @@ FLAGS = {name: "--" + name.replace("_", "-") for name in (
     "robot", "friction", "tip_force", "tip_moment", "tensions", "bounds", "bounds_file", "model", "shear_extension",
     "atol", "plot", "n", "seed", "pop", "tol", "window", "max_gen", "stable_only", "models", "cases", "disks",
     "order_cases", "reference_steps", "payload_g", "out", "compliance", "jacobians", "csv")}
+FLAGS.update(disk_forces="--disk-force", disk_moments="--disk-moment")
 
 
 def parse_floats(text: str, name: str, count: int | None = None) -> np.ndarray:
@@ -95,6 +96,10 @@ def add_robot_and_loads(p: argparse.ArgumentParser) -> None:
     g.add_argument("--robot", default="paper", help="built-in robot (paper, rao) or a TOML file [paper]")
     g.add_argument("--tip-force", metavar="FX,FY,FZ", help="tip force in the base frame [N]")
     g.add_argument("--tip-moment", metavar="MX,MY,MZ", help="tip moment in the base frame [N m]")
+    g.add_argument("--disk-force", action="append", metavar="K:FX,FY,FZ", default=[],
+                   help="a force on disk K (1 to N, N the tip) at its centre, base frame [N]; repeat for more")
+    g.add_argument("--disk-moment", action="append", metavar="K:MX,MY,MZ", default=[],
+                   help="a moment on disk K, base frame [N m]; repeat for more")
     grav = g.add_mutually_exclusive_group()
     grav.add_argument("--gravity", dest="gravity", action="store_true", default=None,
                       help="gravity -9.81 m/s^2 along base z (default: the robot's own)")
@@ -157,7 +162,17 @@ def load_spec(args: argparse.Namespace) -> LoadSpec:
 
     tf = parse_floats(args.tip_force, "--tip-force", 3) if args.tip_force else np.zeros(3)
     tm = parse_floats(args.tip_moment, "--tip-moment", 3) if args.tip_moment else np.zeros(3)
-    return LoadSpec(tip_force=tuple(tf), tip_moment=tuple(tm), release=args.release)
+    return LoadSpec(tip_force=tuple(tf), tip_moment=tuple(tm), release=args.release,
+                    disk_forces=tuple(_disk_wrench(t, "--disk-force") for t in getattr(args, "disk_force", [])),
+                    disk_moments=tuple(_disk_wrench(t, "--disk-moment") for t in getattr(args, "disk_moment", [])))
+
+
+def _disk_wrench(text: str, option: str) -> tuple[int, tuple[float, ...]]:
+    """``K:X,Y,Z``: a disk number (an integer >= 1) and three finite numbers (CliError naming ``option``)."""
+    disk, sep, vector = text.partition(":")
+    if not sep or not disk.strip().isdigit() or int(disk) < 1:
+        raise CliError(f"{option} {text!r}: give K:X,Y,Z with K a disk number from 1 (e.g. 10:0,0,-0.05)")
+    return int(disk), tuple(float(x) for x in parse_floats(vector, option, 3))
 
 
 def model_spec(args: argparse.Namespace, atol: float | None = None) -> ModelSpec:

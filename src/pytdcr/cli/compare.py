@@ -125,7 +125,8 @@ def run_accuracy_command(args: argparse.Namespace) -> int:
     out = check_out(args.out)
     robot = robot_spec(args)
     if has_tip_wrench(args):
-        raise CliError("accuracy: the study sets its own load groups; drop --tip-force/--tip-moment")
+        raise CliError("accuracy: the study sets its own load groups; drop --tip-force/--tip-moment/--disk-force/"
+                       "--disk-moment")
     settings = AccuracySettings(robot=robot, bounds=bounds_spec(args) or BoundsSpec(), n=args.n, seed=args.seed,
                                 models=[m.strip() for m in args.models.split(",")] if args.models else None,
                                 disks=_int_list(args.disks, "--disks"), order_cases=args.order_cases,

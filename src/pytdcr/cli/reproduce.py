@@ -32,7 +32,8 @@ def run(args: argparse.Namespace) -> int:
 
     robot = robot_spec(args).build()
     if has_tip_wrench(args):
-        raise CliError("reproduce: the study sets its own tip loads; drop --tip-force/--tip-moment")
+        raise CliError("reproduce: the study sets its own tip loads; drop --tip-force/--tip-moment/--disk-force/"
+                       "--disk-moment")
     out = check_out(args.out)
 
     def progress(stage: str, total: int) -> Any:

@@ -20,7 +20,7 @@ import numpy as np
 from ..bounds import TensionBounds
 from ..design import ConstantFriction, ExponentialFriction, NoFriction, Robot
 from ..io import load_robot, read_toml
-from ..loads import Loads, check_vector
+from ..loads import Loads, PointLoad, check_vector
 from ..paper import DEFAULT_BOUNDS
 from ..statics import Model, configure, get_model, get_models, resolve
 from ..validate import MAX_SEED, SettingsError, as_real_array, check_count, show, show_path
@@ -121,7 +121,8 @@ class RobotSpec:
 
 @dataclass(frozen=True)
 class LoadSpec:
-    """The external loads: a tip wrench and the friction direction (the tensions come from the run).
+    """The external loads: a tip wrench, wrenches on any disks, and the friction direction (the tensions come
+    from the run).
 
     Attributes
     ----------
@@ -131,11 +132,17 @@ class LoadSpec:
         In the base frame [N m], each within +/-1e6.
     release : bool
         Friction for releasing actuators (default: pulling).
+    disk_forces, disk_moments : tuple of (int, 3 floats)
+        A force [N] or moment [N m] on a disk (1-based, N the tip; base frame, at the disk's centre), each
+        within +/-1e6; a disk may appear more than once (they add up). The robot's disk count is checked when
+        the loads are built.
     """
 
     tip_force: tuple[float, float, float] = (0.0, 0.0, 0.0)
     tip_moment: tuple[float, float, float] = (0.0, 0.0, 0.0)
     release: bool = False
+    disk_forces: tuple[tuple[int, tuple[float, float, float]], ...] = ()
+    disk_moments: tuple[tuple[int, tuple[float, float, float]], ...] = ()
 
     def __post_init__(self) -> None:
         for name in ("tip_force", "tip_moment"):
@@ -145,16 +152,40 @@ class LoadSpec:
                 raise SettingsError.about(name, err) from None
             object.__setattr__(self, name, tuple(float(x) for x in vector))
         object.__setattr__(self, "release", check_flag(self.release, "release"))
+        for name in ("disk_forces", "disk_moments"):
+            object.__setattr__(self, name, tuple(_disk_wrench(item, name) for item in getattr(self, name)))
 
     @property
     def has_tip_wrench(self) -> bool:
-        """A tip force or moment is given."""
-        return any(self.tip_force) or any(self.tip_moment)
+        """A tip force or moment, or a wrench on a disk, is given."""
+        return any(self.tip_force) or any(self.tip_moment) or bool(self.disk_forces) or bool(self.disk_moments)
 
     def build(self, robot: Robot) -> Loads:
-        """The loads on ``robot``, its tensions zero."""
+        """The loads on ``robot``, its tensions zero (SettingsError for a disk the robot does not have)."""
+        points = []
+        for name, entries in (("disk_forces", self.disk_forces), ("disk_moments", self.disk_moments)):
+            for disk, v in entries:
+                if disk > robot.n_disks:
+                    raise SettingsError(name, f" disk {disk}: robot '{robot.name}' has disks 1 to {robot.n_disks}")
+                force, moment = (v, (0.0, 0.0, 0.0)) if name == "disk_forces" else ((0.0, 0.0, 0.0), v)
+                points.append(PointLoad(disk, np.array(force), np.array(moment)))
         return Loads(np.zeros(robot.n_tendons), tip_force=np.array(self.tip_force),
-                     tip_moment=np.array(self.tip_moment), release=self.release)
+                     tip_moment=np.array(self.tip_moment), point_loads=tuple(points), release=self.release)
+
+
+def _disk_wrench(item: Any, name: str) -> tuple[int, tuple[float, float, float]]:
+    """A (disk >= 1, 3 finite numbers within +/-1e6) pair, checked (SettingsError naming ``name``)."""
+    try:
+        disk, vector = item
+    except (TypeError, ValueError):
+        raise SettingsError(name, f" = {show(item)}: each entry must be (disk, (x, y, z))") from None
+    if isinstance(disk, bool) or not isinstance(disk, (int, np.integer)) or disk < 1:
+        raise SettingsError(name, f": disk must be an integer >= 1, got {show(disk)}")
+    try:
+        v = check_vector(vector, name)
+    except ValueError as err:
+        raise SettingsError.about(name, err) from None
+    return int(disk), (float(v[0]), float(v[1]), float(v[2]))
 
 
 @dataclass(frozen=True)
