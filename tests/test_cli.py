@@ -320,3 +320,33 @@ def test_loads_on_any_disk_from_the_command_line(capsys):
         assert main(["solve", "--tensions", t, *bad]) == 2
         err = capsys.readouterr().err
         assert bad[0] in err and says in err, err
+
+
+def test_solve_cases_solves_every_row_with_one_model(tmp_path, capsys):
+    """--cases: one CSV row per case, each the library's solve of that row; --csv writes the table; options
+    that solve one case are refused, and a file whose rows do not fit the robot names --cases."""
+    import csv
+
+    from pytdcr import Loads, paper_robot, solve
+    from pytdcr.cli import main
+
+    cases = tmp_path / "cases.csv"
+    cases.write_text("T1,T2,T3,T4,T5,T6,T7,T8\n3,0,0,0,2,0,0,0\n# a comment\n10,0,5,0,0,20,0,0\n")
+    out = tmp_path / "out" / "table.csv"
+    assert main(["solve", "--cases", str(cases), "--tip-force", "0.1,0.1,-0.1", "--csv", str(out)]) == 0
+    rows = list(csv.DictReader(out.open()))
+    assert [r["case"] for r in rows] == ["1", "2"] and all(r["converged"] == "1" for r in rows)
+    robot = paper_robot()
+    for r in rows:
+        t = np.array([float(r[f"T{c}_N"]) for c in range(1, 9)])
+        tip = solve(robot, Loads(t, tip_force=(0.1, 0.1, -0.1))).tip_position
+        np.testing.assert_allclose([float(r[k]) for k in ("tip_x_m", "tip_y_m", "tip_z_m")], tip, atol=1e-9)
+    capsys.readouterr()
+    assert main(["solve", "--cases", str(cases)]) == 0
+    printed = list(csv.reader(capsys.readouterr().out.splitlines()))
+    assert printed[0][0] == "case" and len(printed) == 3
+    assert main(["solve", "--cases", str(cases), "--compliance"]) == 2
+    assert "--compliance solves one case" in capsys.readouterr().err
+    cases.write_text("1,2,3\n")
+    assert main(["solve", "--cases", str(cases)]) == 2
+    assert "--cases" in capsys.readouterr().err

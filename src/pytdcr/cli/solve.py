@@ -6,10 +6,13 @@ import argparse
 import sys
 from typing import Any
 
+import numpy as np
+
 from ..runtime import dump_json
 from ..statics import DEFAULT_ATOL
+from ..validate import escape_controls
 from ._args import add_model, add_robot_and_loads, load_spec, model_spec, parse_floats, real_type, robot_spec
-from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK
+from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK, CliError
 
 __all__ = ["add_parser", "run"]
 
@@ -19,14 +22,18 @@ def add_parser(sub: Any) -> None:
     s = sub.add_parser("solve", help="static equilibrium under tendon tensions and tip loads")
     add_robot_and_loads(s)
     add_model(s)
-    s.add_argument("--tensions", required=True, metavar="T1,...,Tn", help="actuator tensions [N]")
+    which = s.add_mutually_exclusive_group(required=True)
+    which.add_argument("--tensions", metavar="T1,...,Tn", help="actuator tensions [N]")
+    which.add_argument("--cases", metavar="FILE.csv",
+                       help="solve many tension vectors (one row each, one column per tendon [N]) and print one CSV "
+                       "row per case (tensions, converged, residual, path, stable, tip), or write it to --csv")
     s.add_argument("--atol", type=real_type, default=DEFAULT_ATOL,
                    help=f"convergence tolerance on max |residual| [N m], held within 1e-12..1e-8 of the "
                         f"problem's moment scale (docs/models.md) [{DEFAULT_ATOL:g}]")
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.add_argument("--plot", metavar="FILE", help="write a 3D figure of the robot (PNG, PDF, SVG)")
     s.add_argument("--csv", metavar="FILE", help="write every disk's centre [m] and frame (rotation, base from disk) "
-                   "as CSV, one row per disk from the base")
+                   "as CSV, one row per disk from the base; with --cases, the cases' table")
     s.add_argument("--compliance", action="store_true",
                    help="the tip's 6x6 compliance, tensions held (displacement, rotation by force, moment; base "
                    "frame) and its translational stiffness: exact, models pcc, pcc2, sscr")
@@ -64,10 +71,45 @@ def _derivative_lines(res: Any) -> None:
         print(f"  tip moves per newton of each tension [{', '.join(f'{x:.2f}' for x in g)}] mm/N")
 
 
+def _run_cases(args: argparse.Namespace) -> int:
+    """``--cases``: every row of the file by one model; the table on stdout (or in ``--csv``), or ``--json``."""
+    import csv
+    import io
+
+    from .. import solve_batch
+    from ..runtime import write_csv
+    from ..study import case_rows, check_csv_path, read_cases
+
+    for flag, given in (("--plot", args.plot), ("--compliance", args.compliance), ("--jacobians", args.jacobians)):
+        if given:
+            raise CliError(f"{flag} solves one case: drop it with --cases")
+    out = check_csv_path(args.csv) if args.csv is not None else None
+    robot = robot_spec(args).build()
+    loads = load_spec(args).build(robot)
+    m, options = model_spec(args, atol=args.atol).resolve(robot, loads)
+    T = read_cases(args.cases, robot)
+    batch = solve_batch(robot, T, loads, model=m, options=options)
+    header, rows = case_rows(batch)
+    if args.json:
+        print(dump_json({"robot": robot.name, "model": m.name, "cases": [dict(zip(header, r, strict=True))
+                                                                         for r in rows]}))
+    elif out is not None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        write_csv(out, header, rows)
+        print(f"{int(batch.converged.sum())} of {len(rows)} cases converged; wrote {escape_controls(str(out))}")
+    else:
+        buf = io.StringIO()
+        csv.writer(buf).writerows([header, *rows])
+        print(buf.getvalue(), end="")
+    return EXIT_OK if bool(np.all(batch.converged)) else EXIT_NOT_CONVERGED
+
+
 def run(args: argparse.Namespace) -> int:
     """Solve; print a summary (or one JSON object) and write the figure asked for."""
     from ..study import SolveSettings, check_figure_path, run_solve
 
+    if args.cases is not None:
+        return _run_cases(args)
     if args.plot is not None:
         check_figure_path(args.plot)
     settings = SolveSettings(tensions=tuple(parse_floats(args.tensions, "--tensions")), robot=robot_spec(args),

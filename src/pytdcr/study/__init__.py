@@ -22,7 +22,7 @@ from ._output import inputs_record
 from ._reproduce import ReproduceRun, ReproduceSettings, run_reproduce
 from ._runs import OptimizeRun, SampleRun, run_optimize, run_sample, sample_into, write_optimize
 from ._settings import AccuracySettings, CompareSettings, OptimizeSettings, SampleSettings, SolveSettings, read_cases
-from ._solve import SolveRun, check_figure_path, run_solve
+from ._solve import SolveRun, case_rows, check_csv_path, check_figure_path, run_solve
 from ._specs import MAX_FRICTION, BoundsSpec, LoadSpec, ModelSpec, RobotSpec, RunInputs
 from ._workspace import (
                          WorkspaceCase,
@@ -37,7 +37,7 @@ from ._workspace import (
 __all__ = ["MAX_FRICTION", "AccuracyRun", "AccuracySettings", "BoundsSpec", "CompareRun",
            "CompareSettings", "LoadSpec", "ModelSpec", "OptimizeRun", "OptimizeSettings", "ReproduceRun",
            "ReproduceSettings", "RobotSpec", "RunInputs", "SampleRun", "SampleSettings", "SolveRun", "SolveSettings",
-           "WorkspaceCase", "WorkspaceCaseSpec", "WorkspaceRun", "WorkspaceRunOptions", "check_figure_path",
-           "format_measure_of", "inputs_record", "read_cases", "run_accuracy", "run_compare", "run_optimize",
-           "run_reproduce", "run_sample", "run_solve", "run_workspace", "run_workspace_compare", "sample_into",
-           "write_optimize"]
+           "WorkspaceCase", "WorkspaceCaseSpec", "WorkspaceRun", "WorkspaceRunOptions", "case_rows", "check_csv_path",
+           "check_figure_path", "format_measure_of", "inputs_record", "read_cases", "run_accuracy", "run_compare",
+           "run_optimize", "run_reproduce", "run_sample", "run_solve", "run_workspace", "run_workspace_compare",
+           "sample_into", "write_optimize"]

@@ -17,8 +17,17 @@ from ..statics import Jacobians, Model, TipCompliance, equilibrium_jacobians, so
 from ..validate import SettingsError, show_path
 from ._settings import SolveSettings
 
-__all__ = ["FIGURE_SUFFIXES", "SHAPE_COLUMNS", "SolveRun", "check_csv_path", "check_figure_path", "run_solve",
-           "write_shape_csv"]
+__all__ = [
+    "CASE_COLUMNS",
+    "FIGURE_SUFFIXES",
+    "SHAPE_COLUMNS",
+    "SolveRun",
+    "case_rows",
+    "check_csv_path",
+    "check_figure_path",
+    "run_solve",
+    "write_shape_csv",
+]
 
 #: the columns of ``tdcr solve --csv``: the disk (0 the base), its centre [m] and its frame (base from disk)
 SHAPE_COLUMNS = ["disk", "x_m", "y_m", "z_m", *[f"R{i}{j}" for i in range(1, 4) for j in range(1, 4)]]
@@ -82,6 +91,27 @@ def check_figure_path(path: str | Path) -> Path:
         except FileRefused as err:
             raise SettingsError("plot", f" {err}") from None
     return p
+
+
+#: the columns of ``tdcr solve --cases`` after the tensions (``T1_N`` ...): one row per case
+CASE_COLUMNS = ["converged", "residual_Nm", "path", "stable", "tip_x_m", "tip_y_m", "tip_z_m", "reach_m"]
+
+
+def case_rows(batch: Any) -> tuple[list[str], list[list[Any]]]:
+    """The header and rows of a batch of cases (``pytdcr.BatchSolution``): each case's tensions [N], whether it
+    converged, its residual [N m], path, stability (1 stable, 0 unstable, empty untested or not converged) and
+    tip [m] (empty where it did not converge)."""
+    nt = batch.tensions.shape[1]
+    header = ["case", *[f"T{c + 1}_N" for c in range(nt)], *CASE_COLUMNS]
+    stable = batch.stable
+    rows = []
+    for k in range(batch.tensions.shape[0]):
+        ok = bool(batch.converged[k])
+        tip = [float(x) for x in batch.tip_position[k]] if ok else ["", "", ""]
+        st = "" if not ok or not np.isfinite(stable[k]) else int(stable[k])
+        rows.append([k + 1, *[float(t) for t in batch.tensions[k]], int(ok), float(batch.residual[k]),
+                     str(batch.path[k]), st, *tip, float(np.linalg.norm(batch.tip_position[k])) if ok else ""])
+    return header, rows
 
 
 def check_csv_path(path: str | Path) -> Path:
