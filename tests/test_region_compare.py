@@ -111,3 +111,24 @@ def test_the_reproduce_workspace_section_compares_the_models(tmp_path):
     assert "### The workspace by model" in text and "| pcc2 |" in text and "Hausdorff" in text
     assert "models" not in workspace_section(paper_robot(), paper_bounds(), ReproduceSettings(workspace_n=16,
                                              workspace_budget=0, workspace_voxels=10), 1, tmp_path, [])
+
+
+def test_a_comparisons_progress_names_each_case(tmp_path):
+    """Every stage a comparison shows carries its case's name (the bars of one case are told from the next)."""
+    from pytdcr.paper import paper_bounds, paper_loads, paper_robot
+    from pytdcr.region import WorkspaceSettings
+    from pytdcr.study import WorkspaceRunOptions, run_workspace_compare
+
+    seen: list[str] = []
+
+    def progress(stage: str, total: int | None):
+        seen.append(stage)
+        return lambda done: None
+
+    robot = paper_robot()
+    cases = {"pcc": (robot, paper_loads(), None, "pcc", None), "pcc2": (robot, paper_loads(), None, "pcc2", None)}
+    settings = WorkspaceSettings(n=16, seed=1, search=False, directions=0, multistability=0, reach="samples")
+    run_workspace_compare(robot, cases, paper_bounds(), settings, tmp_path / "out",
+                          run_options=WorkspaceRunOptions(progress=progress))
+    assert seen and all(s.startswith(("pcc: ", "pcc2: ")) for s in seen)
+    assert any(s.startswith("pcc2: ") for s in seen)

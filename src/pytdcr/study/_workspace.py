@@ -491,7 +491,8 @@ def run_workspace_compare(robot: Robot, cases: dict[str, tuple[Any, ...]], bound
             sub = run.staging / _slug(name)
             sub.mkdir()
             whole = f"saved {len(done)} of {len(cases)} cases whole; "
-            hooks = WorkspaceHooks(how.progress, how.on_round, _checkpoint(sub, run, whole, f"{sub.name}/"))
+            hooks = WorkspaceHooks(_named(how.progress, name), how.on_round,
+                                   _checkpoint(sub, run, whole, f"{sub.name}/"))
             s = replace(spec.settings, voxel=settings.voxel).check(spec.robot) if spec.settings else settings
             m, opts = (model, options) if spec.model is None else (spec.model, spec.options)
             case = _case(name, spec.robot, spec.loads, bounds, s, m, opts, hooks)
@@ -504,6 +505,13 @@ def run_workspace_compare(robot: Robot, cases: dict[str, tuple[Any, ...]], bound
         with saving():
             files += _write_comparison(run.staging, done, robot, how.command, pairs)
     return WorkspaceRun(done, {"cases": _comparison(done), "pairs": pairs}, files)
+
+
+def _named(progress: Any, name: str) -> Any:
+    """``progress`` with every stage it shows named after the case (``"paper wrench: sampling"``)."""
+    if progress is None:
+        return None
+    return lambda stage, total: progress(f"{name}: {stage}", total)
 
 
 def _write_comparison(out: Path, cases: list[WorkspaceCase], robot: Robot, command: str,
