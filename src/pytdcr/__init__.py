@@ -1,7 +1,10 @@
 """pytdcr: statics and workspace of tendon-driven continuum robots.
 
-Importing the package runs nothing and imports no plotting library.
+Importing the package runs nothing and imports no plotting library. Inverse statics (:func:`inverse_statics`,
+:func:`inverse_path` and their types, from :mod:`pytdcr.optimize`) load with the optimisers on first use.
 """
+
+from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
 from .bounds import TensionBounds
@@ -34,6 +37,21 @@ from .statics import (
     tip_gradient,
 )
 
+if TYPE_CHECKING:
+    from .optimize import InverseResult, InverseSearch, TipTarget, inverse_path, inverse_statics
+
+#: names of :mod:`pytdcr.optimize` offered here, imported when first used (the optimisers load pymoo)
+_LAZY = ("InverseResult", "InverseSearch", "TipTarget", "inverse_path", "inverse_statics")
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        from . import optimize
+
+        return getattr(optimize, name)
+    raise AttributeError(f"module 'pytdcr' has no attribute {name!r}")
+
+
 __all__ = [
     "MODELS",
     "Backbone",
@@ -41,6 +59,8 @@ __all__ = [
     "ConstantFriction",
     "CosseratOptions",
     "ExponentialFriction",
+    "InverseResult",
+    "InverseSearch",
     "Jacobians",
     "Loads",
     "Model",
@@ -55,10 +75,13 @@ __all__ = [
     "Tendon",
     "TensionBounds",
     "TipCompliance",
+    "TipTarget",
     "UnsupportedFeatureError",
     "__version__",
     "equilibrium_jacobians",
     "get_model",
+    "inverse_path",
+    "inverse_statics",
     "paper_loads",
     "paper_robot",
     "rao_robot",

@@ -1,8 +1,9 @@
 """The ``tdcr`` command. Nothing in the package imports it.
 
-One module per command (or pair of commands): ``solve``, ``sample``, ``workspace``, ``optimize``, ``reproduce``,
-``compare`` (with ``accuracy``), ``designs``, ``robot``; each declares its options (``add_parser``) and runs
-(``run``): it turns the options into the study's settings (:mod:`pytdcr.study`), calls the library and prints.
+One module per command (or pair of commands): ``solve``, ``inverse``, ``sample``, ``workspace``, ``optimize``,
+``reproduce``, ``compare`` (with ``accuracy``), ``designs``, ``robot``; each declares its options
+(``add_parser``) and runs (``run``): it turns the options into the study's settings (:mod:`pytdcr.study`),
+calls the library and prints.
 The options the commands share are declared once (:mod:`._args`); how a command runs, Ctrl-C and the exit
 status are in :mod:`._runtime`: 0 success, 1 not converged, 2 bad input, 70 internal error (a bug), 75 the
 compute went away under a resumable run, 130 interrupted, 141 the output's reader closed the pipe. The study
@@ -18,7 +19,7 @@ import sys
 import threading
 from collections.abc import Sequence
 
-from . import compare, designs, optimize, reproduce, robot, sample, solve, workspace
+from . import compare, designs, inverse, optimize, reproduce, robot, sample, solve, workspace
 from ._args import FLAGS, Parser, glue_negative_values
 from ._runtime import (
     EXIT_INTERRUPTED,
@@ -67,7 +68,7 @@ def build_parser() -> Parser:
     p.add_argument("--version", action=_Version, nargs=0,
                    help="print the version of pytdcr and of the libraries its results depend on, and exit")
     sub = p.add_subparsers(dest="command", required=True)
-    for add in (solve.add_parser, sample.add_parser, workspace.add_parser, optimize.add_parser,
+    for add in (solve.add_parser, inverse.add_parser, sample.add_parser, workspace.add_parser, optimize.add_parser,
                 reproduce.add_parser, compare.add_parser, compare.add_accuracy_parser, designs.add_parser,
                 robot.add_parser):
         add(sub)

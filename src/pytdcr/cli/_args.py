@@ -33,7 +33,7 @@ __all__ = ["FLAGS", "Parser", "add_bounds", "add_model", "add_n", "add_out", "ad
 FLAGS = {name: "--" + name.replace("_", "-") for name in (
     "robot", "friction", "tip_force", "tip_moment", "tensions", "bounds", "bounds_file", "model", "shear_extension",
     "atol", "plot", "n", "seed", "pop", "tol", "window", "max_gen", "stable_only", "models", "cases", "disks",
-    "order_cases", "reference_steps", "payload_g", "out", "compliance", "jacobians", "csv")}
+    "order_cases", "reference_steps", "payload_g", "out", "compliance", "jacobians", "csv", "targets", "workspace")}
 FLAGS.update(disk_forces="--disk-force", disk_moments="--disk-moment")
 
 
@@ -206,8 +206,9 @@ def has_tip_wrench(args: argparse.Namespace) -> bool:
 
 
 # ---------------------------------------------------------------- negative numbers
-_VALUE_OPTIONS = ("--tip-force", "--tip-moment", "--tensions", "--bounds", "--friction")
-_NUMBER_OPTIONS = ("--atol", "--tol", "--seed", "--n", "--pop", "--max-gen", "--window", "--payload-g")
+_VALUE_OPTIONS = ("--tip-force", "--tip-moment", "--tensions", "--bounds", "--friction", "--target", "--direction")
+_NUMBER_OPTIONS = ("--atol", "--tol", "--seed", "--n", "--pop", "--max-gen", "--window", "--payload-g", "--starts",
+                   "--max-solves")
 
 
 def glue_negative_values(argv: Sequence[str]) -> list[str]:

@@ -39,7 +39,7 @@ from ._specs import (
 )
 
 __all__ = ["AccuracySettings", "CompareSettings", "OptimizeSettings", "SampleSettings", "SolveSettings",
-           "read_cases"]
+           "read_cases", "read_targets"]
 
 
 @dataclass(frozen=True)
@@ -249,39 +249,54 @@ def _has_option(model: str, option: str) -> bool:
 _NUMBER_FIELD = re.compile(r"[+-]?[\d.]+(?:[eE][+-]?\d+)?")
 
 
-def read_cases(path: str | Path, robot: Robot) -> np.ndarray:
-    """Tension vectors from a CSV file, shape (B, n_tendons) [N]: one row per case, one column per tendon.
-
-    Blank lines and ``#`` comments are skipped. A first row with no number at all is a header; a row mixing
-    numbers and words is an error, never a header. Fields are separated by commas only. SettingsError naming
-    ``cases``, the file and the line.
-    """
+def _read_rows(path: str | Path, field: str, width: int, what: str) -> list[tuple[int, np.ndarray]]:
+    """Rows of ``width`` finite numbers from a CSV file, with their line numbers: blank lines and ``#`` comments
+    skipped; a first row with no number at all is a header; a row mixing numbers and words is an error, never a
+    header; fields separated by commas only. SettingsError naming ``field``, the file and the line (``what``
+    says what a line holds)."""
     try:
-        lines = read_text_file(path, "cases file").splitlines()
+        lines = read_text_file(path, f"{field} file").splitlines()
     except ValueError as err:
-        raise SettingsError.about("cases", err) from None
+        raise SettingsError.about(field, err) from None
     where = f" {show_path(path)}"
-    rows = []
+    rows: list[tuple[int, np.ndarray]] = []
     for k, line in enumerate(lines, 1):
         if not line.strip() or line.lstrip().startswith("#"):
             continue
         for sep in (";", "\t"):
             if sep in line and "," not in line:
-                raise SettingsError("cases", f"{where}: line {k}: values must be separated by commas, found "
+                raise SettingsError(field, f"{where}: line {k}: values must be separated by commas, found "
                                     f"{show(sep)} in {show(line)}")
         fields = [f.strip() for f in line.split(",")]
         if not rows and all(not _NUMBER_FIELD.fullmatch(f) for f in fields):
             continue  # a header: no field is a number
         try:
-            vals = parse_numbers(line, f"cases{where}: line {k}", robot.n_tendons)
-            rows.append(check_tensions(vals, robot.n_tendons, name=f"cases{where}: line {k}: tensions"))
+            rows.append((k, parse_numbers(line, f"{field}{where}: line {k}", width)))
         except ValueError as err:
-            raise SettingsError("cases", f"{str(err)[len('cases'):]} (robot '{robot.name}' has {robot.n_tendons} "
-                                "tendons)") from None
+            raise SettingsError(field, f"{str(err)[len(field):]} ({what})") from None
     if not rows:
-        raise SettingsError("cases", f"{where}: no cases (each line: {robot.n_tendons} comma-separated tensions "
-                            "[N])")
-    return np.array(rows, dtype=float)
+        raise SettingsError(field, f"{where}: no rows (each line: {what})")
+    return rows
+
+
+def read_cases(path: str | Path, robot: Robot) -> np.ndarray:
+    """Tension vectors from a CSV file, shape (B, n_tendons) [N]: one row per case, one column per tendon
+    (the file's rules: :func:`_read_rows`). SettingsError naming ``cases``, the file and the line."""
+    what = f"robot '{robot.name}' has {robot.n_tendons} tendons"
+    out = []
+    for k, vals in _read_rows(path, "cases", robot.n_tendons, what):
+        try:
+            out.append(check_tensions(vals, robot.n_tendons, name=f"cases {show_path(path)}: line {k}: tensions"))
+        except ValueError as err:
+            raise SettingsError("cases", f"{str(err)[len('cases'):]} ({what})") from None
+    return np.array(out, dtype=float)
+
+
+def read_targets(path: str | Path) -> np.ndarray:
+    """Tip targets from a CSV file, shape (K, 3) [m]: one row per target, ``x,y,z`` in the base frame (the
+    file's rules: :func:`_read_rows`). SettingsError naming ``targets``, the file and the line."""
+    return np.array([v for _, v in _read_rows(path, "targets", 3, "3 comma-separated coordinates x,y,z [m]")],
+                    dtype=float)
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,164 @@
+"""``tdcr inverse``: the tensions that put the tip at a target (inverse statics), or along a path of targets."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+from typing import Any
+
+import numpy as np
+
+from ..runtime import dump_json
+from ..validate import escape_controls
+from ._args import (
+    add_bounds,
+    add_model,
+    add_robot_and_loads,
+    add_seed,
+    bounds_spec,
+    count_type,
+    load_spec,
+    model_spec,
+    parse_floats,
+    real_type,
+    robot_spec,
+)
+from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK, CliError
+
+__all__ = ["add_parser", "run"]
+
+#: the objectives, as :data:`pytdcr.optimize.OBJECTIVES` (not imported for ``--help``)
+_OBJECTIVES = ("least-squares", "least-max", "least-total")
+
+
+def add_parser(sub: Any) -> None:
+    """The ``inverse`` command and its options."""
+    s = sub.add_parser("inverse", help="the tensions that put the tip at a target (inverse statics)")
+    which = s.add_mutually_exclusive_group(required=True)
+    which.add_argument("--target", metavar="X,Y,Z", help="the tip position wanted, base frame [m]")
+    which.add_argument("--targets", metavar="FILE.csv",
+                       help="a path: one target x,y,z [m] a row, solved in order, each continued from the last; "
+                       "one CSV row per target on stdout, or in --csv")
+    s.add_argument("--direction", metavar="DX,DY,DZ", help="the tip axis wanted too (normalised)")
+    s.add_argument("--objective", choices=_OBJECTIVES, default="least-squares",
+                   help="which of the redundant solutions: least sum of squared tensions, least largest tension, "
+                   "least total [least-squares]")
+    add_robot_and_loads(s)
+    add_model(s)
+    add_bounds(s)
+    s.add_argument("--workspace", metavar="DIR",
+                   help="start from the samples of this finished `tdcr workspace` run (its robot, loads, bounds "
+                   "and model are used: give none of those options)")
+    s.add_argument("--tol", type=real_type, default=1e-6, help="the miss accepted as reaching [m] [1e-6]")
+    s.add_argument("--starts", type=count_type, default=3, help="starts tried until one reaches [3]")
+    s.add_argument("--max-solves", type=count_type, default=200, help="solves one target may spend [200]")
+    add_seed(s)
+    s.add_argument("--json", action="store_true", help="print one JSON object")
+    s.add_argument("--csv", metavar="FILE", help="write one row per target (target, tensions, tip, distance, "
+                   "reachable, stable, path) as CSV")
+    s.set_defaults(func=run, model_default=s.get_default("model"))
+
+
+def _problem(args: argparse.Namespace) -> tuple[Any, Any, Any, Any, Any]:
+    """Robot, loads, bounds, model name and the search's pool (None: the built-in one) of the options, or of
+    ``--workspace``."""
+    from ..study import BoundsSpec, read_workspace_pool
+
+    if args.workspace is None:
+        robot = robot_spec(args).build()
+        loads = load_spec(args).build(robot)
+        bounds = (bounds_spec(args) or BoundsSpec()).build(robot)
+        return robot, loads, bounds, args.model, None
+    given = [flag for flag, on in (
+        ("--robot", args.robot != "paper"), ("--tip-force", args.tip_force), ("--tip-moment", args.tip_moment),
+        ("--disk-force", args.disk_force), ("--disk-moment", args.disk_moment), ("--gravity", args.gravity is not None),
+        ("--friction", args.friction), ("--release", args.release), ("--bounds", args.bounds or args.bounds_file),
+        ("--model", args.model != args.model_default), ("--shear-extension", args.shear_extension)) if on]
+    if given:
+        raise CliError(f"--workspace takes the robot, loads, bounds and model of its run: drop {', '.join(given)}")
+    ws = read_workspace_pool(args.workspace)
+    return ws.robot, ws.loads, ws.bounds, ws.model, (ws.tensions, ws.tips)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Solve the target (or the path); print the answer (or one JSON object, or the CSV table)."""
+    from .. import InverseSearch, TipTarget, inverse_path, inverse_statics
+    from ..study import check_csv_path, read_targets
+
+    out = check_csv_path(args.csv) if args.csv is not None else None
+    direction = parse_floats(args.direction, "--direction", 3) if args.direction else None
+    target = parse_floats(args.target, "--target", 3) if args.target else None
+    targets = read_targets(args.targets) if args.targets else None
+    robot, loads, bounds, model, pool = _problem(args)
+    m, options = model_spec(args).resolve(robot, loads) if args.workspace is None else (model, None)
+    try:
+        search = InverseSearch(tol=args.tol, starts=args.starts, max_solves=args.max_solves, seed=args.seed,
+                               options=options, pool=pool)
+        if target is not None:
+            results = [inverse_statics(robot, loads, TipTarget(target, direction), bounds=bounds, model=m,
+                                       objective=args.objective, search=search)]
+        else:
+            results = inverse_path(robot, loads, targets, bounds=bounds, model=m, objective=args.objective,
+                                   direction=direction, search=search)
+    except ValueError as err:
+        raise CliError(f"{_flag_of(err)}{err}") from None
+    name = m if isinstance(m, str) else m.name
+    if args.json:
+        head = {"robot": robot.name, "model": name, "objective": args.objective}
+        body = results[0].to_dict() if target is not None else {"points": [r.to_dict() for r in results]}
+        print(dump_json({**head, **body}))
+    elif target is not None:
+        _print_one(robot, name, results[0])
+    else:
+        _print_path(results, out)
+    if out is not None:
+        from ..runtime import write_csv
+        from ..study import inverse_columns, inverse_rows
+
+        out.parent.mkdir(parents=True, exist_ok=True)
+        write_csv(out, inverse_columns(robot.n_tendons), inverse_rows(results))
+        if not args.json:
+            print(f"wrote {escape_controls(str(out))}")
+    return EXIT_OK if all(r.reachable for r in results) else EXIT_NOT_CONVERGED
+
+
+def _flag_of(err: ValueError) -> str:
+    """The option a library error's first word names (``tol: ...`` is ``--tol``), for the message."""
+    word = str(err).split(":", 1)[0].split(" ", 1)[0]
+    flags = {"tol": "--tol", "starts": "--starts", "max_solves": "--max-solves", "target": "--target",
+             "direction": "--direction", "targets": "--targets"}
+    return f"{flags[word]}: " if word in flags else ""
+
+
+def _vec(v: np.ndarray, digits: int = 6) -> str:
+    return "[" + ", ".join(f"{x:.{digits}f}" for x in v) + "]"
+
+
+def _print_one(robot: Any, model: str, r: Any) -> None:
+    """One answer in a few lines."""
+    where = (f"REACHED ({r.path}), {r.distance_m:.2e} m away" if r.reachable else
+             f"NOT reachable: the nearest point found is {r.distance_m:.6f} m away ({r.path})")
+    print(f"robot {robot.name}, {model} model, {r.objective}: target {_vec(r.target)} m {where}")
+    unit = "N^2" if r.objective == "least-squares" else "N"
+    print(f"  tensions {_vec(r.tensions, 4)} N ({r.objective} {r.objective_value:.4g} {unit})")
+    state = "stable" if r.stable else "UNSTABLE" if r.stable is False else "stability untested"
+    print(f"  tip {_vec(r.tip_position)} m, axis {_vec(r.tip_axis, 4)}; {state}; {r.evaluations} solves, "
+          f"{r.seconds * 1e3:.0f} ms")
+
+
+def _print_path(results: list[Any], out: Any) -> None:
+    """The path's table on stdout (without ``--csv``) or its summary."""
+    from ..study import inverse_columns, inverse_rows
+
+    if out is None:
+        buf = io.StringIO()
+        csv.writer(buf).writerows([inverse_columns(results[0].tensions.size), *inverse_rows(results)])
+        print(buf.getvalue(), end="")
+        return
+    paths = {p: sum(r.path == p for r in results) for p in ("continued", "loading path", "another branch")}
+    t = np.array([r.tensions for r in results])
+    jump = float(np.max(np.abs(np.diff(t, axis=0)))) if len(results) > 1 else 0.0
+    print(f"{len(results)} targets: {sum(r.reachable for r in results)} reached "
+          f"({', '.join(f'{n} {p}' for p, n in paths.items() if n)}); largest tension change between neighbours "
+          f"{jump:.3g} N; {sum(r.seconds for r in results):.2f} s")
