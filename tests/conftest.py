@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
+import os
+import tempfile
+
 import numpy as np
 import pytest
 
 from pytdcr import Backbone, Robot, Segment, paper_robot, rao_robot
+
+# the tests keep inverse statics' start pools in a folder of their own, not in the user's cache
+os.environ["PYTDCR_CACHE_DIR"] = tempfile.mkdtemp(prefix="pytdcr-test-cache-")
 
 #: solver tolerance on max |residual| [N m] (the library default)
 ATOL = 1e-9

@@ -272,3 +272,47 @@ def test_a_workspace_runs_samples_are_reached_from_its_folder(tmp_path, capsys):
     assert json.loads(capsys.readouterr().out)["distance_m"] >= 0.05
     assert main(["inverse", "--workspace", str(ws), "--target", "0.1,0,0.2", "--robot", "rao"]) == 2
     assert "--workspace takes the robot, loads, bounds and model of its run: drop --robot" in capsys.readouterr().err
+
+
+def test_the_start_pool_is_kept_on_disk_whole_or_made_again(tmp_path, monkeypatch):
+    from pytdcr.optimize import _inverse_search as search
+    from pytdcr.optimize._inverse import _setup
+
+    monkeypatch.setenv("PYTDCR_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(search, "_POOLS", {})
+    tg = _setup(ROBOT, LOADS, [0.1, 0.1, 0.2], BOUNDS, "pcc", "least-squares", InverseSearch())
+    made = search.sample_pool(tg, BOUNDS, 3)
+    files = list(tmp_path.glob("inverse-pool-*.npz"))
+    assert len(files) == 1
+    monkeypatch.setattr(search, "_POOLS", {})
+    read = search.sample_pool(tg, BOUNDS, 3)
+    assert np.array_equal(read.tensions, made.tensions) and np.array_equal(read.jacobians, made.jacobians)
+    files[0].write_bytes(files[0].read_bytes()[:100])  # cut short: not whole
+    monkeypatch.setattr(search, "_POOLS", {})
+    again = search.sample_pool(tg, BOUNDS, 3)
+    assert np.array_equal(again.tips, made.tips)
+    assert search._read_pool(files[0], 8) is not None  # written whole again
+    monkeypatch.setenv("PYTDCR_CACHE_DIR", "")
+    assert search.cache_dir() is None
+
+
+@pytest.mark.slow
+def test_a_grid_deep_inside_the_fsw_is_reached():
+    """Grid points deep inside the feasible static workspace (inside the region, and so are their six neighbours
+    a voxel away) are all reached: the inverse and the region agree where the region is sure."""
+    from pytdcr.region import WorkspaceSettings, inside, workspace_region
+
+    voxel = 0.025
+    wr = workspace_region(ROBOT, LOADS, BOUNDS, WorkspaceSettings(n=200, seed=1, voxel=voxel, budget=1500))
+    tips = wr.samples.tip_position[wr.samples.feasible]
+    lo, hi = tips.min(axis=0), tips.max(axis=0)
+    grid = np.stack(np.meshgrid(*[np.linspace(lo[i], hi[i], 8) for i in range(3)], indexing="ij"), -1)
+    grid = grid.reshape(-1, 3)
+    deep = inside(wr.fsw_region, grid)
+    for d in np.vstack([np.eye(3), -np.eye(3)]):
+        deep &= inside(wr.fsw_region, grid + voxel * d)
+    assert deep.sum() >= 5
+    for p in grid[deep]:
+        r = inverse_statics(ROBOT, LOADS, p, bounds=BOUNDS)
+        assert r.reachable, f"{p} lies deep inside the FSW, but the nearest point found is {r.distance_m:.3g} m away"
+        _check_truthful(r, p)

@@ -5,21 +5,27 @@ from."""
 from __future__ import annotations
 
 import hashlib
-import pickle
+import json
+import os
+import zipfile
 from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 from scipy.optimize import linprog, lsq_linear
 from scipy.stats import qmc
 
+from .._version import __version__
 from ..bounds import TensionBounds
 from ..design import Robot
+from ..io import robot_to_dict
 from ..loads import Loads
 from ..results import StaticSolution
+from ..runtime import atomic_write
 from ..statics import Model, equilibrium_jacobians, solve, solve_batch
 
-__all__ = ["NEAREST", "POOL_SAMPLES", "Point", "Pool", "Search", "Target", "choose_step", "is_optimal",
+__all__ = ["NEAREST", "POOL_SAMPLES", "Point", "Pool", "Search", "Target", "cache_dir", "choose_step", "is_optimal",
            "objective_value",
            "ranked_starts", "sample_pool"]
 
@@ -277,23 +283,72 @@ class Search:
         return p, hessian, rad
 
 
+def cache_dir() -> Path | None:
+    """Where start pools are kept between runs: ``PYTDCR_CACHE_DIR``, else ``$XDG_CACHE_HOME/pytdcr`` or
+    ``~/.cache/pytdcr``; None (no cache on disk) when ``PYTDCR_CACHE_DIR`` is set empty."""
+    env = os.environ.get("PYTDCR_CACHE_DIR")
+    if env is not None:
+        return Path(env) if env.strip() else None
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "pytdcr"
+
+
+def _read_pool(path: Path, n_tendons: int) -> Pool | None:
+    """A pool kept on disk, or None where there is none or it is not whole (it is made again)."""
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            pool = Pool(z["tensions"], z["tips"], z["jacobians"])
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
+        return None
+    k = pool.tensions.shape[0]
+    if pool.tensions.shape != (k, n_tendons) or pool.tips.shape != (k, 3) or pool.jacobians is None or \
+            pool.jacobians.shape != (k, 3, n_tendons):
+        return None
+    return pool
+
+
+def _keep_pool(path: Path, pool: Pool) -> None:
+    """Keep ``pool`` on disk (whole or not at all); a cache that cannot be written is only not kept."""
+    def write(tmp: Path) -> None:
+        with open(tmp, "wb") as f:
+            np.savez(f, tensions=pool.tensions, tips=pool.tips, jacobians=pool.jacobians)
+
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write(path, write)
+    except OSError:
+        pass
+
+
 def sample_pool(tg: Target, bounds: TensionBounds, seed: int) -> Pool:
     """The converged, stable equilibria of :data:`POOL_SAMPLES` scrambled Sobol tension vectors in the bounds,
     without their co-contraction, solved from rest, with their tips' Jacobians: once per robot, external loads,
-    bounds, model, options and seed (the last few kept for the process)."""
+    bounds, model, options, seed and pytdcr version (the last few kept in the process, and every one in
+    :func:`cache_dir`)."""
     robot, loads = tg.robot, tg.loads.with_tensions(np.zeros(tg.robot.n_tendons))
-    key = hashlib.sha256(pickle.dumps((robot, loads, bounds.lower.tolist(), bounds.upper.tolist(), tg.m.name,
-                                       repr(tg.opts), seed))).hexdigest()
-    if key not in _POOLS:
+    what = {"pytdcr": __version__, "robot": robot_to_dict(robot), "tip_force": loads.tip_force.tolist(),
+            "tip_moment": loads.tip_moment.tolist(), "release": loads.release,
+            "point_loads": [[p.disk, p.force.tolist(), p.moment.tolist()] for p in loads.point_loads],
+            "bounds": [bounds.lower.tolist(), bounds.upper.tolist()], "model": tg.m.name, "options": repr(tg.opts),
+            "seed": seed, "samples": POOL_SAMPLES}
+    key = hashlib.sha256(json.dumps(what, sort_keys=True, default=str).encode()).hexdigest()
+    if key in _POOLS:
+        return _POOLS[key]
+    where = cache_dir()
+    path = None if where is None else where / f"inverse-pool-{key[:32]}.npz"
+    pool = None if path is None else _read_pool(path, robot.n_tendons)
+    if pool is None:
         u = qmc.Sobol(robot.n_tendons, scramble=True, seed=seed).random(POOL_SAMPLES)
         t = _relaxed(robot, bounds, bounds.lower + u * (bounds.upper - bounds.lower))
         b = solve_batch(robot, t, loads, model=tg.m, options=tg.opts)
         ok = b.converged & (b.stable != 0.0)
-        g = tg.m.tip_gradients(robot, t[ok], loads, b.q[ok], tg.opts)
-        if len(_POOLS) >= _POOLS_KEPT:
-            _POOLS.pop(next(iter(_POOLS)))
-        _POOLS[key] = Pool(t[ok], b.tip_position[ok], g)
-    return _POOLS[key]
+        pool = Pool(t[ok], b.tip_position[ok], tg.m.tip_gradients(robot, t[ok], loads, b.q[ok], tg.opts))
+        if path is not None:
+            _keep_pool(path, pool)
+    if len(_POOLS) >= _POOLS_KEPT:
+        _POOLS.pop(next(iter(_POOLS)))
+    _POOLS[key] = pool
+    return pool
 
 
 def ranked_starts(tg: Target, pool: Pool, bounds: TensionBounds, objective: str, count: int) -> list[Point]:

@@ -31,7 +31,7 @@ from ._settings import (
     read_cases,
     read_targets,
 )
-from ._solve import SolveRun, case_rows, check_csv_path, check_figure_path, run_solve
+from ._solve import SolveRun, case_rows, check_csv_path, check_figure_path, run_solve, write_shape_csv
 from ._specs import MAX_FRICTION, BoundsSpec, LoadSpec, ModelSpec, RobotSpec, RunInputs
 from ._workspace import (
                          WorkspaceCase,
@@ -50,4 +50,4 @@ __all__ = ["MAX_FRICTION", "AccuracyRun", "AccuracySettings", "BoundsSpec", "Com
            "check_csv_path", "check_figure_path", "format_measure_of", "inputs_record", "inverse_columns",
            "inverse_rows", "read_cases", "read_targets", "read_workspace_pool", "run_accuracy", "run_compare",
            "run_optimize", "run_reproduce", "run_sample", "run_solve", "run_workspace", "run_workspace_compare",
-           "sample_into", "write_optimize"]
+           "sample_into", "write_optimize", "write_shape_csv"]
