@@ -3,8 +3,9 @@ PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
+DOCS_STAMP := $(VENV)/.docs-installed
 
-.PHONY: demo test lint bench clean
+.PHONY: demo test docs lint bench clean
 
 KERNELS := $(wildcard src/pytdcr/statics/kernels/*.py) src/pytdcr/kinematics.py
 
@@ -25,6 +26,15 @@ demo: $(STAMP)
 test: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python -m pytest -q
 
+$(DOCS_STAMP): $(STAMP) pyproject.toml
+	$(BIN)/python -m pip install -e '.[dev,docs]'
+	touch $(DOCS_STAMP)
+
+# the documentation site, from docs/ (the tutorial executed, the CLI and API references generated), into site/;
+# any warning fails the build
+docs: $(DOCS_STAMP)
+	NO_MKDOCS_2_WARNING=1 MPLBACKEND=Agg $(BIN)/mkdocs build --strict
+
 lint: $(STAMP)
 	$(BIN)/ruff check src tests bench examples
 
@@ -32,4 +42,4 @@ bench: $(STAMP)
 	$(BIN)/python bench/solve.py
 
 clean:
-	rm -rf $(VENV) out bench/results
+	rm -rf $(VENV) out bench/results site .cache

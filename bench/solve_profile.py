@@ -1,7 +1,7 @@
 """Where a cold solve's time goes, and whether warm starts could replace it (paper robot, paper load).
 
 ``--model``: ``pcc`` (default), ``pcc2`` or ``sscr``. The workspace's sampling speed is bound by the
-loading-path solve under the paper's load (README, "Speed").
+loading-path solve under the paper's load (docs/speed.md).
 This script measures what a faster solver would have to attack:
 
 - kernel: one residual, one exact Jacobian and one inverse of it (the quasi-Newton's pieces) [us, medians];

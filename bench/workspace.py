@@ -1,6 +1,6 @@
 """The workspace study's speed on the paper robot under the paper's load, tensions in [0, 20] N.
 
-Three measurements (2-core figures are in the README):
+Three measurements (2-core figures are in docs/speed.md and docs/workspace.md):
 - sampling: ``solve_plan`` on ``--samples`` Sobol points (with the box's corners and edges, and the checked
   warm starts), solves per second; the issue's target is 20,000 samples in 10 s (2,000 solves/s);
 - support: h(d) on ``--directions`` Fibonacci directions from ``--n`` samples continued from the root, stable

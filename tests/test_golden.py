@@ -9,7 +9,7 @@ solver, a fixed bug) regenerates them, and its commit says which moved and why::
     python tests/test_golden.py            # rewrite every baseline
     python tests/test_golden.py solve_pcc  # or only some
 
-Another CPU or another version of NumPy, Numba or LLVM may compute other last bits (README, "Repeatable
+Another CPU or another version of NumPy, Numba or LLVM may compute other last bits (docs/conventions.md, "Repeatable
 runs"). Each baseline records the installation it was made on; on the same one
 the comparison is exact. On another, floats are compared to 1e-9 relative and arrays by their values rather than
 their hashes, and the test says so in its output. The chaotic cases (:data:`CHAOTIC`: a genetic algorithm, a

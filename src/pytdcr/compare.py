@@ -181,9 +181,11 @@ def compare_models(
     progress : callable, optional
         Called with no argument after each case.
 
-    Every model is checked against the robot and loads before any solve
-    (:class:`~pytdcr.statics.UnsupportedFeatureError` names the first that
-    cannot take them).
+    Raises
+    ------
+    UnsupportedFeatureError
+        Every model is checked against the robot and loads before any solve; this names the first that
+        cannot take them.
     """
     resolved = check_models(models)
     names = tuple(m.name for m in resolved)
