@@ -57,8 +57,17 @@ def new_3d_axes(figsize: tuple[float, float] = (6.0, 6.0)) -> Axes3D:
     return fig.add_subplot(projection="3d")
 
 
+#: the resolution every figure file is written at [dots per inch]
+SAVE_DPI = 150
+
+
 def set_equal_aspect(ax: Axes3D, points: np.ndarray, margin: float = 0.05) -> None:
-    """Equal scale on x, y, z around ``points`` (K, 3) [m]."""
+    """Equal scale on x, y, z around ``points`` (K, 3) [m], with at most five ticks an axis (more overlap in a
+    3D view's foreshortened axes)."""
+    from matplotlib.ticker import MaxNLocator
+
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+        axis.set_major_locator(MaxNLocator(nbins=4))
     lo = points.min(axis=0)
     hi = points.max(axis=0)
     centre = (lo + hi) / 2.0
@@ -77,16 +86,17 @@ def save_figure(fig: Any, out: Path, stem: str) -> list[str]:
     list of str
         The file names written.
     """
-    # the tight bounding box is measured once (it costs a full draw) and used for both formats; a figure with a
-    # layout engine (constrained, tight) is drawn first: the engine places the axes only when the figure is
-    # drawn, and a box measured before that clips
-    if fig.get_layout_engine() is not None:
-        fig.canvas.draw()
+    # the tight bounding box is measured once (it costs a full draw) and used for both formats, at the dpi the
+    # files are written at (text extents and a layout engine's placement depend on it: a box measured at the
+    # screen's dpi clipped the PNG); a figure with a layout engine (constrained, tight) is drawn first: the
+    # engine places the axes only when the figure is drawn, and a box measured before that clips
+    fig.set_dpi(SAVE_DPI)
+    fig.canvas.draw()
     bbox = fig.get_tightbbox(fig.canvas.get_renderer()).padded(0.1)
     names = []
     for ext in ("png", "pdf"):
         path = atomic_write(Path(out) / f"{stem}.{ext}",
-                            lambda tmp, ext=ext: fig.savefig(tmp, dpi=150, bbox_inches=bbox, format=ext))
+                            lambda tmp, ext=ext: fig.savefig(tmp, dpi=SAVE_DPI, bbox_inches=bbox, format=ext))
         names.append(path.name)
     pyplot().close(fig)
     return names
@@ -96,7 +106,7 @@ def save_figure_as(fig: Any, path: Path) -> Path:
     """Write ``fig`` to ``path`` in the format its suffix names (.png, .pdf, .svg), whole or absent, and close
     it."""
     try:
-        return atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=150, bbox_inches="tight",
+        return atomic_write(path, lambda tmp: fig.savefig(tmp, dpi=SAVE_DPI, bbox_inches="tight",
                                                           format=Path(path).suffix[1:].lower()))
     finally:
         pyplot().close(fig)
@@ -121,12 +131,15 @@ class RobotStyle:
         The base and tip frames (red, green, blue: x, y, z).
     equal : bool
         Equal scale on the three axes around what was drawn.
+    legend : bool
+        A legend for the frames' axes and the labelled load arrows (when there are any).
     """
 
     disks: bool = True
     tendons: bool = True
     frames: bool = True
     equal: bool = True
+    legend: bool = True
 
 
 def plot_robot(
@@ -148,9 +161,10 @@ def plot_robot(
     ax : Axes3D, optional
     style : RobotStyle, optional
         What to draw besides the backbone (default: everything, on equal axes).
-    loads : sequence of (point, vector) or (point, vector, colour)
+    loads : sequence of (point, vector), (point, vector, colour) or (point, vector, colour, label)
         Arrows to draw (e.g. the tip force) from ``point`` (3,) along ``vector`` (3,),
-        both in the base frame, already scaled to metres (default colour purple).
+        both in the base frame, already scaled to metres (default colour purple); a label names it in the
+        legend.
     **kwargs
         Passed to the backbone's ``plot`` call (default ``color="k"``, ``linewidth=2.0``; ``label`` names it in
         a legend).
@@ -182,12 +196,22 @@ def plot_robot(
         size = 0.12 * robot.length
         _frame_arrows(ax, pos[0], rot[0], size)
         _frame_arrows(ax, pos[-1], rot[-1], size)
+    keys: list[tuple[str, str]] = []
+    if style.frames:
+        keys += [("tab:red", "frame x"), ("tab:green", "frame y"), ("tab:blue", "frame z")]
     for arrow in loads:
         point = np.asarray(arrow[0], dtype=float)
         vec = np.asarray(arrow[1], dtype=float)
         colour = arrow[2] if len(arrow) > 2 else "tab:purple"
         ax.quiver(*point, *vec, color=colour, linewidth=2.0, arrow_length_ratio=0.2)
         pts.append(np.stack([point, point + vec]))
+        if len(arrow) > 3:
+            keys.append((colour, arrow[3]))
+    if style.legend and keys:
+        from matplotlib.lines import Line2D
+
+        ax.legend(handles=[Line2D([], [], color=c, linewidth=2.0, label=t) for c, t in keys], loc="upper left",
+                  fontsize=7, framealpha=0.8)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_zlabel("z [m]")
@@ -328,7 +352,7 @@ def plot_region_slices(regions: dict[str, Any], length: float, title: str = "") 
     boundaries stay visible): the xz plane (y = 0), the yz plane (x = 0) and the xy plane at 1/4, 1/2 and 3/4
     of ``length`` [m]. Returns the figure."""
     plt = pyplot()
-    fig, axes = plt.subplots(1, 5, figsize=(20, 4.4))
+    fig, axes = plt.subplots(1, 5, figsize=(20, 4.4), layout="constrained")
     cuts = [("xz (y = 0)", 1, 0.0), ("yz (x = 0)", 0, 0.0)] + [
         (f"xy (z = {f * length * 1e3:.0f} mm)", 2, f * length) for f in (0.25, 0.5, 0.75)]
     colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]

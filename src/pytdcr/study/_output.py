@@ -34,10 +34,11 @@ def load_arrows(sol: StaticSolution, loads: Loads, robot: Robot) -> list[tuple]:
     arrows: list[tuple] = []
     scale = 0.25 * robot.length
     if np.any(loads.tip_force):
-        arrows.append((sol.tip_position, loads.tip_force / np.linalg.norm(loads.tip_force) * scale))
+        arrows.append((sol.tip_position, loads.tip_force / np.linalg.norm(loads.tip_force) * scale, "tab:purple",
+                       f"tip force, {np.linalg.norm(loads.tip_force):.3g} N"))
     if np.any(loads.tip_moment):  # the moment's axis, drawn from the tip in another colour
         arrows.append((sol.tip_position, loads.tip_moment / np.linalg.norm(loads.tip_moment) * scale * 0.6,
-                       "tab:orange"))
+                       "tab:orange", f"tip moment axis, {np.linalg.norm(loads.tip_moment):.3g} N m"))
     return arrows
 
 

@@ -15,6 +15,7 @@ from ..results import StaticSolution
 from ..runtime import FileRefused, writable_file, write_csv
 from ..statics import Jacobians, Model, TipCompliance, equilibrium_jacobians, solve, tip_compliance
 from ..validate import SettingsError, show_path
+from ._output import load_arrows
 from ._settings import SolveSettings
 
 __all__ = [
@@ -168,11 +169,9 @@ def run_solve(settings: SolveSettings, plot: str | Path | None = None, *, compli
 
 
 def _plot_solution(sol: StaticSolution, robot: Robot, loads: Loads, path: Path) -> None:
-    arrows = []
-    if np.any(loads.tip_force):
-        f = loads.tip_force
-        arrows.append((sol.tip_position, f / np.linalg.norm(f) * 0.25 * robot.length))
-    ax = plot_robot(robot, sol, loads=arrows)
-    ax.set_title(f"{robot.name}: tip at {np.array2string(sol.tip_position, precision=3)} m")
+    ax = plot_robot(robot, sol, loads=load_arrows(sol, loads, robot))
+    x, y, z = sol.tip_position * 1e3
+    ax.set_title(f"robot '{robot.name}': tip at ({x:.1f}, {y:.1f}, {z:.1f}) mm, {sol.reach * 1e3:.1f} mm from "
+                 "the base", fontsize=10)
     path.parent.mkdir(parents=True, exist_ok=True)
     save_figure_as(ax.figure, path)  # whole or absent
