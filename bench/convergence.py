@@ -28,7 +28,7 @@ from pytdcr import ConstantFriction, NoFriction, paper_loads, paper_robot, solve
 from pytdcr.statics import warmup
 
 #: friction law by name: the paper robot's friction
-LAWS = {"paper": None, "none": NoFriction(), "constant 0.1": ConstantFriction(mu0=0.1)}
+LAWS = {"paper": None, "none": NoFriction(), "constant 0.1": ConstantFriction(mu=0.1)}
 #: the laws each model is measured with
 MODEL_LAWS = {"pcc": ("paper", "none", "constant 0.1"), "pcc2": ("paper", "none", "constant 0.1"),
               "sscr": ("paper", "none")}

@@ -33,7 +33,7 @@ from pytdcr.statics.pcc2 import PCC2
 from pytdcr.statics.solver import case_tolerances
 
 #: friction law by name (the ones ``pcc2`` misses rows with)
-LAWS = {"none": NoFriction(), "constant 0.1": ConstantFriction(mu0=0.1)}
+LAWS = {"none": NoFriction(), "constant 0.1": ConstantFriction(mu=0.1)}
 
 
 def _loads(moment_scale: float) -> Loads:

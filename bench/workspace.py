@@ -42,7 +42,7 @@ from pytdcr.statics import warmup
 def sampling(n: int, seed: int) -> dict[str, float]:
     robot, loads, b = paper_robot(), paper_loads(), paper_bounds()
     t0 = time.perf_counter()
-    s = solve_plan(robot, loads, plan_tensions(b, n, seed), warm=WarmStarts(seed=seed))
+    s = solve_plan(robot, loads, plan_tensions(b, n, seed=seed), warm=WarmStarts(seed=seed))
     sec = time.perf_counter() - t0
     solves = s.source.size + s.warm.checked
     return {"samples": int(s.source.size), "solves": int(solves), "seconds": sec, "solves_per_s": solves / sec,
@@ -51,7 +51,7 @@ def sampling(n: int, seed: int) -> dict[str, float]:
 
 def support(n: int, k: int, seed: int, cold: bool = False) -> dict[str, float]:
     robot, loads, b = paper_robot(), paper_loads(), paper_bounds()
-    s = continue_plan(robot, loads, plan_tensions(b, n, seed))
+    s = continue_plan(robot, loads, plan_tensions(b, n, seed=seed))
     problem = ReachProblem.create(robot, loads, b, stable_only=True)
     ok = s.feasible
     states = None if cold else SampleStates(s.q[ok], continued=True)

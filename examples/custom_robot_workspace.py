@@ -25,7 +25,7 @@ mass_per_length = 0.0115
 
 [friction]
 law = "constant"
-mu0 = 0.1
+mu = 0.1
 
 [[segments]]
 length = 0.1

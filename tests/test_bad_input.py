@@ -202,7 +202,7 @@ def test_api_misuse_says_what_was_expected(paper):
         solve_batch(paper, np.zeros(8))
     with pytest.raises(ValueError, match=r"q0 must have shape \(20, 3\)"):
         solve(paper, Loads(np.zeros(8)), q0=np.zeros(7))
-    no_friction = paper.with_friction(ConstantFriction(mu0=0.0))
+    no_friction = paper.with_friction(ConstantFriction(mu=0.0))
     with pytest.raises(ValueError, match="q0 must be 3 finite numbers"):
         solve(no_friction, Loads(np.zeros(8)), model="cosserat", q0=np.zeros(5))
     with pytest.raises(TypeError, match=r"tensions must be real numbers, got \[True"):
@@ -213,7 +213,7 @@ def test_api_misuse_says_what_was_expected(paper):
 
 def test_constant_friction_of_zero_is_no_friction(paper):
     """mu = 0 is no friction: the friction-free models take it and it equals the 'none' law."""
-    mu0 = paper.with_friction(ConstantFriction(mu0=0.0))
+    mu0 = paper.with_friction(ConstantFriction(mu=0.0))
     loads = Loads(np.array([3.0, 0, 0, 0, 2, 0, 0, 0]))
     sol = solve(mu0, loads, model="cosserat")
     assert sol.converged

@@ -17,7 +17,7 @@ from pytdcr.statics.kernels import pcc as K
 from pytdcr.statics.pcc import PCCEquations
 
 ROWS = np.random.default_rng(0).uniform(0.0, 20.0, (200, 8))
-LAWS = {"paper": None, "none": NoFriction(), "constant": ConstantFriction(mu0=0.1)}
+LAWS = {"paper": None, "none": NoFriction(), "constant": ConstantFriction(mu=0.1)}
 
 #: (model, friction law, rows that failed before the fold handling followed the branch to its fold)
 CASES = [("pcc", "none", (2, 8, 9, 21)), ("pcc", "constant", (4, 8, 25)), ("pcc2", "none", (2, 4, 6)),

@@ -227,7 +227,7 @@ def test_friction_is_refused():
     # a constant mu of 0 is no friction
     from pytdcr import ConstantFriction
 
-    sol = solve(paper_robot(ConstantFriction(mu0=0.0)), Loads(np.zeros(8)), model="cosserat")
+    sol = solve(paper_robot(ConstantFriction(mu=0.0)), Loads(np.zeros(8)), model="cosserat")
     assert sol.converged
 
 

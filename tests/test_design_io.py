@@ -27,7 +27,7 @@ def test_paper_robot_matches_the_paper(paper):
 
 
 def test_toml_round_trip(tmp_path, paper, rao):
-    for robot in (paper, rao, paper.with_friction(ConstantFriction(mu0=0.2))):
+    for robot in (paper, rao, paper.with_friction(ConstantFriction(mu=0.2))):
         path = tmp_path / f"{robot.name}.toml"
         write_robot(robot, path)
         assert read_robot(path) == robot

@@ -72,12 +72,13 @@ def test_a_bad_study_is_refused_naming_the_key(change, says):
 
 def test_designs_are_a_grid_or_seeded_sobol_points():
     study, _ = study_from_dict(_study())
-    grid = choose_designs(study.parameters, "grid", None, 0)
+    grid = choose_designs(study.parameters, "grid", None, seed=0)
     assert grid == [{"backbone_radius": a, "routing_radius_2": b} for a in (0.0007, 0.003) for b in (0.002, 0.01)]
     study, _ = study_from_dict(_study(parameters={"segment_length_1": {"range": [0.1, 0.3]},
                                                   "disks": {"values": [5, 10, 20]}}))
-    a = choose_designs(study.parameters, "sobol", 16, 5)
-    assert a == choose_designs(study.parameters, "sobol", 16, 5) != choose_designs(study.parameters, "sobol", 16, 6)
+    a = choose_designs(study.parameters, "sobol", 16, seed=5)
+    assert a == choose_designs(study.parameters, "sobol", 16, seed=5) != choose_designs(study.parameters, "sobol", 16,
+                                                                                            seed=6)
     assert all(0.1 <= d["segment_length_1"] <= 0.3 and d["disks"] in (5, 10, 20) for d in a)
     assert {d["disks"] for d in a} == {5, 10, 20}
 
@@ -92,7 +93,7 @@ def test_a_design_whose_robot_is_impossible_fails_with_its_reason():
 def test_the_small_example_is_valid():
     study, robot, text = load_study("examples/design_study_small.toml")
     assert robot.name == paper_robot().name and "design" in text and len(choose_designs(
-        study.parameters, study.designs.method, study.designs.count, study.seed)) == 4
+        study.parameters, study.designs.method, study.designs.count, seed=study.seed)) == 4
 
 
 @pytest.mark.parametrize(("name", "designs"), [("design_study_routing.toml", 200),
@@ -298,7 +299,7 @@ def test_the_comparison_with_the_base_robot_shows_no_change_it_cannot_compute():
 
 def test_integer_ranges_give_each_whole_number_its_share_and_a_grid_has_no_twins():
     study, _ = study_from_dict(_study(parameters={"disks": {"range": [3, 5], "steps": 4}}))
-    assert choose_designs(study.parameters, "grid", None, 0) == [{"disks": 3}, {"disks": 4}, {"disks": 5}]
+    assert choose_designs(study.parameters, "grid", None, seed=0) == [{"disks": 3}, {"disks": 4}, {"disks": 5}]
     study, _ = study_from_dict(_study(parameters={"disks_1": {"range": [6, 14]}}, designs={"method": "sobol",
                                                                                             "count": 9}))
     p = study.parameters

@@ -143,7 +143,7 @@ def test_a_target_out_of_reach_is_reported_with_the_nearest_point_found(target):
     from pytdcr.optimize._inverse import _setup
 
     tg = _setup(ROBOT, LOADS, target, BOUNDS, "pcc", "least-squares", InverseSearch())
-    pool = sample_pool(tg, BOUNDS, 0)
+    pool = sample_pool(tg, BOUNDS, seed=0)
     assert r.distance_m <= np.min(np.linalg.norm(pool.tips - target, axis=1)) + 1e-12
 
 
@@ -281,15 +281,15 @@ def test_the_start_pool_is_kept_on_disk_whole_or_made_again(tmp_path, monkeypatc
     monkeypatch.setenv("PYTDCR_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(search, "_POOLS", {})
     tg = _setup(ROBOT, LOADS, [0.1, 0.1, 0.2], BOUNDS, "pcc", "least-squares", InverseSearch())
-    made = search.sample_pool(tg, BOUNDS, 3)
+    made = search.sample_pool(tg, BOUNDS, seed=3)
     files = list(tmp_path.glob("inverse-pool-*.npz"))
     assert len(files) == 1
     monkeypatch.setattr(search, "_POOLS", {})
-    read = search.sample_pool(tg, BOUNDS, 3)
+    read = search.sample_pool(tg, BOUNDS, seed=3)
     assert np.array_equal(read.tensions, made.tensions) and np.array_equal(read.jacobians, made.jacobians)
     files[0].write_bytes(files[0].read_bytes()[:100])  # cut short: not whole
     monkeypatch.setattr(search, "_POOLS", {})
-    again = search.sample_pool(tg, BOUNDS, 3)
+    again = search.sample_pool(tg, BOUNDS, seed=3)
     assert np.array_equal(again.tips, made.tips)
     assert search._read_pool(files[0], 8) is not None  # written whole again
     monkeypatch.setenv("PYTDCR_CACHE_DIR", "")

@@ -122,7 +122,7 @@ def test_sscr_capstan_limit(backbone):
     for n, bound in ((10, 0.1 / 10), (40, 0.1 / 40)):
         robot = Robot(backbone=backbone, segments=(Segment(length=L, n_disks=n),),
                       tendons=(Tendon(segment=1, radius=0.01, angle_deg=0.0),), gravity=(0, 0, 0),
-                      friction=ConstantFriction(mu0=mu))
+                      friction=ConstantFriction(mu=mu))
         eq = SSCREquations.build(robot, Loads([1.0]))
         q = np.zeros((n, 6))
         q[:, 4] = kappa * backbone.bending_stiffness  # the same moment about y in every disk's frame: an arc
@@ -157,7 +157,7 @@ def test_sscr_closed_forms(backbone):
 
 @pytest.mark.parametrize(
     ("model", "friction", "release"),
-    [("sscr", NoFriction(), False), ("sscr", ExponentialFriction(), False), ("sscr", ConstantFriction(mu0=0.25), True),
+    [("sscr", NoFriction(), False), ("sscr", ExponentialFriction(), False), ("sscr", ConstantFriction(mu=0.25), True),
      ("pcc2", ExponentialFriction(), False)],
 )
 def test_jacobians_match_finite_differences(model, friction, release):

@@ -43,7 +43,7 @@ def robots(draw: st.DrawFn) -> Robot:
         angles = draw(st.lists(st.integers(0, 71), min_size=1, max_size=4, unique=True))
         r = draw(st.floats(1.5 * ro, 0.02))
         tendons += [Tendon(segment=s, radius=r, angle_deg=5.0 * a - 180.0) for a in angles]
-    friction = draw(st.sampled_from([NoFriction(), ConstantFriction(mu0=0.1), ExponentialFriction()]))
+    friction = draw(st.sampled_from([NoFriction(), ConstantFriction(mu=0.1), ExponentialFriction()]))
     g = draw(st.tuples(st.floats(-5, 5), st.floats(-5, 5), st.floats(-9.81, 0)))
     name = draw(st.text(st.characters(blacklist_categories=("Cc", "Cs")), min_size=1, max_size=12))
     return Robot(name=name, backbone=backbone, segments=segments, tendons=tuple(tendons), gravity=g, friction=friction)

@@ -101,7 +101,7 @@ def test_the_reproduce_workspace_section_compares_the_models(tmp_path):
     s = ReproduceSettings(workspace_n=16, workspace_budget=0, workspace_voxels=10, workspace_models=("pcc", "pcc2"),
                           models_n=32, models_voxels=10)
     files: list[str] = []
-    ws = workspace_section(paper_robot(), paper_bounds(), s, 1, tmp_path, files)
+    ws = workspace_section(paper_robot(), paper_bounds(), s, tmp_path, files, seed=1)
     models = ws["models"]
     assert [r["model"] for r in models["cases"]] == ["pcc", "pcc2"] and all(r["volume_m3"] > 0 for r in models["cases"])
     (pair,) = models["pairs"]
@@ -110,7 +110,7 @@ def test_the_reproduce_workspace_section_compares_the_models(tmp_path):
     text = "\n".join(workspace_text(ws, s))
     assert "### The workspace by model" in text and "| pcc2 |" in text and "Hausdorff" in text
     assert "models" not in workspace_section(paper_robot(), paper_bounds(), ReproduceSettings(workspace_n=16,
-                                             workspace_budget=0, workspace_voxels=10), 1, tmp_path, [])
+                                             workspace_budget=0, workspace_voxels=10), tmp_path, [], seed=1)
 
 
 def test_a_comparisons_progress_names_each_case(tmp_path):

@@ -33,7 +33,7 @@ BISTABLE = np.array([13.18, 14.16, 17.09, 16.97, 11.38, 19.27, 10.38, 18.73])
 
 @pytest.fixture(scope="module")
 def plan():
-    return plan_tensions(paper_bounds(), 128, 3)
+    return plan_tensions(paper_bounds(), 128, seed=3)
 
 
 @pytest.fixture(scope="module")
@@ -102,7 +102,7 @@ def test_a_bistable_tension_vector_is_reported_as_multistable(paper):
     assert np.all(s.parent == ROOT) and np.all(s.feasible)
     m = get_model("pcc")
     solver = _Solver(paper, paper_loads(), m, m.default_options(), 2, None, True)
-    ms = measure_multistability(solver, s, 1000, 0)
+    ms = measure_multistability(solver, s, 1000, seed=0)
     assert ms.checked == T.shape[0]
     np.testing.assert_array_equal(ms.distinct, [True, False, False, False, False])
     assert np.linalg.norm(ms.other_tip[0] - s.tip_position[0]) > 0.05 and ms.other_stable[0]

@@ -112,7 +112,7 @@ def small_problem(backbone):
 
     robot = Robot(name="small", backbone=backbone, segments=(Segment(length=0.12, n_disks=6, disk_mass=2e-4),),
                   tendons=tuple(Tendon(segment=1, radius=0.008, angle_deg=a) for a in (0, 90, 180, 270)),
-                  friction=ConstantFriction(mu0=0.1))
+                  friction=ConstantFriction(mu=0.1))
     loads = Loads(np.zeros(4), tip_force=[0.03, 0.0, -0.02], tip_moment=[0.0, 0.004, 0.0])
     return ReachProblem.create(robot, loads, TensionBounds.uniform(4, 0.0, 5.0))
 

@@ -17,7 +17,7 @@ def run(model):
     r = paper_robot()
     out = []
     for robot, loads in ((r, paper_loads(np.array([4.0, 0, 0, 0, 2.0, 0, 0, 0]))),
-                         (paper_robot(ConstantFriction(mu0=0.1)), Loads(np.array([5, 0, 2, 0, 6, 1, 0, 0.0]),
+                         (paper_robot(ConstantFriction(mu=0.1)), Loads(np.array([5, 0, 2, 0, 6, 1, 0, 0.0]),
                                                                         release=True))):
         s = solve(robot, loads, model=model)
         out += [s.q.tobytes(), s.disk_positions.tobytes()]

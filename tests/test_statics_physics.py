@@ -98,7 +98,7 @@ def _rotated(tensions: np.ndarray, shift: int) -> np.ndarray:
     return np.concatenate([np.roll(t[:4], shift), np.roll(t[4:], shift)])
 
 
-@pytest.mark.parametrize("friction", [NoFriction(), ExponentialFriction(), ConstantFriction(mu0=0.3)])
+@pytest.mark.parametrize("friction", [NoFriction(), ExponentialFriction(), ConstantFriction(mu=0.3)])
 def test_turning_the_tendon_forces_turns_the_shape(paper, friction):
     robot = paper.with_friction(friction)
     t = np.array([6.0, 1.0, 0.0, 2.5, 0.0, 3.0, 1.0, 0.5])
@@ -131,7 +131,7 @@ def test_length_invariant_and_reach_bound(paper):
 def test_zero_friction_equals_frictionless(paper):
     t = np.array([5.0, 0.0, 1.0, 0.0, 0.0, 4.0, 0.0, 2.0])
     ref = solve(paper.with_friction(NoFriction()), Loads(t))
-    for law in (ConstantFriction(mu0=0.0), ExponentialFriction(mu0=0.0)):
+    for law in (ConstantFriction(mu=0.0), ExponentialFriction(mu0=0.0)):
         for release in (False, True):
             sol = solve(paper.with_friction(law), Loads(t, release=release))
             assert np.array_equal(sol.q, ref.q)
@@ -160,7 +160,7 @@ def test_capstan_limit(backbone, n):
     mu, kappa, L = 0.1, 5.0, 0.2
     robot = Robot(backbone=backbone, segments=(Segment(length=L, n_disks=n),),
                   tendons=(Tendon(segment=1, radius=0.01, angle_deg=0.0),), gravity=(0, 0, 0),
-                  friction=ConstantFriction(mu0=mu))
+                  friction=ConstantFriction(mu=mu))
     model = PCCEquations.build(robot, Loads([1.0]))
     q = np.zeros((n, 3))
     q[:, 0] = kappa
@@ -195,7 +195,7 @@ def test_point_load_at_the_tip_equals_tip_load(paper):
 
 @pytest.mark.parametrize(
     ("friction", "release"),
-    [(NoFriction(), False), (ExponentialFriction(), False), (ConstantFriction(mu0=0.25), True)],
+    [(NoFriction(), False), (ExponentialFriction(), False), (ConstantFriction(mu=0.25), True)],
 )
 def test_jacobian_matches_finite_differences(paper, friction, release):
     rng = np.random.default_rng(11)

@@ -22,7 +22,7 @@ def small(backbone) -> Robot:
 
     return Robot(name="small", backbone=backbone, segments=(Segment(length=0.12, n_disks=6, disk_mass=2e-4),),
                  tendons=tuple(Tendon(segment=1, radius=0.008, angle_deg=a) for a in (0, 90, 180, 270)),
-                 friction=ConstantFriction(mu0=0.1))
+                 friction=ConstantFriction(mu=0.1))
 
 
 LOAD = Loads(np.zeros(4), tip_force=[0.03, 0.0, -0.02], tip_moment=[0.0, 0.004, 0.0])

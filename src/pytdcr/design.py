@@ -208,12 +208,12 @@ class ConstantFriction(_Frozen):
     """Coulomb friction with a constant coefficient."""
 
     law: Literal["constant"] = "constant"
-    mu0: Friction = Field(description="friction coefficient [-]")
+    mu: Friction = Field(description="friction coefficient [-]")
 
     @property
     def is_frictionless(self) -> bool:
-        """True when mu0 = 0 (then the model equals :class:`NoFriction` exactly)."""
-        return self.mu0 == 0.0
+        """True when mu = 0 (then the model equals :class:`NoFriction` exactly)."""
+        return self.mu == 0.0
 
 
 class ExponentialFriction(_Frozen):

@@ -13,7 +13,7 @@ A robot file::
     mass_per_length = 0.0115
 
     [friction]
-    law = "exponential"                  # "none" | "constant" (mu0) | "exponential"
+    law = "exponential"                  # "none" | "constant" (with mu) | "exponential" (mu0, decay_per_deg)
     mu0 = 0.689
     decay_per_deg = 0.027
 

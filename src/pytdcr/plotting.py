@@ -221,7 +221,7 @@ def plot_robot(
 
 
 def plot_robots(
-    solutions: Sequence[StaticSolution], robot: Robot, ax: Axes3D | None = None, **kwargs
+    robot: Robot, solutions: Sequence[StaticSolution], ax: Axes3D | None = None, **kwargs
 ) -> Axes3D:
     """Several converged shapes on one axis (non-converged ones are skipped)."""
     if ax is None:
@@ -239,7 +239,7 @@ def plot_robots(
 
 
 def plot_model_overlay(
-    groups: Sequence[Sequence[StaticSolution]], robot: Robot, ax: Axes3D | None = None,
+    robot: Robot, groups: Sequence[Sequence[StaticSolution]], ax: Axes3D | None = None,
     labels: Sequence[str] | None = None,
     case_ids: Sequence[int] | None = None,
 ) -> Axes3D:

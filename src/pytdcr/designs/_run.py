@@ -554,7 +554,7 @@ def run_designs(study: DesignStudy, robot: Robot, out: str | Path, *, study_text
     progress = how.progress
     t0 = time.perf_counter()
     designs = (None if study.designs.method == "optimize" else
-               choose_designs(study.parameters, study.designs.method, study.designs.count, study.seed))
+               choose_designs(study.parameters, study.designs.method, study.designs.count, seed=study.seed))
     total = study.designs.total if designs is None else len(designs)
     inputs = {"study": study.model_dump(mode="json"), "designs": total, "robot": robot.model_dump(mode="json")}
     digest = run_digest(study, robot)

@@ -117,7 +117,8 @@ def _levels(p: Any, integer: bool) -> list[float]:
     return list(dict.fromkeys(int(np.rint(v)) if integer else float(v) for v in vals))
 
 
-def choose_designs(parameters: dict[str, Any], method: str, count: int | None, seed: int) -> list[dict[str, float]]:
+def choose_designs(parameters: dict[str, Any], method: str, count: int | None, *,
+                   seed: int = 0) -> list[dict[str, float]]:
     """The designs: each a dict of parameter values, in a fixed order (the design's index is its place).
 
     ``grid``: every combination of the parameters' values (a range gives ``steps`` evenly spaced values, 3 by

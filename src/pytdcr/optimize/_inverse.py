@@ -227,7 +227,7 @@ def _starts(tg: Target, bounds: TensionBounds, start: Any, objective: str, searc
         if t.shape != (tg.robot.n_tendons,) or not np.all(np.isfinite(t)):
             raise ValueError(f"start: give {tg.robot.n_tendons} finite tensions [N], got {start!r}")
         return [Point(bounds.clip(t), None, np.zeros(3), np.zeros((3, t.size)))]
-    pool = sample_pool(tg, bounds, search.seed) if search.pool is None else Pool(*search.pool)
+    pool = sample_pool(tg, bounds, seed=search.seed) if search.pool is None else Pool(*search.pool)
     return ranked_starts(tg, pool, bounds, objective, search.starts)
 
 

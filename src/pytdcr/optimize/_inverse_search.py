@@ -320,7 +320,7 @@ def _keep_pool(path: Path, pool: Pool) -> None:
         pass
 
 
-def sample_pool(tg: Target, bounds: TensionBounds, seed: int) -> Pool:
+def sample_pool(tg: Target, bounds: TensionBounds, *, seed: int = 0) -> Pool:
     """The converged, stable equilibria of :data:`POOL_SAMPLES` scrambled Sobol tension vectors in the bounds,
     without their co-contraction, solved from rest, with their tips' Jacobians: once per robot, external loads,
     bounds, model, options, seed and pytdcr version (the last few kept in the process, and every one in

@@ -129,7 +129,7 @@ def workspace_region(robot: Robot, loads: Loads, bounds: TensionBounds, settings
     hooks = hooks if hooks is not None else WorkspaceHooks()
     m, opts = resolve(model, robot, loads, options)
     voxel = s.voxel_for(robot)
-    plan = plan_tensions(bounds, s.n, s.seed)
+    plan = plan_tensions(bounds, s.n, seed=s.seed)
     kind = equilibria_for(m, s.equilibria)
     warm = WarmStarts(seed=s.seed) if s.warm and kind == EQUILIBRIA[1] else False
     step = hooks.progress("sampling", solves_needed(plan, warm)) if hooks.progress else None
@@ -149,7 +149,7 @@ def workspace_region(robot: Robot, loads: Loads, bounds: TensionBounds, settings
     if s.multistability:
         total = min(s.multistability, int(samples.feasible.sum()))
         solver.progress = hooks.progress("multistability", total) if hooks.progress else None
-        history = measure_multistability(solver, samples, s.multistability, s.seed)
+        history = measure_multistability(solver, samples, s.multistability, seed=s.seed)
     # the tip is a smooth function of the tensions: k free tensions span at most k dimensions
     free = min(3, int(np.sum(bounds.upper > bounds.lower)))
     estimates = []

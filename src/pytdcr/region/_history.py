@@ -77,7 +77,7 @@ class Multistability:
                 "distinct_unstable": int(np.sum(self.distinct & ~self.other_stable)), "seconds": self.seconds}
 
 
-def measure_multistability(solver: _Solver, samples: RegionSamples, count: int, seed: int) -> Multistability:
+def measure_multistability(solver: _Solver, samples: RegionSamples, count: int, *, seed: int = 0) -> Multistability:
     """Solve ``count`` random stable samples of ``samples`` (``seed``; all of them when there are fewer) along the
     other history (see the module) with ``solver`` and compare the equilibria."""
     continued = samples.parent is not None

@@ -72,7 +72,7 @@ def _edges(free: int, per_edge: int) -> np.ndarray:
     return np.array(rows).reshape(-1, free)
 
 
-def plan_tensions(bounds: TensionBounds, n: int, seed: int = 0, *, edge_points: int = 2,
+def plan_tensions(bounds: TensionBounds, n: int, *, seed: int = 0, edge_points: int = 2,
                   corners: bool = True) -> TensionPlan:
     """``n`` scrambled Sobol tension vectors in ``bounds``, then the box's corners and ``edge_points`` points
     inside each of its edges.

@@ -37,13 +37,13 @@ __all__ = ["PCC", "PCCEquations", "PCCModel", "friction_params"]
 
 
 def friction_params(robot: Robot, release: bool) -> np.ndarray:
-    """Kernel parameters of the robot's friction law, shape (4,): (code, mu0, decay [1/rad], mode)."""
+    """Kernel parameters of the robot's friction law, shape (4,): (code, mu at sigma = 0, decay [1/rad], mode)."""
     law = robot.friction
     mode = -1.0 if release else 1.0
     if isinstance(law, NoFriction):
         return np.array([0.0, 0.0, 0.0, mode])
     if isinstance(law, ConstantFriction):
-        return np.array([1.0, law.mu0, 0.0, mode])
+        return np.array([1.0, law.mu, 0.0, mode])
     if isinstance(law, ExponentialFriction):
         return np.array([2.0, law.mu0, law.decay_per_deg * 180.0 / np.pi, mode])
     raise TypeError(f"unsupported friction law {type(law).__name__}")  # pragma: no cover

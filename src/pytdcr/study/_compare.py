@@ -135,7 +135,7 @@ def _write_compare(out: Path, cmp: ModelComparison, robot: Robot, loads: Loads, 
     atomic_write_text(out / "compare.md", _compare_markdown(cmp, robot, loads, source))
     shown = np.flatnonzero(cmp.all_converged)[:N_OVERLAY]
     groups = [[cmp.solutions[name][k] for name in cmp.models] for k in shown]
-    ax = plot_model_overlay(groups, robot, labels=cmp.models, case_ids=[int(k) + 1 for k in shown])
+    ax = plot_model_overlay(robot, groups, labels=cmp.models, case_ids=[int(k) + 1 for k in shown])
     ax.set_title(f"{robot.name}: " + ", ".join(f"{n} ({s})" for n, s in zip(cmp.models, ("solid", "dashed", "dotted",
                                                                                           "dash-dot"), strict=False))
                  + f"; {len(groups)} cases")

@@ -293,7 +293,7 @@ def _reproduce(robot: Robot, out: Path, seed: int, progress: Progress | None, s:
 
     def side() -> None:
         _sample_and_passive(robot, loaded.loads, bounds, s, seed, out, summary, note)
-        summary["workspace"] = workspace_section(robot, bounds, s, seed, out, summary["files"])
+        summary["workspace"] = workspace_section(robot, bounds, s, out, summary["files"], seed=seed)
 
     # the better models' runs are independent of each other and of the GA's other jobs (BLAS on one thread)
     with single_threaded_blas(), worker_pool(max(1, len(s.verdict_models))) as submit:

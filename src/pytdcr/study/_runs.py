@@ -121,7 +121,7 @@ def _sample_into(out: Path, settings: SampleSettings, inputs: RunInputs,
         ok = np.flatnonzero(samples.converged)[:settings.n_shapes]
         shapes = [solve(robot, loads.with_tensions(samples.tensions[k]), model=m, q0=samples.q[k], options=opts)
                   for k in ok]
-        ax = plot_robots(shapes, robot)
+        ax = plot_robots(robot, shapes)
         ax.set_title(f"{len(shapes)} sampled configurations")
         files += save_figure(ax.figure, out, "fig4_configurations")
         _samples_json(out, robot, loads, bounds, samples, n, solver, files)

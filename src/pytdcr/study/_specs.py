@@ -115,7 +115,7 @@ class RobotSpec:
         if isinstance(self.friction, str):
             robot = robot.with_friction(FRICTION_LAWS[self.friction]())
         elif self.friction is not None:
-            robot = robot.with_friction(ConstantFriction(mu0=self.friction))
+            robot = robot.with_friction(ConstantFriction(mu=self.friction))
         return robot
 
 

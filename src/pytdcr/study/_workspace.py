@@ -535,8 +535,8 @@ def _write_comparison(out: Path, cases: list[WorkspaceCase], robot: Robot, comma
     return [*files, "comparison.md", "comparison.json"]
 
 
-def workspace_section(robot: Robot, bounds: TensionBounds, s: Any, seed: int, out: Path,
-                      files: list[str]) -> dict[str, Any]:
+def workspace_section(robot: Robot, bounds: TensionBounds, s: Any, out: Path, files: list[str], *,
+                      seed: int = 0) -> dict[str, Any]:
     """``tdcr reproduce``'s workspace section: the FSW under the paper's tip wrench next to no load, at the
     budget of ``s`` (:class:`~pytdcr.study.ReproduceSettings`); writes ``workspace_slices`` (PNG, PDF) and the
     two boundaries (``workspace_fsw_paper.ply``, ``workspace_fsw_no_load.ply``), appends them to ``files``.
