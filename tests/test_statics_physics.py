@@ -225,3 +225,17 @@ def test_solutions_are_in_equilibrium(paper):
     r = PCCEquations.build(paper, loads).residual(sol.q)
     assert np.abs(r).max() == pytest.approx(sol.residual, abs=1e-15)
     assert np.abs(r).max() <= SolverOptions().atol
+
+
+def test_loads_without_tensions_are_slack_tendons(paper):
+    """``Loads(tip_force=...)``: no tensions given is every tendon at 0 N, for a solve and a continuation from it."""
+    from pytdcr import Loads
+
+    f = np.array([0.05, -0.02, -0.1])
+    bare = solve(paper, Loads(tip_force=f))
+    zero = solve(paper, Loads(np.zeros(8), tip_force=f))
+    assert bare.converged and np.array_equal(bare.tip_position, zero.tip_position)
+    assert Loads().tensions.shape == (0,) and np.array_equal(Loads().tensions_for(8), np.zeros(8))
+    pulled = Loads(np.array([3.0, 0, 0, 0, 0, 0, 0, 0]), tip_force=f)
+    assert np.allclose(solve(paper, pulled, start=bare).tip_position, solve(paper, pulled, start=zero).tip_position,
+                       atol=1e-12)

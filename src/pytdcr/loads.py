@@ -107,8 +107,10 @@ class Loads:
 
     Parameters
     ----------
-    tensions : array-like, shape (n_tendons,)
-        Actuator tension of each tendon [N], finite and >= 0.
+    tensions : array-like, shape (n_tendons,), optional
+        Actuator tension of each tendon [N], finite and >= 0. None (the default): none given, stored as an empty
+        array: a solve takes every tendon slack (0 N), and where the tensions are chosen (sampling, searches,
+        inverse statics) nothing is lost (``Loads(tip_force=...)`` describes the external loads alone).
     tip_force : array-like, shape (3,)
         External force at the tip in the base frame [N].
     tip_moment : array-like, shape (3,)
@@ -120,7 +122,7 @@ class Loads:
         drops towards the tip), True when they release (it rises).
     """
 
-    tensions: np.ndarray
+    tensions: np.ndarray | None = None
     tip_force: np.ndarray = field(default_factory=lambda: np.zeros(3))
     tip_moment: np.ndarray = field(default_factory=lambda: np.zeros(3))
     point_loads: tuple[PointLoad, ...] = ()
@@ -129,7 +131,7 @@ class Loads:
     def __post_init__(self) -> None:
         if not isinstance(self.release, (bool, np.bool_)):
             raise TypeError(f"release must be True or False, got {show(self.release)}")
-        t = check_tensions(self.tensions)
+        t = np.zeros(0) if self.tensions is None else check_tensions(self.tensions)
         if t.ndim != 1:
             raise ValueError(f"tensions must be a 1-D array (one per tendon), got shape {t.shape}")
         object.__setattr__(self, "tensions", _frozen(t))
@@ -150,6 +152,11 @@ class Loads:
             raise ValueError(f"factor must be finite and >= 0, got {factor!r}")
         points = tuple(PointLoad(p.disk, p.force * f, p.moment * f) for p in self.point_loads)
         return Loads(self.tensions * f, self.tip_force * f, self.tip_moment * f, points, self.release)
+
+    def tensions_for(self, n_tendons: int) -> np.ndarray:
+        """The actuator tensions for a robot of ``n_tendons`` tendons [N]: those given, or zeros where none were
+        (shape (n_tendons,) either way when given for such a robot)."""
+        return np.zeros(n_tendons) if self.tensions.size == 0 else self.tensions
 
     def with_tensions(self, tensions: np.ndarray) -> Loads:
         """The same external loads and friction direction with other actuator tensions [N]."""

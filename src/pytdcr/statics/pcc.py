@@ -80,10 +80,11 @@ class PCCEquations(PackedEquations):
         MODEL.md) or about its midpoint (``pcc2``, MODEL.md appendix A).
         """
         n = robot.n_disks
-        if loads.tensions.shape != (robot.n_tendons,):
+        tensions = loads.tensions_for(robot.n_tendons)  # none given: every tendon slack
+        if tensions.shape != (robot.n_tendons,):
             raise ValueError(
                 f"tensions must have {robot.n_tendons} entries (one per tendon of robot "
-                f"'{robot.name}'), got {loads.tensions.shape[0]}"
+                f"'{robot.name}'), got {tensions.shape[0]}"
             )
         lengths = robot.subsegment_lengths
         bb = robot.backbone
@@ -103,7 +104,7 @@ class PCCEquations(PackedEquations):
             pforce[p.disk - 1] += p.force
             pmoment[p.disk - 1] += p.moment
         packed = K.Packed(sub, np.array(robot.tendon_holes[:, :2]), robot.anchor_disks.copy(),
-                          friction_params(robot, loads.release), np.array(loads.tensions, dtype=float),
+                          friction_params(robot, loads.release), np.array(tensions, dtype=float),
                           np.array(robot.gravity, dtype=float), pforce, pmoment, int(balance))
         return cls(robot=robot, loads=loads, packed=packed)
 

@@ -286,8 +286,9 @@ class CompiledModel:
         ``start.loads``) along its branch to ``loads``; see :func:`pytdcr.solve`."""
         check_cancelled()
         eq = self.equations(robot, loads, options)
-        path = _Path(self.equations(robot, start.loads, options), eq, _start_points(eq, start.q, 1),
-                     np.array(start.loads.tensions, dtype=float)[None, :], eq.packed.tension[None, :])
+        t0 = np.array(start.loads.tensions_for(robot.n_tendons), dtype=float)[None, :]
+        path = _Path(self.equations(robot, start.loads, options), eq, _start_points(eq, start.q, 1), t0,
+                     eq.packed.tension[None, :])
         t0 = time.perf_counter()
         tols = case_tolerances(robot, loads, path.T1, options.atol)
         out = _continue_rows(path, kernel_settings(options), tols, 1)
