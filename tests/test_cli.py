@@ -278,6 +278,17 @@ def test_version_names_pytdcr_and_the_libraries_results_depend_on(capsys):
     assert all(name in out for name in ("numpy", "scipy", "numba", "pymoo"))
 
 
+def test_every_manifest_names_the_versions_the_results_depend_on(tmp_path, capsys):
+    import json
+    from importlib.metadata import version
+
+    from pytdcr.cli import main
+
+    assert main(["sample", "--n", "3", "--seed", "1", "--out", str(tmp_path / "s")]) == 0
+    manifest = json.loads((tmp_path / "s" / "manifest.json").read_text())
+    assert manifest["versions"] == {n: version(n) for n in ("numpy", "scipy", "numba", "llvmlite", "pymoo")}
+
+
 def test_solve_writes_every_disks_pose_as_csv(tmp_path, capsys):
     import csv
 

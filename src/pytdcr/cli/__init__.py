@@ -38,18 +38,11 @@ __all__ = ["build_parser", "entry", "main"]
 
 def version_text() -> str:
     """``tdcr --version``: pytdcr's version and those of the libraries its results depend on (read from the
-    installed packages' metadata, without importing them)."""
-    from importlib.metadata import PackageNotFoundError, version
-
+    installed packages' metadata, without importing them; the same every run's manifest records)."""
     from .._version import __version__
+    from ..runtime import library_versions
 
-    def of(name: str) -> str:
-        try:
-            return version(name)
-        except PackageNotFoundError:  # pragma: no cover - a dependency is always installed with pytdcr
-            return "not installed"
-
-    libs = ", ".join(f"{n} {of(n)}" for n in ("numpy", "scipy", "numba", "pymoo"))
+    libs = ", ".join(f"{n} {v}" for n, v in library_versions().items())
     return f"tdcr (pytdcr) {__version__}; Python {sys.version.split()[0]}; {libs}"
 
 

@@ -24,11 +24,13 @@ from ._files import (
 )
 from ._folders import (
     MANIFEST,
+    RESULT_LIBRARIES,
     FolderError,
     OutputRun,
     RunInterrupted,
     StudyChanged,
     check_output_folder,
+    library_versions,
     output_folder,
     resumable_folder,
 )
@@ -37,6 +39,7 @@ from ._threads import MAX_CHUNK, default_threads, run_in_chunks, single_threaded
 __all__ = [
     "MANIFEST",
     "MAX_CHUNK",
+    "RESULT_LIBRARIES",
     "CancelScope",
     "Cancelled",
     "FileRefused",
@@ -52,6 +55,7 @@ __all__ = [
     "current_scope",
     "default_threads",
     "dump_json",
+    "library_versions",
     "mark_saving",
     "output_folder",
     "resumable_folder",

@@ -76,6 +76,23 @@ class RunInterrupted(KeyboardInterrupt):
 
 
 
+
+#: the libraries a run's numbers depend on (their versions go into every manifest and ``tdcr --version``)
+RESULT_LIBRARIES = ("numpy", "scipy", "numba", "llvmlite", "pymoo")
+
+
+def library_versions() -> dict[str, str]:
+    """The installed versions of :data:`RESULT_LIBRARIES`, read from the packages' metadata (nothing imported)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    out = {}
+    for name in RESULT_LIBRARIES:
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:  # pragma: no cover - every one is installed with pytdcr
+            out[name] = "not installed"
+    return out
+
 def _lock_path(path: Path) -> Path:
     return path.parent / f".{path.name}.lock"
 
@@ -368,7 +385,7 @@ def output_folder(path: str | Path, command: str, inputs: dict[str, Any] | None 
         shutil.rmtree(staging, ignore_errors=True)
         staging.mkdir()
         manifest = {"command": command, "argv": list(sys.argv), "pytdcr": __version__,
-                    "python": platform.python_version(), "host": socket.gethostname(),
+                    "python": platform.python_version(), "versions": library_versions(), "host": socket.gethostname(),
                     "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "status": "running", "inputs": inputs or {}}
         run = OutputRun(path, staging, manifest)
         try:
@@ -425,7 +442,8 @@ def resumable_folder(path: str | Path, command: str, inputs: dict[str, Any], dig
             old = None
         path.mkdir(exist_ok=True)
         manifest = {"command": command, "argv": list(sys.argv), "pytdcr": __version__,
-                    "python": platform.python_version(), "host": socket.gethostname(), "digest": digest,
+                    "python": platform.python_version(), "versions": library_versions(), "host": socket.gethostname(),
+                    "digest": digest,
                     "started": (old or {}).get("started", time.strftime("%Y-%m-%dT%H:%M:%S%z")),
                     "resumed": time.strftime("%Y-%m-%dT%H:%M:%S%z") if old else None,
                     "status": "running", "inputs": inputs, "files": (old or {}).get("files", [])}
