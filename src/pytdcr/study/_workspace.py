@@ -154,6 +154,32 @@ def format_measure_of(d: dict[str, Any]) -> str:
     return "a point or nothing (dimension 0, volume 0)"
 
 
+def _error_words(growth_m3: float, error_m3: float) -> str:
+    """What a budget-stopped region's volume error holds, as the numbers say: mostly the growth the last rounds
+    of the boundary search point to, some of it, or none (then the estimators' spread alone)."""
+    g, e = round(growth_m3 * 1e6), round(error_m3 * 1e6)
+    if g <= 0:
+        return "is the estimators' spread alone (the last rounds point to no further growth)"
+    if g >= 0.5 * e:
+        return f"is mostly the growth the last rounds point to ({g} cm³)"
+    return f"holds {g} cm³ of growth the last rounds point to, the rest the estimators' spread"
+
+
+def search_stop_words(search: dict[str, Any]) -> str:
+    """Why a boundary search stopped, as its record (``boundary_search`` of ``workspace.json``) says."""
+    rule = f"{search['tol']:.1%} of the voxels"
+    if search["stop"] == "converged":
+        return f"converged (its last round added less than {rule})"
+    if search["stop"] == "budget":
+        return (f"its budget ({search['solves']} solves) ran out before a round added less than {rule}, which "
+                "would have meant converged")
+    if search["stop"] == "no boundary left":
+        return "no boundary face was left untried (every face of the region's boundary voxels was searched)"
+    if search["stop"] == "rounds":
+        return f"its cap of rounds, before a round added less than {rule}"
+    return str(search["stop"])
+
+
 def _warnings(summary: dict[str, Any]) -> list[str]:
     """One line per region with too few points to mesh (what was not written, and why), and one when the
     boundary search ran out of budget before the region converged (the volume is then a lower bound)."""
@@ -166,9 +192,7 @@ def _warnings(summary: dict[str, Any]) -> list[str]:
                    "stable parent and the region is empty; --equilibria loading-path solves each sample from rest")
     search, vol = summary.get("boundary_search"), summary["volume"]
     if search is not None and search["stop"] == "budget" and summary["points"] and summary["dimension"] == 3:
-        why = (f"is mostly the growth the last rounds point to ({vol['search_m3'] * 1e6:.0f} cm³)"
-               if vol["search_m3"] >= 0.5 * vol["error_m3"] else
-               f"holds {vol['search_m3'] * 1e6:.0f} cm³ of growth the last rounds point to")
+        why = _error_words(vol["search_m3"], vol["error_m3"])
         out.append(f"the boundary search stopped at its budget ({search['solves']} solves) before the region "
                    f"converged: the volume {vol['volume_m3'] * 1e6:.0f} cm³ is close to a lower bound and its error "
                    f"(± {vol['error_m3'] * 1e6:.0f} cm³) {why}; raise --budget for a measurement")
@@ -336,8 +360,8 @@ def _report(summary: dict[str, Any], command: str) -> str:
                         + (f". The error includes {tail * 1e6:.0f} cm³ of growth the last rounds point to (the "
                            "budget stopped the search)." if tail else ".")]
     if search:
-        lines += [f"Boundary search: {search['solves']} extra solves in {len(search['rounds'])} rounds, stopped: "
-                  f"{search['stop']} (a round adding less than {search['tol']:.1%} of the voxels).", "",
+        lines += [f"Boundary search: {search['solves']} extra solves in {len(search['rounds'])} rounds; stopped: "
+                  f"{search_stop_words(search)}.", "",
                   "| stage | round | faces tried | solves | FSW voxels | realisable voxels |",
                   "|---|---|---|---|---|---|"]
         lines += [f"| {x['stage']} | {x['round']} | {x['faces']} | {x['steps']} | {x['voxels']} | "

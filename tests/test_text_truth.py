@@ -1,0 +1,60 @@
+"""Every text true (issue 29, item 6): the report's and the warnings' sentences, on constructed cases, agree with
+the numbers they carry."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from pytdcr.study._report import _stability, _stable_cell
+from pytdcr.study._workspace import _error_words, _warnings, search_stop_words
+
+
+def _summary(stop: str, volume_cm3: float, error_cm3: float, growth_cm3: float) -> dict:
+    """A workspace summary with a boundary search stopped by ``stop`` and a 3D region of these numbers."""
+    vol = {"volume_m3": volume_cm3 * 1e-6, "error_m3": error_cm3 * 1e-6, "search_m3": growth_cm3 * 1e-6}
+    region = {"dimension": 3, "points": 500, "mesh": "fsw.ply"}
+    return {"root": "stable", "boundary_search": {"stop": stop, "solves": 1500, "tol": 0.002},
+            "volume": vol, "points": 500, "dimension": 3, "mesh": "fsw.ply",
+            "realisable": {**region, "volume": vol}}
+
+
+@pytest.mark.parametrize(("error", "growth"), [(533, 0), (533, 100), (533, 300), (98990, 96730), (10, 10)])
+def test_the_budget_warning_says_what_its_error_holds(error, growth):
+    text = " ".join(_warnings(_summary("budget", 1816, error, growth)))
+    assert "stopped at its budget (1500 solves)" in text
+    said = re.search(r"its error \(± (\d+) cm³\) (.*?); raise --budget", text)
+    assert said and int(said.group(1)) == error
+    words = said.group(2)
+    if growth == 0:
+        assert "mostly" not in words and "no further growth" in words
+    elif growth >= 0.5 * error:
+        assert f"is mostly the growth the last rounds point to ({growth} cm³)" == words
+    else:
+        assert words.startswith(f"holds {growth} cm³ of growth") and "mostly" not in words
+    assert _error_words(growth * 1e-6, error * 1e-6) == words
+
+
+def test_a_converged_search_gets_no_budget_warning():
+    assert not any("budget" in w for w in _warnings(_summary("converged", 1816, 533, 0)))
+
+
+@pytest.mark.parametrize("stop", ["converged", "budget", "no boundary left", "rounds"])
+def test_the_reason_a_search_stopped_is_the_one_it_records(stop):
+    words = search_stop_words({"stop": stop, "solves": 1500, "tol": 0.002})
+    if stop == "converged":
+        assert words.startswith("converged") and "budget" not in words and "added less than 0.2%" in words
+    else:
+        assert not words.startswith("converged")
+        assert ("1500 solves" in words) == (stop == "budget")
+        assert ("would have meant converged" in words) == (stop == "budget")
+
+
+@pytest.mark.parametrize(("stable", "cell", "words"), [(True, "yes", "is statically stable"),
+                                                        (False, "**no**", "flagged unstable"),
+                                                        (None, "untested", "untested")])
+def test_an_optimums_stability_is_worded_as_flagged(stable, cell, words):
+    assert _stable_cell(stable) == cell and words in _stability(stable)
+    if stable:
+        assert "unstable" not in _stability(stable) and "untested" not in _stability(stable)
