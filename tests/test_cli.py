@@ -361,3 +361,21 @@ def test_solve_cases_solves_every_row_with_one_model(tmp_path, capsys):
     cases.write_text("1,2,3\n")
     assert main(["solve", "--cases", str(cases)]) == 2
     assert "--cases" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("quiet", [False, True])
+def test_progress_on_a_pipe_is_plain_timestamped_lines_and_quiet_silences_it(tmp_path, quiet):
+    import subprocess
+    import sys
+
+    args = [sys.executable, "-m", "pytdcr.cli", "optimize", "--pop", "6", "--max-gen", "2", "--seed", "1",
+            *(["--quiet"] if quiet else [])]
+    proc = subprocess.run(args, capture_output=True, text=True, timeout=300, check=False)
+    assert proc.returncode == 0 and "GA (population 6" in proc.stdout
+    if quiet:
+        assert proc.stderr == ""
+    else:
+        assert "\r" not in proc.stderr and "\x1b" not in proc.stderr
+        import re
+
+        assert re.fullmatch(r"\[\d\d:\d\d:\d\d\] GA: 2/2 gen, best reach \d+\.\d mm, \d+ s\n", proc.stderr), proc.stderr

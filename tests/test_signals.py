@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import re
 import signal
 import subprocess
@@ -34,7 +35,8 @@ class Proc:
     """A ``tdcr`` process whose stderr is collected as it comes."""
 
     def __init__(self, *args: str) -> None:
-        self.p = subprocess.Popen([*TDCR, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        env = {**os.environ, "PYTDCR_PROGRESS_SECONDS": "0"}  # stderr is a pipe: a progress line every step
+        self.p = subprocess.Popen([*TDCR, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
         self.err: list[str] = []
         self.reader = threading.Thread(target=self._read, daemon=True)
         self.reader.start()

@@ -21,6 +21,7 @@ from collections.abc import Sequence
 
 from . import compare, designs, inverse, optimize, reproduce, robot, sample, solve, workspace
 from ._args import FLAGS, Parser, glue_negative_values
+from ._progress import set_quiet
 from ._runtime import (
     EXIT_INTERRUPTED,
     EXIT_NOT_CONVERGED,
@@ -65,7 +66,17 @@ def build_parser() -> Parser:
                 reproduce.add_parser, compare.add_parser, compare.add_accuracy_parser, designs.add_parser,
                 robot.add_parser):
         add(sub)
+    for command in sub.choices.values():
+        command.add_argument("-q", "--quiet", action="store_true",
+                             help="no progress on stderr (results, warnings and errors still print)")
     return p
+
+
+def _parse(argv: Sequence[str]) -> argparse.Namespace:
+    """The arguments, parsed; ``--quiet`` silences the progress display."""
+    args = build_parser().parse_args(glue_negative_values(argv))
+    set_quiet(getattr(args, "quiet", False))
+    return args
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -81,7 +92,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else argv
     guard = StderrGuard.install()
     try:
-        code = run(lambda: build_parser().parse_args(glue_negative_values(args)), FLAGS)
+        code = run(lambda: _parse(args), FLAGS)
         sys.stderr.flush()
     finally:
         guard.uninstall()

@@ -36,10 +36,18 @@ def run(args: argparse.Namespace) -> int:
                        "--disk-moment")
     out = check_out(args.out)
 
+    opened: list[Bar] = []  # stages may run at once, on threads: each its own bar, all closed at the end
+
     def progress(stage: str, total: int) -> Any:
-        return Bar(stage, total, "gen").generation
+        bar = Bar(stage, total, "gen")
+        opened.append(bar)
+        return bar.generation
 
     settings = ReproduceSettings.full() if args.full else ReproduceSettings()
-    res = run_reproduce(robot, out, seed=args.seed, progress=progress, settings=settings)
+    try:
+        res = run_reproduce(robot, out, seed=args.seed, progress=progress, settings=settings)
+    finally:
+        for bar in opened:
+            bar.__exit__()
     print(f"reproduced the study on robot '{robot.name}' in {res.seconds:.1f} s; report: {out / 'report.md'}")
     return EXIT_OK
