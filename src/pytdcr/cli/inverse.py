@@ -156,9 +156,11 @@ def _print_path(results: list[Any], out: Any) -> None:
         csv.writer(buf).writerows([inverse_columns(results[0].tensions.size), *inverse_rows(results)])
         print(buf.getvalue(), end="")
         return
-    paths = {p: sum(r.path == p for r in results) for p in ("continued", "loading path", "another branch")}
+    reached = [r for r in results if r.reachable]
+    paths = {p: sum(r.path == p for r in reached) for p in ("continued", "loading path", "another branch")}
+    how = f" ({', '.join(f'{n} {p}' for p, n in paths.items() if n)})" if reached else ""
+    missed = len(results) - len(reached)
     t = np.array([r.tensions for r in results])
     jump = float(np.max(np.abs(np.diff(t, axis=0)))) if len(results) > 1 else 0.0
-    print(f"{len(results)} targets: {sum(r.reachable for r in results)} reached "
-          f"({', '.join(f'{n} {p}' for p, n in paths.items() if n)}); largest tension change between neighbours "
-          f"{jump:.3g} N; {sum(r.seconds for r in results):.2f} s")
+    print(f"{len(results)} targets: {len(reached)} reached{how}" + (f", {missed} out of reach" if missed else "")
+          + f"; largest tension change between neighbours {jump:.3g} N; {sum(r.seconds for r in results):.2f} s")
