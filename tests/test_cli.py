@@ -379,3 +379,25 @@ def test_progress_on_a_pipe_is_plain_timestamped_lines_and_quiet_silences_it(tmp
         import re
 
         assert re.fullmatch(r"\[\d\d:\d\d:\d\d\] GA: 2/2 gen, best reach \d+\.\d mm, \d+ s\n", proc.stderr), proc.stderr
+
+
+def test_reproduce_closes_with_its_key_results():
+    """The closing lines carry the run's own numbers (constructed results, no run)."""
+    from types import SimpleNamespace
+
+    from pytdcr.cli.reproduce import closing_lines
+
+    opt = SimpleNamespace(reach=0.3929, stable=True)
+    bad = SimpleNamespace(reach=0.3941, stable=False)
+    res = SimpleNamespace(sampling={"n": 100, "converged": 98, "reach_min": 0.0141, "reach_max": 0.3874},
+                          ga={100: opt, 50: bad}, payload=opt, bounds_study=[(20.0, opt), (40.0, bad)],
+                          verdicts=[SimpleNamespace(model="sscr", converged=True, reach=0.3887, tip_shift=0.0591)],
+                          workspace={"cases": [{"case": "paper wrench", "volume_m3": 0.011782, "volume_err_m3": 0.01102,
+                                                "largest_reach_m": None}]})
+    lines = closing_lines(res)
+    assert lines[0] == "samples: 98 of 100 converged, reach 14.1 to 387.4 mm"
+    assert lines[1] == "GA under the paper's load, population 50: largest reach 394.1 mm (flagged UNSTABLE)"
+    assert lines[2] == "GA under the paper's load, population 100: largest reach 392.9 mm (stable)"
+    assert "20 N: 392.9 mm (stable); 40 N: 394.1 mm (flagged UNSTABLE)" in lines[4]
+    assert lines[5] == "the paper's optimum under sscr: reach 388.7 mm, tip 59.1 mm from pcc's"
+    assert lines[6] == "workspace, paper wrench: 11,782 +- 11,020 cm3, largest reach none"

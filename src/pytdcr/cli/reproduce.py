@@ -50,4 +50,31 @@ def run(args: argparse.Namespace) -> int:
         for bar in opened:
             bar.__exit__()
     print(f"reproduced the study on robot '{robot.name}' in {res.seconds:.1f} s; report: {out / 'report.md'}")
+    for line in closing_lines(res):
+        print(f"  {line}")
     return EXIT_OK
+
+
+def _optimum(r: Any) -> str:
+    """A reach optimum in a few words: the reach [mm] and its stability flag."""
+    state = "" if r.stable is None else " (stable)" if r.stable else " (flagged UNSTABLE)"
+    return f"{r.reach * 1e3:.1f} mm{state}"
+
+
+def closing_lines(res: Any) -> list[str]:
+    """The key results of a reproduce run (:class:`~pytdcr.study.ReproduceRun`), one line each."""
+    smp = res.sampling
+    lines = [f"samples: {smp['converged']} of {smp['n']} converged, reach {smp['reach_min'] * 1e3:.1f} to "
+             f"{smp['reach_max'] * 1e3:.1f} mm"]
+    lines += [f"GA under the paper's load, population {pop}: largest reach {_optimum(r)}"
+              for pop, r in sorted(res.ga.items())]
+    lines.append(f"largest reach under a payload: {_optimum(res.payload)}")
+    lines.append("largest reach by upper tension bound: " + "; ".join(f"{hi:g} N: {_optimum(r)}"
+                                                                       for hi, r in res.bounds_study))
+    lines += [f"the paper's optimum under {v.model}: " + (f"reach {v.reach * 1e3:.1f} mm, tip {v.tip_shift * 1e3:.1f} "
+              "mm from pcc's" if v.converged else "not converged") for v in res.verdicts]
+    for c in res.workspace.get("cases", []):
+        reach = "none" if c["largest_reach_m"] is None else f"{c['largest_reach_m'] * 1e3:.1f} mm"
+        lines.append(f"workspace, {c['case']}: {c['volume_m3'] * 1e6:,.0f} +- {c['volume_err_m3'] * 1e6:,.0f} cm3, "
+                     f"largest reach {reach}")
+    return lines
