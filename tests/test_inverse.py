@@ -128,6 +128,9 @@ def test_tip_axis_target():
         r = inverse_statics(ROBOT, LOADS, TipTarget(ref.tip_position, axis), bounds=BOUNDS)
         assert r.reachable
         assert np.linalg.norm(r.tip_axis - axis) * ROBOT.length <= TOL * 1.01
+        angle = np.arctan2(np.linalg.norm(np.cross(r.tip_axis, axis)), r.tip_axis @ axis)
+        assert r.axis_error_rad == pytest.approx(angle, rel=1e-6, abs=1e-12)
+        assert r.axis_error_rad <= 1.01 * TOL / ROBOT.length
         _check_truthful(r, ref.tip_position)
 
 
@@ -217,6 +220,7 @@ def test_the_command_line(tmp_path, capsys):
     assert main(["inverse", "--target", f"{x},{y},{z}", *wrench, "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["reachable"] and out["distance_m"] <= TOL and out["path"] == "loading path"
+    assert out["axis_error_rad"] is None  # no direction asked
     assert set(out) >= {"tensions", "tip_position", "tip_axis", "distance_m", "reachable", "stable", "converged",
                         "path"}
     rest = solve(ROBOT, LOADS.with_tensions(np.array(out["tensions"])))

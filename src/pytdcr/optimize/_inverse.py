@@ -152,6 +152,8 @@ class InverseResult:
         The equilibrium's tip [m] and axis (unit) at those tensions.
     distance_m : float
         How far the tip lies from the target [m].
+    axis_error_rad : float or None
+        The angle between the tip axis and the direction asked for [rad]; None when none was asked.
     reachable : bool
         The tip reaches the target within the tolerance (and the axis the direction, when one was asked).
     stable : bool or None
@@ -183,6 +185,7 @@ class InverseResult:
     tip_position: np.ndarray
     tip_axis: np.ndarray
     distance_m: float
+    axis_error_rad: float | None
     reachable: bool
     stable: bool | None
     converged: bool
@@ -198,7 +201,8 @@ class InverseResult:
         """JSON-ready form (what ``tdcr inverse --json`` prints)."""
         return {"target": self.target.tolist(), "tensions": self.tensions.tolist(),
                 "tip_position": self.tip_position.tolist(), "tip_axis": self.tip_axis.tolist(),
-                "distance_m": self.distance_m, "reachable": self.reachable, "stable": self.stable,
+                "distance_m": self.distance_m, "axis_error_rad": self.axis_error_rad, "reachable": self.reachable,
+                "stable": self.stable,
                 "converged": self.converged, "path": self.path, "objective": self.objective,
                 "objective_value": self.objective_value, "optimal": self.optimal, "evaluations": self.evaluations,
                 "seconds": self.seconds}
@@ -327,8 +331,11 @@ def _result(p: Point, objective: str, path: str, tol: float, tg: Target, clock: 
     assert sol is not None
     tip, axis = sol.tip_position, sol.disk_rotations[-1][:, 2]
     reached = p.distance <= tol
+    # the angle by atan2 of the cross and dot products: exact for small angles, where arccos of the dot is not
+    turn = None if tg.direction is None else float(np.arctan2(np.linalg.norm(np.cross(axis, tg.direction)),
+                                                               axis @ tg.direction))
     return InverseResult(tg.target.copy(), p.tensions.copy(), tip, axis, float(np.linalg.norm(tip - tg.target)),
-                         reached, sol.stable, True, path, objective, objective_value(p.tensions, objective),
+                         turn, reached, sol.stable, True, path, objective, objective_value(p.tensions, objective),
                          reached and is_optimal(p, bounds, objective), sol, tg.count, time.perf_counter() - clock)
 
 
