@@ -45,6 +45,23 @@ def test_toml_round_trip(tmp_path, paper, rao):
     assert list(again.anchor_disks) == [10, 3]
 
 
+def test_disk_radius_is_the_radius_in_use(tmp_path, paper):
+    # Derived: 1.2 times the largest routing radius, and it follows the tendons when they move.
+    assert paper.disk_radius_given is None
+    assert paper.disk_radius == pytest.approx(1.2 * 0.01)
+    wider = paper.model_copy(update={"tendons": [t.model_dump() | {"radius": 0.02} for t in paper.tendons]})
+    assert wider.disk_radius == pytest.approx(1.2 * 0.02)
+    assert robot_to_dict(wider).get("disk_radius") is None  # the derived value is never written down
+    # Given: kept as given, written and read back under the same name.
+    given = paper.model_copy(update={"disk_radius": 0.015})
+    assert given.disk_radius == pytest.approx(0.015) and given.disk_radius_given == pytest.approx(0.015)
+    write_robot(given, tmp_path / "g.toml")
+    assert read_robot(tmp_path / "g.toml").disk_radius == pytest.approx(0.015)
+    assert Robot(**{**paper.model_dump(), "disk_radius": 0.02}).disk_radius == pytest.approx(0.02)
+    with pytest.raises(ValidationError, match="disk_radius_given"):  # one name for the input, not two
+        Robot(**{**paper.model_dump(), "disk_radius_given": 0.02})
+
+
 @pytest.mark.parametrize(
     ("patch", "words"),
     [

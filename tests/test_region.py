@@ -384,7 +384,7 @@ def test_the_realisable_reach_is_labelled_the_farthest_realisable_sample():
     assert numbers["reach_rule"] == "the reach search's optimum" and ws.largest_reach.source == "search"
     assert real["largest_reach_m"] < numbers["largest_reach_m"]
     optimum = solve(robot, loads.with_tensions(ws.largest_reach.tensions))
-    pos, rot, r = optimum.disk_positions[None], optimum.disk_rotations[None], robot.disks_radius
+    pos, rot, r = optimum.disk_positions[None], optimum.disk_rotations[None], robot.disk_radius
     assert not disks_below_base(pos, rot, r)[0] and not disks_touch(pos, rot, r)[0]  # realisable, yet unsearched
     note = _reach_note(numbers, real)
     assert "the realisable region's is the farthest realisable sample (not searched)" in note

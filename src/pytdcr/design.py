@@ -250,6 +250,8 @@ class Robot(_Frozen):
     backbone tangent.
     """
 
+    model_config = ConfigDict(validate_by_alias=True, validate_by_name=False, serialize_by_alias=True)
+
     name: Annotated[str, Field(strict=True, min_length=1, max_length=200, pattern=_NAME)] = "robot"
     backbone: Backbone
     segments: tuple[Segment, ...] = Field(min_length=1, max_length=100)
@@ -258,8 +260,9 @@ class Robot(_Frozen):
         default=(0.0, 0.0, -9.81), description="gravity in the base frame [m/s^2]; |g| <= 100"
     )
     friction: FrictionLaw = Field(default_factory=NoFriction)
-    disk_radius: DiskRadius | None = Field(
-        default=None, description="radius of every disk [m]; default: 1.2 times the largest routing radius"
+    disk_radius_given: DiskRadius | None = Field(
+        default=None, alias="disk_radius",
+        description="radius of every disk [m]; default: 1.2 times the largest routing radius",
     )
 
     @model_validator(mode="after")
@@ -269,7 +272,7 @@ class Robot(_Frozen):
             _GRAVITY(g)
         except ValueError as err:
             raise ValueError(f"gravity: |g| = {g:g} m/s^2 {err}") from None
-        rd = self.disks_radius
+        rd = self.disk_radius
         for k, t in enumerate(self.tendons):
             if t.segment > len(self.segments):
                 raise ValueError(
@@ -293,11 +296,12 @@ class Robot(_Frozen):
 
     # ----------------------------------------------------------------- derived
     @property
-    def disks_radius(self) -> float:
-        """The disks' radius [m]: ``disk_radius``, or 1.2 times the largest routing radius (at least the
-        backbone's radius plus 1 mm when there are no tendons)."""
-        if self.disk_radius is not None:
-            return float(self.disk_radius)
+    def disk_radius(self) -> float:
+        """The disks' radius in use [m]: the one given (``Robot(disk_radius=...)``, kept as
+        ``disk_radius_given``), or 1.2 times the largest routing radius (at least the backbone's radius plus
+        1 mm when there are no tendons). Derived, so it follows the tendons when a design study moves them."""
+        if self.disk_radius_given is not None:
+            return float(self.disk_radius_given)
         if self.tendons:
             return DISK_RADIUS_FACTOR * max(t.radius for t in self.tendons)
         return self.backbone.outer_radius + 1e-3

@@ -260,7 +260,7 @@ class _Solver:
 
     def keep(self, b: BatchSolution) -> dict[str, np.ndarray]:
         """The tips, flags and unknowns of a solved block."""
-        r = self.robot.disks_radius
+        r = self.robot.disk_radius
         pos, rot = b.disk_positions, b.disk_rotations
         ok = b.converged
         stable = b.stable if self.stability else np.full(ok.shape, np.nan)
