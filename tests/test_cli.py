@@ -378,7 +378,49 @@ def test_progress_on_a_pipe_is_plain_timestamped_lines_and_quiet_silences_it(tmp
         assert "\r" not in proc.stderr and "\x1b" not in proc.stderr
         import re
 
-        assert re.fullmatch(r"\[\d\d:\d\d:\d\d\] GA: 2/2 gen, best reach \d+\.\d mm, \d+ s\n", proc.stderr), proc.stderr
+        assert re.fullmatch(r"\[\d\d:\d\d:\d\d\] GA: 2/2 gen, best reach \d+\.\d mm, done in \d+ s\n",
+                            proc.stderr), proc.stderr
+
+
+def test_concurrent_stages_are_rows_of_one_live_block(monkeypatch):
+    """Stages on several threads share one live block on a terminal; a GA capped at 30 generations that stops
+    at 6 ends full at 6; the row shows the reach in mm, not the cost; nothing is left running."""
+    import io
+    import threading
+
+    from pytdcr.cli import _progress
+
+    class Terminal(io.StringIO):
+        def isatty(self) -> bool:
+            return True
+
+    monkeypatch.setattr(sys, "stderr", Terminal())
+    monkeypatch.setenv("COLUMNS", "120")
+    blocks: set[int] = set()
+
+    def ga(name: str, gens: int) -> None:
+        step = bars.generations(name, 30)
+        for g in range(gens):
+            step(g, 1.0 / 0.3925, 0.0)
+            blocks.add(id(_progress._LIVE.progress))
+        step.close()
+
+    with _progress.Bars() as bars:
+        step = bars("workspace, paper wrench: sampling", 448)
+        step(1)
+        threads = [threading.Thread(target=ga, args=(f"GA, population {p}", n)) for p, n in ((50, 6), (100, 9))]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        step(447)
+        blocks.add(id(_progress._LIVE.progress))
+    out = sys.stderr.getvalue()
+    assert len(blocks) == 1 and _progress._LIVE.progress is None and _progress._LIVE.open == 0
+    last = out.rsplit("\x1b[2K", 1)[-1]  # the block's last frame (each frame clears the one before)
+    for row in ("GA, population 50", "6/6 gen, best reach 392.5 mm", "GA, population 100", "9/9 gen", "448/448 solve"):
+        assert row in last, row
+    assert "/30 gen" not in last and "best=" not in out and "2.547" not in out
 
 
 def test_reproduce_closes_with_its_key_results():

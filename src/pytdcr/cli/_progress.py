@@ -1,15 +1,24 @@
-"""Progress on stderr, drawn from the first step (input refused before any work prints alone): a tqdm bar on a
-terminal; plain timestamped lines, at most one every :func:`line_seconds` and one at the end, when stderr is a
-file or a pipe (no carriage returns mixed into a log); nothing with ``--quiet`` (:func:`set_quiet`)."""
+"""Progress on stderr, drawn from the first step (input refused before any work prints alone).
+
+On a terminal every stage of a run is a row of one live block (rich), however many stages run at once on
+threads: its name (the load case, the population, the model), a bar, the work done with its unit, the time
+spent and left, and the quantity a person follows (the best reach in mm). A stage that ends early (a GA
+stopped before its cap) ends full, its total set to the work done. When stderr is a file or a pipe: plain
+timestamped lines, at most one every :func:`line_seconds` a stage and one at its end (no carriage returns in a
+log). Nothing with ``--quiet`` (:func:`set_quiet`).
+"""
 
 from __future__ import annotations
 
 import os
 import sys
+import threading
 import time
 from typing import Any
 
-__all__ = ["LINE_SECONDS", "Bar", "Bars", "line_seconds", "set_quiet"]
+from ..runtime import duration
+
+__all__ = ["LINE_SECONDS", "Bar", "Bars", "line_seconds", "quiet", "say", "set_quiet"]
 
 #: the least time between two progress lines when stderr is not a terminal [s], unless
 #: ``PYTDCR_PROGRESS_SECONDS`` says otherwise
@@ -34,19 +43,32 @@ def set_quiet(quiet: bool) -> None:
     _QUIET = bool(quiet)
 
 
+def quiet() -> bool:
+    """True with ``--quiet``."""
+    return _QUIET
+
+
+def say(text: str) -> None:
+    """A line of progress news on stderr (an estimated time, a stage's start), timestamped when stderr is not a
+    terminal; nothing with ``--quiet``."""
+    if _QUIET:
+        return
+    stamp = "" if sys.stderr.isatty() else f"[{time.strftime('%H:%M:%S')}] "
+    print(f"{stamp}{text}", file=sys.stderr, flush=True)
+
+
 class _Lines:
-    """tqdm's few calls, as timestamped lines on a stderr that is not a terminal."""
+    """A stage as timestamped lines on a stderr that is not a terminal."""
 
     def __init__(self, desc: str, total: int | None, unit: str) -> None:
         self.desc, self.total, self.unit, self.n, self.label = desc, total, unit, 0, ""
         self.t0 = self.last = time.monotonic()
         self.every = line_seconds()
 
-    def set_postfix_str(self, label: str, refresh: bool = False) -> None:
-        self.label = label
-
-    def update(self, k: int) -> None:
+    def update(self, k: int, label: str | None) -> None:
         self.n += k
+        if label is not None:
+            self.label = label
         if time.monotonic() - self.last >= self.every:
             self._line()
 
@@ -58,56 +80,194 @@ class _Lines:
               flush=True)
 
     def close(self) -> None:
-        self._line(f", {time.monotonic() - self.t0:.0f} s")
+        self.total = self.n  # the total ends where the work ended
+        self._line(f", done in {time.monotonic() - self.t0:.0f} s")
+
+
+def _columns(width: int) -> tuple[Any, ...]:
+    """The live block's columns on a terminal ``width`` characters wide: the stage's name (given what the others
+    leave, cut with an ellipsis), a bar (from 100 characters), the work done of its total, the time spent and
+    left, the label (the best reach)."""
+    from rich.progress import BarColumn, ProgressColumn, TextColumn
+    from rich.table import Column
+    from rich.text import Text
+
+    class Count(ProgressColumn):
+        def render(self, task: Any) -> Text:
+            if task.finished and not task.completed:  # a stage of unknown length, ended
+                return Text("done")
+            of = f"/{task.total:.0f}" if task.total is not None else ""
+            label = f", {task.fields['label']}" if task.fields.get("label") else ""
+            return Text(f"{task.completed:.0f}{of} {task.fields.get('unit', '')}{label}")
+
+    class Time(ProgressColumn):
+        def render(self, task: Any) -> Text:
+            spent = task.finished_time if task.finished else task.elapsed
+            left = task.time_remaining
+            more = f", ~{duration(left)} left" if left is not None and not task.finished and spent else ""
+            return Text(f"{duration(spent or 0.0)}{more}", style="progress.elapsed")
+
+    def natural() -> Column:
+        return Column(no_wrap=True)
+
+    name = TextColumn("{task.description}", table_column=Column(ratio=1, no_wrap=True, overflow="ellipsis"))
+    bar = (BarColumn(bar_width=10, table_column=natural()),) if width >= 100 else ()
+    return (name, *bar, Count(table_column=natural()), Time(table_column=natural()))
+
+
+class _Live:
+    """The one live block on a terminal: started with the first stage, stopped after the last ends (the rows
+    stay on screen as the run's record)."""
+
+    def __init__(self) -> None:
+        self.lock = threading.Lock()
+        self.progress: Any = None
+        self.open = 0
+
+    def add(self, desc: str, total: int | None, unit: str) -> int:
+        with self.lock:
+            if self.progress is None:
+                from rich.console import Console
+                from rich.progress import Progress
+
+                console = Console(file=sys.stderr)
+                self.progress = Progress(*_columns(console.width), console=console, refresh_per_second=8,
+                                         expand=True)
+                self.progress.start()
+            self.open += 1
+            return self.progress.add_task(desc, total=total, unit=unit, label="")
+
+    def update(self, task: int, k: int, label: str | None) -> None:
+        fields = {} if label is None else {"label": label}
+        self.progress.update(task, advance=k, **fields)
+
+    def finish(self, task: int) -> None:
+        with self.lock:
+            done = next(t.completed for t in self.progress.tasks if t.id == task)
+            self.progress.update(task, total=done, completed=done)  # ends full where the work ended
+            self.open -= 1
+            if self.open == 0:
+                self.progress.stop()
+                self.progress = None
+
+
+_LIVE = _Live()
 
 
 class Bar:
     """One stage's progress on stderr (see the module), drawn from its first step."""
 
-    def __init__(self, desc: str, total: int, unit: str) -> None:
+    def __init__(self, desc: str, total: int | None, unit: str) -> None:
         self.desc, self.total, self.unit = desc, total, unit
-        self.bar: Any = None
+        self.task: int | None = None
+        self.lines: _Lines | None = None
+        self.closed = False
+        self.done = 0
+
+    def set_total(self, total: int | None) -> None:
+        """A new total (an optimiser's total is an upper bound until it ends)."""
+        self.total = total
+        if self.task is not None:
+            _LIVE.progress.update(self.task, total=total)
+        elif self.lines is not None:
+            self.lines.total = total
 
     def step(self, k: int = 1, label: str | None = None) -> None:
         """Advance by ``k``; ``label`` shows beside the bar."""
-        if _QUIET:
+        if _QUIET or self.closed:
             return
-        if self.bar is None:
-            if sys.stderr.isatty():
-                from tqdm import tqdm
-
-                self.bar = tqdm(total=self.total, desc=self.desc, unit=self.unit, leave=False, file=sys.stderr)
+        self.done += k
+        if self.task is None and self.lines is None:
+            if _LIVE.progress is not None or sys.stderr.isatty():  # the live block stands in for stderr meanwhile
+                self.task = _LIVE.add(self.desc, self.total, self.unit)
             else:
-                self.bar = _Lines(self.desc, self.total, self.unit)
-        if label is not None:
-            self.bar.set_postfix_str(label, refresh=False)
-        self.bar.update(k)
+                self.lines = _Lines(self.desc, self.total, self.unit)
+        if self.task is not None:
+            _LIVE.update(self.task, k, label)
+        elif self.lines is not None:
+            self.lines.update(k, label)
 
     def generation(self, _gen: int, best: float, _mean: float) -> None:
         """The GA's progress callback: ``best`` is the least cost, 1/reach [1/m], shown as the reach."""
         self.step(1, f"best reach {1e3 / best:.1f} mm" if best > 0 else f"best cost {best:.4g}")
 
+    def close(self) -> None:
+        """End the stage (its row stays, full); a second call does nothing."""
+        if self.closed:
+            return
+        self.closed = True
+        if self.task is not None:
+            _LIVE.finish(self.task)
+        elif self.lines is not None:
+            self.lines.close()
+
     def __enter__(self) -> Bar:
         return self
 
     def __exit__(self, *exc: object) -> None:
-        if self.bar is not None:
-            self.bar.close()
+        self.close()
+
+
+class _Steps:
+    """A stage's ``step(k=1, label=None)`` that the run may end with ``close()``."""
+
+    def __init__(self, bar: Bar) -> None:
+        self.bar = bar
+
+    def __call__(self, k: int = 1, label: str | None = None) -> None:
+        self.bar.step(k, label)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+class _Generations:
+    """A GA's progress callback (:meth:`Bar.generation`) that the run ends with ``close()``."""
+
+    def __init__(self, bar: Bar) -> None:
+        self.bar = bar
+
+    def __call__(self, gen: int, best: float, mean: float) -> None:
+        self.bar.generation(gen, best, mean)
+
+    def close(self) -> None:
+        self.bar.close()
 
 
 class Bars:
-    """One progress bar per stage of a long run (``progress(stage, total)``), closed when the next opens."""
+    """Progress for the stages of a long run, each a :class:`Bar` (a row of the live block). Stages from one
+    thread follow each other: a thread's new stage closes its last one. :meth:`close` ends whatever is open."""
 
-    def __init__(self) -> None:
-        self.bar: Bar | None = None
+    def __init__(self, unit: str = "solve") -> None:
+        self.unit = unit
+        self.bars: dict[int, Bar] = {}
+        self.lock = threading.Lock()
 
-    def __call__(self, stage: str, total: int | None) -> Any:
-        self.close()
-        self.bar = Bar(stage, total, "solve" if "h(d)" not in stage else "dir")  # type: ignore[arg-type]
-        return self.bar.step
+    def _open(self, stage: str, total: int | None, unit: str) -> Bar:
+        with self.lock:
+            last = self.bars.pop(threading.get_ident(), None)
+            if last is not None:
+                last.close()
+            bar = self.bars[threading.get_ident()] = Bar(stage, total, unit)
+        return bar
+
+    def __call__(self, stage: str, total: int | None, unit: str | None = None) -> Any:
+        """A stage of ``total`` steps (None: not known) of ``unit``: returns its ``step(k=1, label=None)``."""
+        return _Steps(self._open(stage, total, unit or ("dir" if "h(d)" in stage else self.unit)))
+
+    def generations(self, stage: str, total: int | None) -> Any:
+        """A GA's stage: its callback shows the best reach in mm; the callback's ``close()`` ends the stage."""
+        return _Generations(self._open(stage, total, "gen"))
 
     def close(self) -> None:
-        """Close the open bar, if any."""
-        if self.bar is not None:
-            self.bar.__exit__()
-            self.bar = None
+        """Close every open bar."""
+        with self.lock:
+            for bar in self.bars.values():
+                bar.close()
+            self.bars.clear()
+
+    def __enter__(self) -> Bars:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

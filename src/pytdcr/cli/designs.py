@@ -8,7 +8,7 @@ from typing import Any
 
 from ..validate import escape_controls
 from ._args import add_out, count_type
-from ._progress import Bar
+from ._progress import Bar, quiet, say
 from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK, CliError
 
 __all__ = ["add_parser", "run"]
@@ -33,15 +33,20 @@ def run(args: argparse.Namespace) -> int:
     from ..designs import DesignsRunOptions, format_measure, load_study, run_designs
 
     study, robot, text = load_study(args.study)
-    bar = Bar("designs", 0, "design")
+    if args.scheduler is None and not quiet():  # on a cluster the workers are not known before the run
+        from ..designs import choose_designs, designs_estimate
+        from ..runtime import default_threads
+
+        count = (study.designs.total if study.designs.method == "optimize" else
+                 len(choose_designs(study.parameters, study.designs.method, study.designs.count, seed=study.seed)))
+        est = designs_estimate(study, robot, count, args.workers or default_threads())
+        if est.seconds > 60:
+            say(f"{est.text()} for {count} designs, each as the base robot")
+    bar = Bar("designs", None, "design")
 
     def progress(done: int, failed: int, total: int) -> None:
-        if bar.bar is None:
-            bar.total = total
-            bar.step(done, f"failed={failed}")
-        else:
-            bar.bar.total = total  # the optimiser's total is an upper bound until it ends
-            bar.step(done - bar.bar.n, f"failed={failed}")
+        bar.set_total(total)  # the optimiser's total is an upper bound until it ends
+        bar.step(done - bar.done, f"{failed} failed" if failed else None)
 
     try:
         options = DesignsRunOptions(scheduler=args.scheduler, workers=args.workers, restart=args.restart,

@@ -6,7 +6,7 @@ import argparse
 from typing import Any
 
 from ._args import add_out, add_robot_and_loads, add_seed, check_out, has_tip_wrench, robot_spec
-from ._progress import Bar
+from ._progress import Bars, quiet, say
 from ._runtime import EXIT_OK, CliError
 
 __all__ = ["add_parser", "run"]
@@ -28,7 +28,7 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """The study on the robot asked for (the study sets its own loads); print where the report is."""
-    from ..study import ReproduceSettings, run_reproduce
+    from ..study import ReproduceSettings, reproduce_estimate, run_reproduce
 
     robot = robot_spec(args).build()
     if has_tip_wrench(args):
@@ -36,19 +36,17 @@ def run(args: argparse.Namespace) -> int:
                        "--disk-moment")
     out = check_out(args.out)
 
-    opened: list[Bar] = []  # stages may run at once, on threads: each its own bar, all closed at the end
-
-    def progress(stage: str, total: int) -> Any:
-        bar = Bar(stage, total, "gen")
-        opened.append(bar)
-        return bar.generation
-
     settings = ReproduceSettings.full() if args.full else ReproduceSettings()
-    try:
+    if not quiet():
+        est = reproduce_estimate(robot, settings, seed=args.seed)
+        if est.seconds > 60:
+            say(f"{est.text()}, for its workspace sections (the GAs and the better models run beside them)")
+    with Bars() as bars:  # stages run at once, on threads: one row each in one live block
+
+        def progress(stage: str, total: int | None, unit: str = "gen") -> Any:
+            return bars.generations(stage, total) if unit == "gen" else bars(stage, total, unit)
+
         res = run_reproduce(robot, out, seed=args.seed, progress=progress, settings=settings)
-    finally:
-        for bar in opened:
-            bar.__exit__()
     print(f"reproduced the study on robot '{robot.name}' in {res.seconds:.1f} s; report: {out / 'report.md'}")
     for line in closing_lines(res):
         print(f"  {line}")

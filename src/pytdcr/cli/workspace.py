@@ -26,7 +26,7 @@ from ._args import (
     real_type,
     robot_spec,
 )
-from ._progress import Bars
+from ._progress import Bars, quiet, say
 from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK, CliError
 
 __all__ = ["add_parser", "run"]
@@ -96,6 +96,22 @@ def _compare_models(args: argparse.Namespace, robot: Any, loads: Any) -> dict[st
     return cases
 
 
+def _say_estimate(cases: dict[str, tuple[Any, ...]] | None, robot: Any, loads: Any, bounds: Any, settings: Any,
+                  model: tuple[Any, Any]) -> None:
+    """Say the run's estimated time on stderr when it will take more than a minute (not with ``--quiet``)."""
+    from ..region import workspace_estimate
+    from ..study import WorkspaceCaseSpec
+
+    if quiet():
+        return
+    specs = [WorkspaceCaseSpec(*v) for v in cases.values()] if cases else [WorkspaceCaseSpec(robot, loads)]
+    est = workspace_estimate([(c.robot, c.loads, replace(c.settings, voxel=settings.voxel) if c.settings else settings,
+                               c.model if c.model is not None else model[0],
+                               c.options if c.model is not None else model[1]) for c in specs], bounds)
+    if est.seconds > 60:
+        say(est.text())
+
+
 def _workspace_lines(name: str, s: dict[str, Any]) -> list[str]:
     from ..study import format_measure_of
 
@@ -144,18 +160,21 @@ def run(args: argparse.Namespace) -> int:
     if args.equilibria == "both" and args.compare_loads:
         raise CliError("--equilibria both and --compare-loads: choose one comparison")
     by_model = _compare_models(args, robot, loads)
+    if by_model is not None:
+        cases = by_model
+    elif args.compare_loads:
+        cases = workspace_load_cases(robot, loads)
+    elif args.equilibria == "both":
+        cases = {k: (robot, loads, replace(settings, equilibria=k)) for k in EQUILIBRIA_CHOICES}
+    else:
+        cases = None
+    _say_estimate(cases, robot, loads, bounds, settings, (m.name, options))
     bars = Bars()
     kw = {"model": m.name, "options": options,
           "run_options": WorkspaceRunOptions(command=" ".join(["tdcr", *sys.argv[1:]]), progress=bars)}
     try:
-        if by_model is not None:
-            res = run_workspace_compare(robot, by_model, bounds, settings, out, **kw)
-        elif args.compare_loads:
-            cases = workspace_load_cases(robot, loads)
+        if cases is not None:
             res = run_workspace_compare(robot, cases, bounds, settings, out, **kw)
-        elif args.equilibria == "both":
-            both = {k: (robot, loads, replace(settings, equilibria=k)) for k in EQUILIBRIA_CHOICES}
-            res = run_workspace_compare(robot, both, bounds, settings, out, **kw)
         else:
             res = run_workspace(robot, loads, bounds, settings, out, **kw)
     finally:

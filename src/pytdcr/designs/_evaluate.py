@@ -16,12 +16,12 @@ from typing import Any
 import numpy as np
 
 from ..bounds import TensionBounds
-from ..region import WorkspaceSettings, workspace_study
+from ..region import Estimate, WorkspaceSettings, workspace_estimate, workspace_study
 from ..statics import Cancelled
 from ._space import apply_parameters
 from ._spec import MEASURES, DesignStudy
 
-__all__ = ["MEASURES", "design_seed", "evaluate_design"]
+__all__ = ["MEASURES", "design_seed", "designs_estimate", "evaluate_design"]
 
 
 def design_seed(study_seed: int, index: int) -> int:
@@ -42,6 +42,18 @@ def _workspace_settings(study: DesignStudy, base: Any, seed: int) -> WorkspaceSe
                              search=study.budget.search > 0, budget=study.budget.search, directions=directions or 0,
                              reach="farthest" if study.budget.reach_search else "support",
                              threads=1, multistability=0).with_voxel_for(base)
+
+
+def designs_estimate(study: DesignStudy, robot: Any, designs: int, workers: int) -> Estimate:
+    """The expected length of ``designs`` designs (and the base robot) of ``study`` on ``workers`` processes: the
+    base robot's workspace study of each load case (:func:`~pytdcr.region.workspace_estimate`, on one thread)
+    for each design. Designs that move the tendons or the backbone cost more or less than the base robot."""
+    settings = _workspace_settings(study, robot, study.seed)
+    bounds = TensionBounds.uniform(robot.n_tendons, *study.bounds)
+    one = workspace_estimate([(r, loads, settings, study.model, None)
+                              for r, loads in study.load_cases(robot).values()], bounds)
+    runs = (designs + 1) / max(1, workers)
+    return Estimate(one.seconds * runs, round(one.solves * (designs + 1)), one.solve_seconds, workers)
 
 
 def _case_row(study: DesignStudy, settings: WorkspaceSettings, robot: Any, loads: Any) -> dict[str, Any]:

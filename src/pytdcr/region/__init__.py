@@ -3,7 +3,8 @@ converge, its boundary surface and volume with an error, the support function h(
 what is physically realisable. :func:`workspace_study` does it all, from one :class:`WorkspaceSettings`
 (:func:`workspace_region` is its first stage); ``tdcr workspace`` writes it out."""
 
-from ._compute import WorkspaceRegion, workspace_region
+from ._compute import WorkspaceRegion, planned_work, workspace_region
+from ._estimate import Estimate, solve_seconds, workspace_estimate
 from ._frontier import BoundarySearch, GrowthSettings, SearchRound, SearchState, grow_region, tension_step
 from ._grid import MIN_MESH_POINTS, Region, inside, region_from_points
 from ._history import Multistability, measure_multistability
@@ -53,6 +54,7 @@ __all__ = [
     "SOURCES",
     "VOXELS_PER_LENGTH",
     "BoundarySearch",
+    "Estimate",
     "GrowthSettings",
     "LargestReach",
     "Multistability",
@@ -84,15 +86,18 @@ __all__ = [
     "measure_multistability",
     "nested_stages",
     "plan_tensions",
+    "planned_work",
     "region_dimension",
     "region_from_points",
     "region_overlap",
     "same_tip",
     "search_budget",
     "solve_plan",
+    "solve_seconds",
     "solves_needed",
     "support_function",
     "tension_step",
+    "workspace_estimate",
     "workspace_region",
     "workspace_study",
 ]

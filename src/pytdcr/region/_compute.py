@@ -10,6 +10,7 @@ import numpy as np
 from ..bounds import TensionBounds
 from ..design import Robot
 from ..loads import Loads
+from ..runtime import end_stage
 from ..statics import Model, check_resources, resolve
 from ._frontier import BoundarySearch, GrowthSettings, SearchRound, SearchState, grow_region
 from ._grid import Region
@@ -28,7 +29,7 @@ from ._solve import (
 )
 from ._volume import VolumeEstimate, estimate_volume
 
-__all__ = ["VOXELS_PER_LENGTH", "WorkspaceRegion", "search_budget", "workspace_region"]
+__all__ = ["VOXELS_PER_LENGTH", "WorkspaceRegion", "planned_work", "search_budget", "workspace_region"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -86,10 +87,12 @@ def _search(solver: _Solver, samples: RegionSamples, bounds: TensionBounds, voxe
     rounds: list[SearchRound] = []
     state, spent, stop = SearchState(), 0, "converged"
     for stage in range(3):
-        solver.progress = hooks.progress(f"boundary search {stage + 1}/3", None) if hooks.progress else None
+        left = growth.budget - spent
+        solver.progress = hooks.progress(f"boundary search {stage + 1}/3 (budget)", left) if hooks.progress else None
         samples, got, state, stop = grow_region(solver, samples, bounds, voxel, stage,
-                                                settings=replace(growth, budget=growth.budget - spent), state=state,
+                                                settings=replace(growth, budget=left), state=state,
                                                 on_round=hooks.on_round)
+        end_stage(solver.progress)
         rounds += got
         spent += sum(r.steps for r in got)
         if hooks.checkpoint is not None:
@@ -97,6 +100,26 @@ def _search(solver: _Solver, samples: RegionSamples, bounds: TensionBounds, voxe
         if stop == "budget":
             break
     return samples, BoundarySearch(tuple(rounds), spent, stop, growth.tol, growth.budget)
+
+
+def planned_work(robot: Robot, loads: Loads, bounds: TensionBounds, settings: WorkspaceSettings | None = None, *,
+                 model: str | Model = "pcc", options: Any = None) -> dict[str, int]:
+    """The most work a workspace study (:func:`pytdcr.region.workspace_study`) of these inputs plans, by stage,
+    before it starts: ``"sampling"`` and ``"boundary search"`` (the budget; the search may converge sooner) and
+    ``"multistability"`` in solves, ``"support function h(d)"`` in directions, ``"largest reach search"`` 1
+    when it runs (the model must have a tip gradient for h(d) and the search). Nothing is solved."""
+    s = (settings if settings is not None else WorkspaceSettings()).check(robot)
+    m, _ = resolve(model, robot, loads, options)
+    plan = plan_tensions(bounds, s.n, seed=s.seed)
+    kind = equilibria_for(m, s.equilibria)
+    warm = WarmStarts(seed=s.seed) if s.warm and kind == EQUILIBRIA[1] else False
+    rows = plan.tensions.shape[0]
+    searched = m.capabilities.gradient is not None
+    directions = s.direction_vectors()
+    return {"sampling": solves_needed(plan, warm), "boundary search": s.search_budget if s.search else 0,
+            "multistability": min(s.multistability, rows + (s.search_budget if s.search else 0)),
+            "support function h(d)": 0 if directions is None or not searched else int(directions.shape[0]),
+            "largest reach search": int(searched and s.reach in ("search", "farthest"))}
 
 
 def workspace_region(robot: Robot, loads: Loads, bounds: TensionBounds, settings: WorkspaceSettings | None = None,

@@ -13,6 +13,7 @@ from ..bounds import TensionBounds
 from ..design import Robot
 from ..loads import Loads
 from ..optimize import ReachProblem
+from ..runtime import end_stage
 from ..statics import Model, resolve
 from ._compute import WorkspaceRegion, workspace_region
 from ._grid import Region
@@ -236,8 +237,13 @@ def workspace_study(robot: Robot, loads: Loads, bounds: TensionBounds, settings:
         if D is not None:
             step = hooks.progress("support function h(d)", D.shape[0]) if hooks.progress else None
             support = support_function(problem, T, tips, D, threads=s.threads, progress=step, states=states)
+            end_stage(step)
         if s.reach in ("search", "farthest"):
+            step = hooks.progress("largest reach search", None) if hooks.progress else None
+            if step is not None:
+                step(0)  # shown from its start: its length is not known
             search = largest_reach(problem, T, tips, support=support, threads=s.threads, states=states)
+            end_stage(step)
         support, search = _parents_as_rows(support, search, np.flatnonzero(samples.feasible))
     real = _farthest_sample(samples, samples.realisable)
     return WorkspaceStudy(s, m, opts, wr, support, search, _by_rule(s.reach, far, support, search), real.reach)

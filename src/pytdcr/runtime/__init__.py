@@ -34,6 +34,7 @@ from ._folders import (
     output_folder,
     resumable_folder,
 )
+from ._stages import duration, end_stage
 from ._threads import MAX_CHUNK, default_threads, run_in_chunks, single_threaded_blas, submit_in_context, worker_pool
 
 __all__ = [
@@ -55,6 +56,8 @@ __all__ = [
     "current_scope",
     "default_threads",
     "dump_json",
+    "duration",
+    "end_stage",
     "library_versions",
     "mark_saving",
     "output_folder",

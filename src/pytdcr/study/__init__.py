@@ -20,7 +20,7 @@ from ._accuracy import AccuracyRun, run_accuracy
 from ._compare import CompareRun, run_compare
 from ._inverse import WorkspacePool, inverse_columns, inverse_rows, read_workspace_pool
 from ._output import inputs_record
-from ._reproduce import ReproduceRun, ReproduceSettings, run_reproduce
+from ._reproduce import ReproduceRun, ReproduceSettings, reproduce_estimate, run_reproduce
 from ._runs import OptimizeRun, SampleRun, run_optimize, run_sample, sample_into, write_optimize
 from ._settings import (
     AccuracySettings,
@@ -43,11 +43,50 @@ from ._workspace import (
                          run_workspace_compare,
 )
 
-__all__ = ["MAX_FRICTION", "AccuracyRun", "AccuracySettings", "BoundsSpec", "CompareRun",
-           "CompareSettings", "LoadSpec", "ModelSpec", "OptimizeRun", "OptimizeSettings", "ReproduceRun",
-           "ReproduceSettings", "RobotSpec", "RunInputs", "SampleRun", "SampleSettings", "SolveRun", "SolveSettings",
-           "WorkspaceCase", "WorkspaceCaseSpec", "WorkspacePool", "WorkspaceRun", "WorkspaceRunOptions", "case_rows",
-           "check_csv_path", "check_figure_path", "format_measure_of", "inputs_record", "inverse_columns",
-           "inverse_rows", "read_cases", "read_targets", "read_workspace_pool", "run_accuracy", "run_compare",
-           "run_optimize", "run_reproduce", "run_sample", "run_solve", "run_workspace", "run_workspace_compare",
-           "sample_into", "write_optimize", "write_shape_csv"]
+__all__ = [
+    "MAX_FRICTION",
+    "AccuracyRun",
+    "AccuracySettings",
+    "BoundsSpec",
+    "CompareRun",
+    "CompareSettings",
+    "LoadSpec",
+    "ModelSpec",
+    "OptimizeRun",
+    "OptimizeSettings",
+    "ReproduceRun",
+    "ReproduceSettings",
+    "RobotSpec",
+    "RunInputs",
+    "SampleRun",
+    "SampleSettings",
+    "SolveRun",
+    "SolveSettings",
+    "WorkspaceCase",
+    "WorkspaceCaseSpec",
+    "WorkspacePool",
+    "WorkspaceRun",
+    "WorkspaceRunOptions",
+    "case_rows",
+    "check_csv_path",
+    "check_figure_path",
+    "format_measure_of",
+    "inputs_record",
+    "inverse_columns",
+    "inverse_rows",
+    "read_cases",
+    "read_targets",
+    "read_workspace_pool",
+    "reproduce_estimate",
+    "run_accuracy",
+    "run_compare",
+    "run_optimize",
+    "run_reproduce",
+    "run_sample",
+    "run_solve",
+    "run_workspace",
+    "run_workspace_compare",
+    "sample_into",
+    "write_optimize",
+    "write_shape_csv",
+]

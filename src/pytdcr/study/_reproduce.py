@@ -18,9 +18,11 @@ from ..loads import Loads
 from ..optimize import MemeticGA, ReachProblem, ReachResult, Termination, maximize_reach, polish_reach
 from ..paper import DEFAULT_BOUNDS, PAYLOAD_MASS, paper_bounds, paper_loads, payload_loads
 from ..plotting import plot_robot, save_figure
+from ..region import Estimate
 from ..runtime import (
     atomic_write_text,
     default_threads,
+    end_stage,
     output_folder,
     saving,
     single_threaded_blas,
@@ -33,11 +35,13 @@ from ._report import reproduce_report
 from ._runs import sample_into, write_optimize
 from ._settings import SampleSettings
 from ._survival import ModelVerdict, model_verdicts, verdict_text
-from ._workspace import workspace_section, workspace_text
+from ._workspace import section_estimate, workspace_section, workspace_text
 
-__all__ = ["ReproduceRun", "ReproduceSettings", "run_reproduce"]
+__all__ = ["ReproduceRun", "ReproduceSettings", "reproduce_estimate", "run_reproduce"]
 
-Progress = Callable[[str, int], Callable[[int, float, float], None]]
+#: ``progress(stage, total, unit)`` returns the stage's callback: for ``unit`` "gen" a GA's
+#: ``on_generation(gen, best, mean)``, otherwise ``step(k)`` advanced by the work done (total None: unknown)
+Progress = Callable[[str, "int | None", str], Callable[..., None]]
 
 
 @dataclass(frozen=True)
@@ -180,10 +184,10 @@ def _jobs(robot: Robot, s: ReproduceSettings) -> dict[str, _Job]:
 def _sample_and_passive(robot: Robot, loads: Loads, bounds: TensionBounds, s: ReproduceSettings, seed: int,
                         out: Path, summary: dict[str, Any], note: Callable) -> None:
     """Fig. 3(a) and Fig. 4 (random samples under the paper's load), Fig. 3(b) (no tension, the load alone)."""
-    cb = note("sampling", 1)
-    sample = sample_into(out, SampleSettings(n=s.n_samples, seed=seed), robot=robot, loads=loads, bounds=bounds)
-    if cb:
-        cb(1, 0.0, 0.0)
+    step = note("sampling", s.n_samples, "solve")
+    sample = sample_into(out, SampleSettings(n=s.n_samples, seed=seed), robot=robot, loads=loads, bounds=bounds,
+                         progress=step)
+    end_stage(step)
     summary["files"] += sample.files
     smp = sample.samples
     summary["sampling"] = {"n": s.n_samples, "converged": int(smp.converged.sum()), "seconds": smp.seconds,
@@ -235,9 +239,12 @@ def _run_jobs(jobs: dict[str, _Job], s: ReproduceSettings, seed: int, note: Call
     draws the figures, is not thread-safe). Each run is deterministic by its seed, whatever the interleaving.
     """
     def run(j: _Job) -> ReachResult:
-        return maximize_reach(j.problem, MemeticGA(pop_size=j.pop, n_polish=s.n_polish),
-                              Termination(s.tol, s.window, j.max_gen), seed=seed,
-                              on_generation=note(j.label, j.max_gen))
+        step = note(j.label, j.max_gen)
+        try:
+            return maximize_reach(j.problem, MemeticGA(pop_size=j.pop, n_polish=s.n_polish),
+                                  Termination(s.tol, s.window, j.max_gen), seed=seed, on_generation=step)
+        finally:
+            end_stage(step)
 
     order = sorted(jobs, key=lambda k: -jobs[k].pop)  # largest populations first
     done: dict[str, ReachResult] = {}
@@ -252,13 +259,20 @@ def _run_jobs(jobs: dict[str, _Job], s: ReproduceSettings, seed: int, note: Call
     return done
 
 
+def reproduce_estimate(robot: Robot, settings: ReproduceSettings | None = None, *, seed: int = 0) -> Estimate:
+    """The expected length of :func:`run_reproduce`'s workspace sections (:func:`~pytdcr.region.workspace_estimate`),
+    which take longest when they are large (``--full``); the GAs and the better models run beside them."""
+    return section_estimate(robot, paper_bounds(robot.n_tendons), settings or ReproduceSettings(), seed=seed)
+
+
 def run_reproduce(robot: Robot, out: str | Path, *, seed: int = 0, progress: Progress | None = None,
                   settings: ReproduceSettings | None = None) -> ReproduceRun:
     """The paper's whole study (sections 3-4) on ``robot``; writes figures, data and ``report.md`` in ``out``.
 
     ``out`` follows the output-folder rule (:func:`output_folder`): Ctrl-C keeps the figures and data
     finished so far, with the manifest's status ``interrupted``. ``progress(stage, total)`` returns the GA's
-    callback for each stage.
+    callback for each stage; its ``close()``, where it has one, is called when the stage ends (a GA that
+    converges stops before ``total``).
     """
     s = settings or ReproduceSettings()
     with output_folder(out, "reproduce", {"seed": seed, **dataclasses.asdict(s)}) as run:
@@ -272,8 +286,8 @@ def _reproduce(robot: Robot, out: Path, seed: int, progress: Progress | None, s:
     loaded = jobs[f"pop{s.pops[0]}"].problem
     summary: dict[str, Any] = {"seed": seed, "files": []}
 
-    def note(stage: str, total: int) -> Callable[[int, float, float], None] | None:
-        return progress(stage, total) if progress is not None else None
+    def note(stage: str, total: int | None, unit: str = "gen") -> Callable[..., None] | None:
+        return progress(stage, total, unit) if progress is not None else None
 
     pops: dict[int, ReachResult] = {}
     later: list[Future] = []
@@ -288,12 +302,14 @@ def _reproduce(robot: Robot, out: Path, seed: int, progress: Progress | None, s:
             if len(pops) == len(set(s.pops)):  # the optimum is known: each better model takes it up beside the GA
                 best = min(pops.values(), key=lambda g_: g_.cost)
                 later.extend(submit(model_verdicts, robot, loaded.loads, bounds, best, models=(m,),
-                                    ga_pop=s.verdict_ga_pop, polish_iter=s.verdict_polish_iter, seed=seed)
+                                    budget=(s.verdict_ga_pop, s.verdict_polish_iter), seed=seed,
+                                    progress=progress)
                              for m in s.verdict_models)
 
     def side() -> None:
         _sample_and_passive(robot, loaded.loads, bounds, s, seed, out, summary, note)
-        summary["workspace"] = workspace_section(robot, bounds, s, out, summary["files"], seed=seed)
+        summary["workspace"] = workspace_section(robot, bounds, s, out, summary["files"], seed=seed,
+                                                 progress=progress)
 
     # the better models' runs are independent of each other and of the GA's other jobs (BLAS on one thread)
     with single_threaded_blas(), worker_pool(max(1, len(s.verdict_models))) as submit:

@@ -12,6 +12,7 @@ from ..bounds import TensionBounds
 from ..design import Robot
 from ..loads import Loads
 from ..optimize import MemeticGA, ReachProblem, ReachResult, Termination, maximize_reach, polish_reach
+from ..runtime import end_stage
 
 __all__ = ["ModelVerdict", "model_verdicts", "verdict_text"]
 
@@ -49,30 +50,41 @@ class ModelVerdict:
 
 
 def model_verdicts(robot: Robot, loads: Loads, bounds: TensionBounds, best: ReachResult, *,
-                   models: Sequence[str] = ("pcc2", "sscr"), ga_pop: int = 0, polish_iter: int = 8,
-                   seed: int = 0) -> list[ModelVerdict]:
+                   models: Sequence[str] = ("pcc2", "sscr"), budget: tuple[int, int] = (0, 8), seed: int = 0,
+                   progress: Any = None) -> list[ModelVerdict]:
     """Re-evaluate ``best`` (a ``pcc`` optimum) with each model, then re-optimise with it.
 
-    With ``ga_pop`` = 0 the re-optimisation is a gradient polish from ``best``'s tensions, at most
-    ``polish_iter`` L-BFGS-B iterations (a modest budget); otherwise the memetic GA with that population, the
-    polish starting from ``best`` too.
+    ``budget`` is (``ga_pop``, ``polish_iter``). With ``ga_pop`` = 0 the re-optimisation is a gradient polish
+    from ``best``'s tensions, at most ``polish_iter`` L-BFGS-B iterations (a modest budget); otherwise the
+    memetic GA with that population, the polish starting from ``best`` too. ``progress(stage, total, unit)``, if
+    given, is told each model's stage (the GA's generations, or the polish as one step).
     """
+    ga_pop, polish_iter = budget
     out = []
     for name in models:
         problem = ReachProblem.create(robot, loads, bounds, model=name)
         sol = problem.solve(best.tensions)
         reach = sol.reach if sol.converged else float("nan")
         shift = float(np.linalg.norm(sol.tip_position - best.tip_position)) if sol.converged else float("nan")
+        step = None
         try:
             if ga_pop:
+                step = progress(f"{name}: GA, population {ga_pop}", 30, "gen") if progress else None
                 res = maximize_reach(problem, MemeticGA(pop_size=ga_pop, extra_starts=(best.tensions,)),
-                                     Termination(1e-6, 5, 30), seed=seed)
+                                     Termination(1e-6, 5, 30), seed=seed, on_generation=step)
                 method = f"memetic GA, population {ga_pop}, seed {seed}, polished also from the pcc optimum"
             else:
+                step = progress(f"{name}: polish from the pcc optimum", 1, "run") if progress else None
+                if step:
+                    step(0)  # shown from its start
                 res = polish_reach(problem, best.tensions, max_iter=polish_iter, restarts=0)
+                if step:
+                    step(1)
                 method = f"gradient polish from the pcc optimum, at most {polish_iter} iterations"
         except RuntimeError:
             res, method = None, "re-optimisation failed: no converged solve"
+        finally:
+            end_stage(step)
         out.append(ModelVerdict(name, bool(sol.converged), reach, shift, res, method))
     return out
 

@@ -24,6 +24,7 @@ from ..plotting import (
 from ..region import (
     MIN_MESH_POINTS,
     SOURCES,
+    Estimate,
     LargestReach,
     Region,
     RegionSamples,
@@ -34,6 +35,7 @@ from ..region import (
     WorkspaceSettings,
     WorkspaceStudy,
     region_overlap,
+    workspace_estimate,
     workspace_study,
 )
 from ..runtime import atomic_write, atomic_write_text, output_folder, write_csv, write_json
@@ -559,14 +561,8 @@ def _write_comparison(out: Path, cases: list[WorkspaceCase], robot: Robot, comma
     return [*files, "comparison.md", "comparison.json"]
 
 
-def workspace_section(robot: Robot, bounds: TensionBounds, s: Any, out: Path, files: list[str], *,
-                      seed: int = 0) -> dict[str, Any]:
-    """``tdcr reproduce``'s workspace section: the FSW under the paper's tip wrench next to no load, at the
-    budget of ``s`` (:class:`~pytdcr.study.ReproduceSettings`); writes ``workspace_slices`` (PNG, PDF) and the
-    two boundaries (``workspace_fsw_paper.ply``, ``workspace_fsw_no_load.ply``), appends them to ``files``.
-    The paper's definition of the equilibria (each sample from rest, ``equilibria="loading-path"``: this is the
-    paper's study), and no multistability check (``tdcr workspace`` has both): at the demo's budget it would
-    cost more than the region. With ``s.workspace_models``, also :func:`_models_section`."""
+def _section_cases(robot: Robot, s: Any, seed: int) -> dict[str, tuple[Robot, Loads, WorkspaceSettings, str]]:
+    """The workspace cases of :func:`workspace_section`: name → robot, loads, settings, model."""
     from ..paper import workspace_load_cases
 
     cases = {k: v for k, v in workspace_load_cases(robot).items() if k in ("no load", "paper wrench")}
@@ -574,8 +570,40 @@ def workspace_section(robot: Robot, bounds: TensionBounds, s: Any, out: Path, fi
     settings = WorkspaceSettings(n=s.workspace_n, seed=seed, voxel=voxel, budget=s.workspace_budget,
                                  directions=s.workspace_directions, multistability=0, equilibria="loading-path",
                                  reach="search" if s.workspace_directions else "samples")
-    done = [_case(name, r, loads, bounds, settings, "pcc", None, WorkspaceHooks()) for name, (r, loads) in
-            cases.items()]
+    out = {name: (r, loads, settings, "pcc") for name, (r, loads) in cases.items()}
+    if s.workspace_models:
+        settings = WorkspaceSettings(n=s.models_n, seed=seed, voxel=robot.length / s.models_voxels, directions=0,
+                                     multistability=0, reach="samples")
+        r, loads = cases["paper wrench"]
+        out.update({f"model {m}": (r, loads, settings, m) for m in s.workspace_models})
+    return out
+
+
+def section_estimate(robot: Robot, bounds: TensionBounds, s: Any, *, seed: int = 0) -> Estimate:
+    """The expected length of :func:`workspace_section` at the settings ``s``
+    (:func:`~pytdcr.region.workspace_estimate`)."""
+    return workspace_estimate([(r, loads, st, m, None) for r, loads, st, m in _section_cases(robot, s, seed).values()],
+                              bounds)
+
+
+def workspace_section(robot: Robot, bounds: TensionBounds, s: Any, out: Path, files: list[str], *,
+                      seed: int = 0, progress: Any = None) -> dict[str, Any]:
+    """``tdcr reproduce``'s workspace section: the FSW under the paper's tip wrench next to no load, at the
+    budget of ``s`` (:class:`~pytdcr.study.ReproduceSettings`); writes ``workspace_slices`` (PNG, PDF) and the
+    two boundaries (``workspace_fsw_paper.ply``, ``workspace_fsw_no_load.ply``), appends them to ``files``.
+    The paper's definition of the equilibria (each sample from rest, ``equilibria="loading-path"``: this is the
+    paper's study), and no multistability check (``tdcr workspace`` has both): at the demo's budget it would
+    cost more than the region. With ``s.workspace_models``, also :func:`_models_section`.
+    ``progress(stage, total, unit)``, if given, is told each stage (named "workspace, <case>: <stage>")."""
+
+    def hooks(name: str) -> WorkspaceHooks:
+        if progress is None:
+            return WorkspaceHooks()
+        return WorkspaceHooks(lambda stage, total: progress(f"workspace, {name}: {stage}", total, "solve"))
+
+    cases = _section_cases(robot, s, seed)
+    done = [_case(name, r, loads, bounds, st, m, None, hooks(name)) for name, (r, loads, st, m) in cases.items()
+            if not name.startswith("model ")]
     for case in (c for c in done if c.region.fsw.has_volume):
         name = f"workspace_fsw_{_slug(case.name)}.ply"
         case.region.fsw_region.mesh().export(out / name, file_type="ply")
@@ -583,25 +611,26 @@ def workspace_section(robot: Robot, bounds: TensionBounds, s: Any, out: Path, fi
     files += save_figure(plot_region_slices({c.name: c.region.fsw_region for c in done}, robot.length,
                                             f"robot '{robot.name}': FSW, no load and the paper's wrench"),
                          out, "workspace_slices")
-    section = {"n": s.workspace_n, "voxel_m": voxel, "budget": s.workspace_budget, "cases": _comparison(done)}
+    section = {"n": s.workspace_n, "voxel_m": cases["no load"][2].voxel, "budget": s.workspace_budget,
+               "cases": _comparison(done)}
     if s.workspace_models:
-        section["models"] = _models_section(robot, cases["paper wrench"][1], bounds, s, seed, out, files)
+        models = {name[len("model "):]: v for name, v in cases.items() if name.startswith("model ")}
+        section["models"] = _models_section(robot, models, bounds, s, out, files, hooks)
     return section
 
 
-def _models_section(robot: Robot, loads: Loads, bounds: TensionBounds, s: Any, seed: int, out: Path,
-                    files: list[str]) -> dict[str, Any]:
-    """The FSWs of ``s.workspace_models`` under ``loads`` (the paper's), each model's own equilibria
-    (continued where it can), at ``s.models_n`` samples and ``s.models_voxels`` voxels per length, compared:
-    per model its volume with its error, per pair the Hausdorff distance and the share of each inside the
-    other; writes ``workspace_models_slices`` (PNG, PDF)."""
-    voxel = robot.length / s.models_voxels
-    settings = WorkspaceSettings(n=s.models_n, seed=seed, voxel=voxel, directions=0, multistability=0,
-                                 reach="samples")
-    done = [_case(m, robot, loads, bounds, settings, m, None, WorkspaceHooks()) for m in s.workspace_models]
+def _models_section(robot: Robot, models: dict[str, tuple[Any, ...]], bounds: TensionBounds, s: Any, out: Path,
+                    files: list[str], hooks: Callable[[str], WorkspaceHooks]) -> dict[str, Any]:
+    """The FSWs of ``models`` (name → robot, loads, settings, model: the paper's wrench, each model's own
+    equilibria, continued where it can, at ``s.models_n`` samples and ``s.models_voxels`` voxels per length),
+    compared: per model its volume with its error, per pair the Hausdorff distance and the share of each inside
+    the other; writes ``workspace_models_slices`` (PNG, PDF)."""
+    done = [_case(name, r, loads, bounds, st, m, None, hooks(f"model {name}"))
+            for name, (r, loads, st, m) in models.items()]
     files += save_figure(plot_region_slices({c.name: c.region.fsw_region for c in done}, robot.length,
                                             f"robot '{robot.name}': FSW under the paper's wrench, by model"),
                          out, "workspace_models_slices")
+    voxel = next(iter(models.values()))[2].voxel
     return {"n": s.models_n, "voxel_m": voxel, "cases": _comparison(done), "pairs": _pairs(done)}
 
 
