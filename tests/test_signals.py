@@ -135,7 +135,7 @@ def test_sigint_reproduce_keeps_finished_figures(tmp_path):
 def test_sigint_workspace_keeps_the_samples_solved(tmp_path):
     out = tmp_path / "out"
     p = Proc("workspace", "--n", "256", "--budget", "1000000", "--directions", "0", "--out", str(out))
-    p.wait_for(r"boundary search 1/3: (\d+)", at_least=512)
+    p.wait_for(r"boundary search 1/3 \(budget\): (\d+)", at_least=512)
     code, line = p.interrupt()
     assert code == 130
     m = re.fullmatch(r"tdcr: interrupted; saved (\d+) solved samples \((\d+) converged\) in samples.npz, no "
