@@ -94,6 +94,8 @@ def _run_command(args: argparse.Namespace) -> int:
                 pass
         except KeyboardInterrupt:
             scope.cancel()
+            if getattr(args, "serves", False):  # a page served until Ctrl-C: its normal end, with nothing to save
+                raise _Interrupted("the page is closed (it saves nothing)") from None
             try:
                 if not done.wait(SAVE_GRACE_S):
                     if not scope.saving.is_set():  # still inside one compiled call, with nothing to save

@@ -18,7 +18,14 @@ backend).
 
 from ._accuracy import AccuracyRun, run_accuracy
 from ._compare import CompareRun, run_compare
-from ._inverse import WorkspacePool, inverse_columns, inverse_rows, read_workspace_pool
+from ._inverse import (
+    WorkspaceInputs,
+    WorkspacePool,
+    inverse_columns,
+    inverse_rows,
+    read_workspace_inputs,
+    read_workspace_pool,
+)
 from ._output import inputs_record
 from ._reproduce import ReproduceRun, ReproduceSettings, reproduce_estimate, run_reproduce
 from ._runs import OptimizeRun, SampleRun, run_optimize, run_sample, sample_into, write_optimize
@@ -64,6 +71,7 @@ __all__ = [
     "SolveSettings",
     "WorkspaceCase",
     "WorkspaceCaseSpec",
+    "WorkspaceInputs",
     "WorkspacePool",
     "WorkspaceRun",
     "WorkspaceRunOptions",
@@ -76,6 +84,7 @@ __all__ = [
     "inverse_rows",
     "read_cases",
     "read_targets",
+    "read_workspace_inputs",
     "read_workspace_pool",
     "reproduce_estimate",
     "run_accuracy",

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -15,7 +15,8 @@ from ..io import robot_from_dict
 from ..loads import Loads, PointLoad
 from ..validate import SettingsError, show_path
 
-__all__ = ["WorkspacePool", "inverse_columns", "inverse_rows", "read_workspace_pool"]
+__all__ = ["WorkspaceInputs", "WorkspacePool", "inverse_columns", "inverse_rows", "read_workspace_inputs",
+           "read_workspace_pool"]
 
 
 def inverse_columns(n_tendons: int) -> list[str]:
@@ -44,29 +45,57 @@ class WorkspacePool:
     tips: np.ndarray
 
 
-def read_workspace_pool(folder: str | Path) -> WorkspacePool:
-    """The workspace run in ``folder`` (its ``workspace.json`` inputs and ``samples.npz``) as a
-    :class:`WorkspacePool`; SettingsError naming ``workspace`` when the folder is not one finished run."""
+class WorkspaceInputs(NamedTuple):
+    """What a finished ``tdcr workspace`` run was made of: its robot, external loads, bounds and model (a
+    registered name), and its whole ``workspace.json`` (``summary``)."""
+
+    robot: Robot
+    loads: Loads
+    bounds: TensionBounds
+    model: str
+    summary: dict[str, Any]
+
+
+def read_workspace_inputs(folder: str | Path) -> WorkspaceInputs:
+    """The inputs of the workspace run in ``folder`` (``workspace.json``, beside ``samples.npz``);
+    SettingsError naming ``workspace`` when the folder is not one finished run."""
+    from ..statics import MODELS
+
     d = Path(folder)
     where = show_path(d)
     if not (d / "workspace.json").is_file() or not (d / "samples.npz").is_file():
         raise SettingsError("workspace", f" {where}: give the folder of one finished `tdcr workspace` run (with "
                             "workspace.json and samples.npz; of a comparison, one case's folder)")
     try:
-        inputs = json.loads((d / "workspace.json").read_text(encoding="utf-8"))["inputs"]
+        summary = json.loads((d / "workspace.json").read_text(encoding="utf-8"))
+        inputs = summary["inputs"]
         robot = robot_from_dict(inputs["robot"], f"{where}: robot")
         ld = inputs["loads"]
-        loads = Loads(np.zeros(robot.n_tendons), tip_force=np.asarray(ld["tip_force"], dtype=float),
+        loads = Loads(tip_force=np.asarray(ld["tip_force"], dtype=float),
                       tip_moment=np.asarray(ld["tip_moment"], dtype=float), release=bool(ld["release"]),
                       point_loads=tuple(PointLoad(int(p["disk"]), np.asarray(p["force"], dtype=float),
                                                   np.asarray(p["moment"], dtype=float)) for p in ld["point_loads"]))
         bounds = TensionBounds(inputs["bounds"]["lower"], inputs["bounds"]["upper"])
         model = str(inputs["solver"]["model"])
+        if model not in MODELS:
+            raise ValueError(f"its model {model!r} is not registered")
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        raise SettingsError("workspace", f" {where}: cannot read the run ({type(err).__name__}: {err})") from None
+    return WorkspaceInputs(robot, loads, bounds, model, summary)
+
+
+def read_workspace_pool(folder: str | Path) -> WorkspacePool:
+    """The workspace run in ``folder`` (its ``workspace.json`` inputs and ``samples.npz``) as a
+    :class:`WorkspacePool`; SettingsError naming ``workspace`` when the folder is not one finished run."""
+    run = read_workspace_inputs(folder)
+    d = Path(folder)
+    try:
         with np.load(d / "samples.npz", allow_pickle=False) as z:
             keep = z["converged"] & (z["stable"] == 1.0)
             tensions, tips = z["tensions"][keep], z["tip"][keep]
     except (OSError, ValueError, KeyError, TypeError) as err:
-        raise SettingsError("workspace", f" {where}: cannot read the run ({type(err).__name__}: {err})") from None
-    if tensions.shape[0] == 0 or tensions.shape[1] != robot.n_tendons:
-        raise SettingsError("workspace", f" {where}: no converged, stable sample of robot '{robot.name}'")
-    return WorkspacePool(robot, loads, bounds, model, tensions, tips)
+        raise SettingsError("workspace", f" {show_path(d)}: cannot read the run ({type(err).__name__}: {err})"
+                            ) from None
+    if tensions.shape[0] == 0 or tensions.shape[1] != run.robot.n_tendons:
+        raise SettingsError("workspace", f" {show_path(d)}: no converged, stable sample of robot '{run.robot.name}'")
+    return WorkspacePool(run.robot, run.loads, run.bounds, run.model, tensions, tips)

@@ -1,0 +1,128 @@
+"""``tdcr explore``: a local web page to move a robot's tendons and loads and watch its equilibrium, live.
+
+Each change is solved by continuation from the last equilibrium shown (``pytdcr.solve(..., start=last)``), the
+quasi-static answer of a robot whose tensions move; "solve from rest" shows the loading path's answer beside it.
+A finished ``tdcr workspace`` folder adds its boundary and its largest-reach pose.
+
+The page is a Dash app (imported when the app is built, never with :mod:`pytdcr`), served on 127.0.0.1 only.
+"""
+
+from __future__ import annotations
+
+import socket
+import threading
+import time
+import webbrowser
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+from ..design import Robot
+from ..runtime import check_cancelled
+from ..validate import SettingsError
+from ._session import Explorer
+from ._workspace import WorkspaceView, read_workspace
+
+__all__ = ["HOST", "Explorer", "PortError", "WorkspaceView", "check_port", "create_app", "read_workspace", "serve"]
+
+#: the only address the page is served on
+HOST = "127.0.0.1"
+
+
+def create_app(robot: Robot | None = None, *, workspace: str | Path | None = None, model: str | None = "pcc") -> Any:
+    """The explorer's Dash app (for tests and notebooks; :func:`serve` runs it).
+
+    Parameters
+    ----------
+    robot : Robot, optional
+        Default: the workspace run's robot with ``workspace``, else :func:`pytdcr.paper.paper_robot`.
+    workspace : str or Path, optional
+        A finished ``tdcr workspace`` output folder: its FSW boundary and largest-reach pose are drawn.
+    model : str or None
+        The registered model selected first (:data:`pytdcr.statics.MODELS`); None: the workspace run's, else pcc.
+
+    Raises
+    ------
+    SettingsError
+        Naming ``workspace`` for a folder that is not a finished workspace run, ``model`` for an unknown model.
+    """
+    from ._app import build_app
+
+    ex = Explorer(robot, workspace=workspace, model=model)
+    _warm(ex)
+    return build_app(ex)
+
+
+def _warm(ex: Explorer) -> None:
+    """Solve once from rest and once by continuation, so the first move on the page does not load the kernels."""
+    sid = "warm-up"
+    ex.step(sid, ex.defaults)
+    ex.step(sid, replace(ex.defaults, tensions=ex.bounds.lower + 0.1 * (ex.bounds.upper - ex.bounds.lower)))
+    ex.forget(sid)
+
+
+class PortError(OSError):
+    """The port cannot be listened on (in use, or not allowed); the message begins with ``port N``."""
+
+
+def check_port(port: int) -> int:
+    """``port`` as an int in [1, 65535]; :class:`SettingsError` naming ``port`` otherwise."""
+    if isinstance(port, bool) or not isinstance(port, int) or not 1 <= port <= 65535:
+        raise SettingsError("port", f" = {port!r}: must be an integer in [1, 65535]")
+    return port
+
+
+def _check_free(port: int) -> None:
+    """:class:`PortError` when ``port`` on 127.0.0.1 cannot be listened on (in use, say)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as the server does
+        try:
+            s.bind((HOST, port))
+        except OSError as err:
+            raise PortError(f"port {port}: cannot listen on {HOST}:{port} ({err.strerror or err}); choose "
+                            "another port") from None
+
+
+def serve(robot: Robot | None = None, *, workspace: str | Path | None = None, port: int = 8080,
+          model: str | None = "pcc", open_browser: bool = False) -> None:
+    """Serve the explorer at http://127.0.0.1:``port``/ until interrupted (Ctrl-C); blocks.
+
+    Parameters as for :func:`create_app`; ``port`` in [1, 65535]; ``open_browser`` opens the page in the
+    default browser once the server listens.
+
+    Raises
+    ------
+    SettingsError
+        For a bad port, workspace folder or model.
+    PortError
+        When the port cannot be listened on (in use, say), naming it.
+    """
+    from werkzeug.serving import WSGIRequestHandler, make_server
+
+    class Quiet(WSGIRequestHandler):
+        """No line per request on stderr."""
+
+        def log_request(self, *args: Any) -> None:
+            pass
+
+    _check_free(check_port(port))
+    app = create_app(robot, workspace=workspace, model=model)
+    try:
+        server = make_server(HOST, port, app.server, threaded=True, request_handler=Quiet)
+    except (OSError, SystemExit):  # werkzeug says why on stderr and exits
+        raise PortError(f"port {port}: cannot listen on {HOST}:{port}; choose another port") from None
+    url = f"http://{HOST}:{port}/"
+    thread = threading.Thread(target=server.serve_forever, name="tdcr-explore", daemon=True)
+    thread.start()
+    print(f"tdcr explore: serving {url} (Ctrl-C stops)", flush=True)
+    if open_browser:
+        webbrowser.open(url)
+    try:
+        while thread.is_alive():
+            time.sleep(0.2)
+            check_cancelled()  # the command line's Ctrl-C
+    except KeyboardInterrupt:
+        pass
+    finally:
+        server.shutdown()
+        server.server_close()

@@ -1,0 +1,238 @@
+"""The explorer's web page (Dash): the controls, the 3D figure, the status line, and the callbacks between them.
+
+One server callback solves: it takes every control, continues the session's last equilibrium
+(:meth:`~pytdcr.explore._session.Explorer.step`) and sends the figure's moving traces as a partial update
+(``dash.Patch``), the status and the tip. Each tendon has a slider and a number box kept equal in the browser
+(a clientside callback: the slider's value while it is dragged or moved by the arrow keys goes to the box); the
+number box is the value the server reads. While a slider is dragged, Dash drops the answers of requests a newer
+one has overtaken, so the page follows the last position.
+"""
+
+from __future__ import annotations
+
+import uuid
+from typing import Any
+
+import numpy as np
+from dash import Dash, Input, Output, Patch, State, ctx, dcc, html, no_update
+
+from ._figure import MM, REST, base_figure, pose_data, rest_data
+from ._session import FRICTIONS, Action, Controls, Explorer, Outcome, same_equilibrium
+
+__all__ = ["build_app"]
+
+_WRENCH = ("force-x", "force-y", "force-z", "moment-x", "moment-y", "moment-z", "payload")
+_BOX = {"width": "74px", "marginLeft": "6px"}
+_SMALL = {"width": "70px", "marginRight": "4px"}
+# the slider and the number box of one tendon, kept equal; the one the user moved wins
+_SYNC_JS = """
+function(drag, box) {
+    const nu = window.dash_clientside.no_update;
+    const trig = window.dash_clientside.callback_context.triggered.map(t => t.prop_id);
+    if (trig.length && trig[0].startsWith('slider-')) {
+        return (drag === null || drag === undefined || drag === box) ? [nu, nu] : [nu, drag];
+    }
+    if (box === null || box === undefined || Number.isNaN(box)) { return [nu, nu]; }
+    return [box, nu];
+}
+"""
+
+
+def _tension_rows(ex: Explorer) -> list[Any]:
+    """One row per tendon: its label, a slider over its bounds [N] and a number box."""
+    rows = []
+    for k, t in enumerate(ex.robot.tendons):
+        lo, hi = float(ex.bounds.lower[k]), float(ex.bounds.upper[k])
+        marks = {f"{v:g}": f"{v:g}" for v in np.linspace(lo, hi, 5)}
+        value = float(ex.defaults.tensions[k])
+        rows.append(html.Div([
+            html.Div(f"T{k + 1} (segment {t.segment}, {t.angle_deg:g}°) [N]", style={"fontSize": "12px"}),
+            html.Div([
+                html.Div(dcc.Slider(id=f"slider-{k}", min=lo, max=hi, step=(hi - lo) / 400 or None, value=value,
+                                    marks=marks, updatemode="mouseup"), style={"flex": "1", "minWidth": "0"}),
+                dcc.Input(id=f"tension-{k}", type="number", min=lo, max=hi, step="any", value=value, debounce=True,
+                          style=_BOX),
+            ], style={"display": "flex", "alignItems": "flex-start"}),
+        ], style={"marginBottom": "2px"}))
+    return rows
+
+
+def _load_rows(ex: Explorer) -> list[Any]:
+    """Tip force [N], tip moment [N m], payload [kg], gravity, friction and model."""
+    d = ex.defaults
+    values = [*d.tip_force.tolist(), *d.tip_moment.tolist(), d.payload_kg]
+
+    def box(i: int) -> Any:
+        return dcc.Input(id=_WRENCH[i], type="number", step="any", value=values[i], debounce=True, style=_SMALL,
+                         min=0 if _WRENCH[i] == "payload" else None)
+
+    law = ex.robot.friction.law
+    return [
+        html.Div(["tip force [N] ", *[box(i) for i in range(3)]], style={"marginTop": "8px"}),
+        html.Div(["tip moment [N m] ", *[box(i) for i in range(3, 6)]]),
+        html.Div(["payload at the tip [kg] ", box(6)]),
+        dcc.Checklist(id="gravity", options=[{"label": " gravity", "value": "on"}],
+                      value=["on"] if d.gravity else [], style={"marginTop": "6px"}),
+        html.Div("friction", style={"marginTop": "6px"}),
+        dcc.Dropdown(id="friction", clearable=False, searchable=False, value=d.friction,
+                     options=[{"label": f"the robot's own ({law})", "value": FRICTIONS[0]},
+                              {"label": "none", "value": FRICTIONS[1]}]),
+        html.Div("model", style={"marginTop": "6px"}),
+        dcc.Dropdown(id="model", clearable=False, searchable=False, value=d.model,
+                     options=[{"label": label, "value": name, "title": text}
+                              for name, label, text in ex.model_choices()]),
+        html.Div([html.Button("Reset", id="reset", n_clicks=0),
+                  html.Button("Solve from rest", id="rest", n_clicks=0, style={"marginLeft": "8px"})],
+                 style={"marginTop": "10px"}),
+    ]
+
+
+def _workspace_text(ex: Explorer) -> str:
+    """A line on the workspace run drawn (empty without one)."""
+    ws = ex.workspace
+    if ws is None:
+        return ""
+    shown = f"{len(ws.faces)} of {ws.faces_total} faces" if ws.faces is not None else "no boundary mesh"
+    text = f"workspace run {ws.folder}: FSW boundary ({shown})"
+    if ws.reach is not None:
+        text += f"; largest reach {np.linalg.norm(ws.reach.tip) * MM:.1f} mm"
+        text += f" ({ws.reach.note})" if ws.reach.note else ""
+    if ws.robot != ex.robot:
+        text += f"; computed for robot '{ws.robot.name}', not the robot shown"
+    return text
+
+
+def _layout(ex: Explorer) -> Any:
+    """The page: controls on the left, status and figure on the right; a fresh session id per page load."""
+    r = ex.robot
+
+    def layout() -> Any:
+        controls = html.Div([
+            html.H3("pytdcr explore", style={"margin": "4px 0"}),
+            html.Div(f"robot '{r.name}': {len(r.segments)} segments, {r.n_tendons} tendons, {r.n_disks} disks, "
+                     f"{r.length * MM:g} mm", style={"fontSize": "12px", "marginBottom": "6px"}),
+            *_tension_rows(ex), *_load_rows(ex),
+        ], style={"width": "400px", "padding": "8px", "overflowY": "auto", "height": "97vh",
+                  "fontFamily": "sans-serif", "fontSize": "13px"})
+        view = html.Div([
+            html.Div(id="status", style={"fontFamily": "monospace", "fontSize": "13px", "minHeight": "3.6em"}),
+            html.Div(["tip [m]: ", html.Span(id="tip")], style={"fontFamily": "monospace", "fontSize": "11px",
+                                                                 "color": "#666"}),
+            html.Div(_workspace_text(ex), id="workspace-info", style={"fontSize": "12px", "color": "#555"}),
+            dcc.Graph(id="graph", figure=base_figure(r, ex.workspace), style={"height": "86vh"},
+                      config={"displaylogo": False}),
+        ], style={"flex": "1", "padding": "8px", "fontFamily": "sans-serif"})
+        return html.Div([controls, view, dcc.Store(id="session", data=uuid.uuid4().hex)],
+                        style={"display": "flex"})
+
+    return layout
+
+
+def _controls(ex: Explorer, tensions: list, wrench: list, options: dict) -> Controls | str:
+    """The controls read from the page, or what is wrong with them (naming the control)."""
+    lo, hi = ex.bounds.lower, ex.bounds.upper
+    for k, v in enumerate(tensions):
+        if v is None or not lo[k] <= float(v) <= hi[k]:
+            return f"T{k + 1}: give a tension in [{lo[k]:g}, {hi[k]:g}] N"
+    for name, v in zip(_WRENCH, wrench, strict=True):
+        if v is None or not np.isfinite(float(v)):
+            return f"{name.replace('-', ' ')}: give a number"
+    if float(wrench[6]) < 0:
+        return "payload: give a mass >= 0 kg"
+    w = np.asarray(wrench, dtype=float)
+    return Controls(np.asarray(tensions, dtype=float), w[:3], w[3:6], float(w[6]), "on" in (options["gravity"] or []),
+                    options["friction"], options["model"])
+
+
+def _status(out: Outcome) -> tuple[list[Any], str]:
+    """The status line's parts and the tip text (metres, 9 decimals; "not converged" without an equilibrium)."""
+    red = {"color": "#c0392b", "fontWeight": "bold"}
+    if out.error:
+        return [html.Span(f"not solved: {out.error}", style=red)], "not solved"
+    sol = out.solution
+    if sol is None or not sol.converged:
+        why = f" ({sol.failure})" if sol is not None and sol.failure else ""
+        res = f"max |residual| {sol.residual:.3g} N m > atol {sol.atol:.1g}" if sol is not None else ""
+        return [html.Span(f"NOT converged: {res}{why}; nothing drawn (the last equilibrium is kept for the next "
+                          "change)", style=red), html.Br(), out.note], "not converged"
+    tip = sol.tip_position
+    stable = {True: "stable", False: "UNSTABLE", None: "stability untested"}[sol.stable]
+    parts: list[Any] = [
+        html.Span("converged", style={"color": "#1e8449", "fontWeight": "bold"}),
+        f" · {stable} · path {sol.path} · tip ({tip[0] * MM:.3f}, {tip[1] * MM:.3f}, {tip[2] * MM:.3f}) mm · "
+        f"{out.seconds * 1e3:.1f} ms", html.Br(), out.note]
+    if out.rest is not None:
+        parts += [html.Br(), _rest_text(out)]
+    return parts, " ".join(f"{v:.9f}" for v in tip)
+
+
+def _rest_text(out: Outcome) -> Any:
+    """How the loading path from rest compares with the equilibrium shown."""
+    rest, sol = out.rest, out.solution
+    if not rest.converged:
+        return html.Span(f"loading path from rest: NOT converged (max |residual| {rest.residual:.3g} N m)",
+                         style={"color": "#c0392b"})
+    same, gap = same_equilibrium(sol, rest)
+    t = rest.tip_position * MM
+    word = "the same equilibrium" if same else "ANOTHER equilibrium"
+    return html.Span(f"loading path from rest (translucent): {word}, tips {gap * MM:.4g} mm apart; its tip "
+                     f"({t[0]:.3f}, {t[1]:.3f}, {t[2]:.3f}) mm, path {rest.path}",
+                     style={"color": "#b9770e" if same else "#c0392b", "fontWeight": "normal" if same else "bold"})
+
+
+def _patch(out: Outcome) -> Any:
+    """The figure's moving traces for ``out`` (all empty when there is no equilibrium)."""
+    p = Patch()
+    sol = None if out.error else out.solution
+    for i, data in pose_data(out.robot, sol, out.loads).items():
+        for key, value in data.items():
+            p["data"][i][key] = value
+    for key, value in rest_data(out.robot, out.rest).items():
+        p["data"][REST][key] = value
+    return p
+
+
+def build_app(ex: Explorer) -> Dash:
+    """The Dash app of ``ex``: layout and callbacks."""
+    n = ex.robot.n_tendons
+    app = Dash(__name__, title="pytdcr explore", update_title=None)
+    app.layout = _layout(ex)
+    for k in range(n):
+        app.clientside_callback(_SYNC_JS, Output(f"slider-{k}", "value"),
+                                Output(f"tension-{k}", "value", allow_duplicate=True),
+                                Input(f"slider-{k}", "drag_value"), Input(f"tension-{k}", "value"),
+                                prevent_initial_call=True)
+    tension_ids, wrench_ids = [f"tension-{k}" for k in range(n)], list(_WRENCH)
+
+    @app.callback(
+        output={"figure": Output("graph", "figure"), "status": Output("status", "children"),
+                "tip": Output("tip", "children"), "tensions": [Output(i, "value") for i in tension_ids],
+                "wrench": [Output(i, "value") for i in wrench_ids], "gravity": Output("gravity", "value")},
+        inputs={"tensions": [Input(i, "value") for i in tension_ids],
+                "wrench": [Input(i, "value") for i in wrench_ids],
+                "options": {"gravity": Input("gravity", "value"), "friction": Input("friction", "value"),
+                            "model": Input("model", "value")},
+                "clicks": [Input("reset", "n_clicks"), Input("rest", "n_clicks")],
+                "sid": State("session", "data")})
+    def on_change(tensions: list, wrench: list, options: dict, clicks: list, sid: str) -> dict[str, Any]:
+        """Solve the controls (continued from the session's last equilibrium) and redraw."""
+        action = {"reset": Action.RESET, "rest": Action.REST}.get(ctx.triggered_id, Action.CHANGE)
+        keep = {"tensions": [no_update] * n, "wrench": [no_update] * len(_WRENCH), "gravity": no_update}
+        if action is Action.RESET:
+            d = ex.defaults
+            tensions = d.tensions.tolist()
+            wrench = [*d.tip_force.tolist(), *d.tip_moment.tolist(), d.payload_kg]
+            options = {**options, "gravity": ["on"] if d.gravity else []}
+            keep = {"tensions": tensions, "wrench": wrench, "gravity": options["gravity"]}
+        c = _controls(ex, tensions, wrench, options)
+        if isinstance(c, str):
+            return {"figure": no_update, "status": html.Span(f"not solved: {c}", style={"color": "#c0392b"}),
+                    "tip": no_update, **keep}
+        try:
+            out = ex.step(sid, c, action)
+        except Exception as err:  # shown on the page, not a silent failed request (a bug: please report it)
+            out = Outcome(ex.robot, error=f"internal error: {type(err).__name__}: {err}")
+        status, tip = _status(out)
+        return {"figure": _patch(out), "status": status, "tip": tip, **keep}
+
+    return app

@@ -1,0 +1,142 @@
+"""The explorer's 3D figure (plotly, as plain dictionaries): the robot's traces and their data for one pose.
+
+The figure is built once per page; each solve changes only the data of the traces that move (:data:`MOVING`),
+sent as a partial update. Lengths are drawn in millimetres.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..design import Robot
+from ..loads import Loads
+from ..results import StaticSolution
+from ._workspace import WorkspaceView
+
+__all__ = ["BACKBONE", "DISKS", "FORCE", "MM", "MOMENT", "MOVING", "REST", "TENDONS", "TIP_AXES", "WORKSPACE_NAME",
+           "base_figure", "pose_data", "rest_data"]
+
+#: metres to the figure's millimetres
+MM = 1e3
+#: the traces that move, by index: backbone, disks, tendons, the tip frame's x, y, z axes, the tip force and
+#: moment arrows, the loading path's backbone
+BACKBONE, DISKS, TENDONS = 0, 1, 2
+TIP_AXES = (3, 4, 5)
+FORCE, MOMENT = 6, 7
+REST = 8
+MOVING = 9
+#: the name of the workspace boundary's trace
+WORKSPACE_NAME = "FSW boundary"
+_RING = 24  # points on a disk's circle
+
+
+def _line(name: str, colour: str, width: float, **extra: Any) -> dict[str, Any]:
+    return {"type": "scatter3d", "mode": "lines", "name": name, "x": [], "y": [], "z": [],
+            "line": {"color": colour, "width": width}, "hoverinfo": "skip", **extra}
+
+
+def _columns(points: np.ndarray) -> dict[str, list]:
+    """x, y, z lists [mm] of points (M, 3) [m]; rows of NaN break the line (null)."""
+    p = np.round(np.asarray(points, dtype=float) * MM, 4)
+    return {k: [None if v != v else v for v in p[:, i].tolist()] for i, k in enumerate("xyz")}
+
+
+def _broken(parts: list[np.ndarray]) -> np.ndarray:
+    """The polylines ``parts`` (each (M_i, 3)) joined into one array with a NaN row between them."""
+    gap = np.full((1, 3), np.nan)
+    out: list[np.ndarray] = []
+    for p in parts:
+        out += [p, gap]
+    return np.vstack(out) if out else np.zeros((0, 3))
+
+
+def base_figure(robot: Robot, workspace: WorkspaceView | None) -> dict[str, Any]:
+    """The figure of ``robot`` with no pose drawn yet (its traces empty), the workspace run's boundary and
+    largest-reach pose when given; axes span the robot's length around the base [mm]."""
+    data = [_line("backbone", "#1f3b73", 8), _line("disks", "#7f8c8d", 3), _line("tendons", "#c0392b", 2),
+            _line("tip x", "#e74c3c", 6, showlegend=False), _line("tip y", "#27ae60", 6, showlegend=False),
+            _line("tip z", "#2f6fd6", 6, showlegend=False), _line("tip force", "#e67e22", 5),
+            _line("tip moment (double head)", "#8e44ad", 5),
+            _line("loading path from rest", "rgba(255,140,0,0.45)", 14)]
+    if workspace is not None:
+        data += _workspace_traces(workspace)
+    span = 1.05 * robot.length * MM
+    axis = {"range": [-span, span], "autorange": False, "zeroline": False}
+    layout = {"uirevision": "explore", "margin": {"l": 0, "r": 0, "t": 0, "b": 0},
+              "legend": {"x": 0.01, "y": 0.99, "bgcolor": "rgba(255,255,255,0.6)"},
+              "scene": {"aspectmode": "cube", "xaxis": {**axis, "title": {"text": "x [mm]"}},
+                        "yaxis": {**axis, "title": {"text": "y [mm]"}},
+                        "zaxis": {**axis, "title": {"text": "z [mm]"}},
+                        "camera": {"eye": {"x": 1.2, "y": -1.2, "z": 0.75}}}}
+    return {"data": data, "layout": layout}
+
+
+def _workspace_traces(ws: WorkspaceView) -> list[dict[str, Any]]:
+    """The boundary (translucent) and the largest-reach pose of a workspace run."""
+    out: list[dict[str, Any]] = []
+    if ws.vertices is not None and ws.faces is not None and len(ws.faces):
+        v, f = np.round(ws.vertices * MM, 3), ws.faces
+        out.append({"type": "mesh3d", "name": WORKSPACE_NAME, "x": v[:, 0].tolist(), "y": v[:, 1].tolist(),
+                    "z": v[:, 2].tolist(), "i": f[:, 0].tolist(), "j": f[:, 1].tolist(), "k": f[:, 2].tolist(),
+                    "color": "#5dade2", "opacity": 0.16, "flatshading": True, "showlegend": True,
+                    "hoverinfo": "skip"})
+    r = ws.reach
+    if r is not None:
+        if r.backbone is not None:
+            out.append(_line("largest reach (recorded)", "rgba(39,174,96,0.55)", 5, **_columns(r.backbone)))
+        out.append({"type": "scatter3d", "mode": "markers", "name": "largest-reach tip", **_columns(r.tip[None]),
+                    "marker": {"size": 5, "color": "#27ae60", "symbol": "diamond"},
+                    "hovertext": [f"largest reach {np.linalg.norm(r.tip) * MM:.1f} mm"], "hoverinfo": "text"})
+    return out
+
+
+def _arrow(origin: np.ndarray, vector: np.ndarray, length: float, heads: int = 1) -> np.ndarray:
+    """An arrow from ``origin`` [m] along ``vector``, ``length`` [m] long, with ``heads`` heads of four barbs
+    each, as polylines joined by NaN rows (:func:`_broken`); no points for a zero vector."""
+    n = float(np.linalg.norm(vector))
+    if n == 0.0:
+        return np.zeros((0, 3))
+    d = vector / n
+    e1 = np.cross(d, [0.0, 0.0, 1.0] if abs(d[2]) < 0.9 else [1.0, 0.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(d, e1)
+    h = 0.12 * length
+    parts = [np.vstack([origin, origin + length * d])]
+    for k in range(heads):
+        tip = origin + (1.0 - 0.12 * k) * length * d
+        parts += [np.vstack([tip, tip - h * d + s * 0.45 * h * e]) for e in (e1, e2) for s in (1.0, -1.0)]
+    return _broken(parts)
+
+
+def pose_data(robot: Robot, sol: StaticSolution | None, loads: Loads | None) -> dict[int, dict[str, Any]]:
+    """The data of the moving traces (by index, :data:`MOVING`) for a converged ``sol`` under ``loads``; with
+    ``sol`` None (no equilibrium), every moving trace empty, so that nothing is drawn as if it were one."""
+    empty = {"x": [], "y": [], "z": []}
+    if sol is None or not sol.converged:
+        return {i: dict(empty) for i in range(MOVING)}
+    p, R = sol.disk_positions, sol.disk_rotations
+    t = np.linspace(0.0, 2.0 * np.pi, _RING + 1)
+    ring = robot.disk_radius * np.stack([np.cos(t), np.sin(t), np.zeros_like(t)], axis=1)  # (T, 3)
+    disks = np.einsum("nij,tj->nti", R, ring) + p[:, None, :]
+    holes = np.einsum("nij,kj->nki", R, robot.tendon_holes) + p[:, None, :]  # (N+1, n_tendons, 3)
+    tendons = [holes[: a + 1, k] for k, a in enumerate(robot.anchor_disks)]
+    out = {BACKBONE: _columns(sol.backbone_points(robot)), DISKS: _columns(_broken(list(disks))),
+           TENDONS: _columns(_broken(tendons))}
+    tip, Rt, size = p[-1], R[-1], 0.1 * robot.length
+    for k, i in enumerate(TIP_AXES):
+        out[i] = _columns(np.vstack([tip, tip + size * Rt[:, k]]))
+    for i, vec, what, heads in ((FORCE, loads.tip_force, "tip force {:.3g} N", 1),
+                                (MOMENT, loads.tip_moment, "tip moment {:.3g} N m (double head)", 2)):
+        v = np.asarray(vec, dtype=float)
+        out[i] = {**_columns(_arrow(tip, v, 0.2 * robot.length, heads)), "name": what.format(np.linalg.norm(v))}
+    out[REST] = empty
+    return out
+
+
+def rest_data(robot: Robot, rest: StaticSolution | None) -> dict[str, Any]:
+    """The loading path's backbone trace data (empty when there is none or it did not converge)."""
+    if rest is None or not rest.converged:
+        return {"x": [], "y": [], "z": []}
+    return _columns(rest.backbone_points(robot))

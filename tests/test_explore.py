@@ -1,0 +1,253 @@
+"""``tdcr explore``: the page's solves equal the library's, a browser sees the robot and the workspace drawn,
+and the response to a slider move is measured (printed, not asserted: speed belongs in the benchmarks).
+
+The browser test drives Debian's Chromium (``/usr/bin/chromium``) through Playwright; without either it is
+skipped. Tensions are set through each tendon's number box (fill, Enter): the box is what the server reads, and
+it is exact where a slider handle moves by steps of its pixels; one move by the arrow keys on a slider handle
+checks that the slider drives the box too.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import socket
+import statistics
+import subprocess
+import sys
+import time
+import urllib.error
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pytdcr import Loads, solve
+from pytdcr.paper import paper_bounds, paper_robot
+
+CHROMIUM = Path("/usr/bin/chromium")
+CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                 "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+ROOT = Path(__file__).resolve().parents[1]
+
+
+# ---------------------------------------------------------------- without a browser
+def test_importing_the_package_imports_no_web_framework():
+    code = ("import sys, pytdcr, pytdcr.explore\n"
+            "print(','.join(m for m in ('dash', 'flask', 'matplotlib', 'pytdcr.explore._app') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+    assert out == ""
+    assert "explore" not in (ROOT / "src" / "pytdcr" / "__init__.py").read_text()
+
+
+def test_the_explorer_continues_and_matches_solve():
+    from pytdcr.explore import Explorer
+    from pytdcr.explore._session import Action
+
+    ex = Explorer()
+    robot = paper_robot()
+    assert ex.robot == robot and np.array_equal(ex.bounds.upper, paper_bounds(8).upper)
+    first = ex.step("s", ex.defaults)
+    assert first.solution.converged and first.solution.path == "loading"
+    t = np.zeros(8)
+    t[0] = 5.0
+    from dataclasses import replace
+
+    out = ex.step("s", replace(ex.defaults, tensions=t))
+    assert out.solution.path == "continued" and out.solution.converged
+    ref = solve(robot, Loads(t))
+    assert np.allclose(out.solution.tip_position, ref.tip_position, atol=1e-9, rtol=0)
+    # a payload is m g along the robot's gravity at the tip; "solve from rest" adds the loading path's answer
+    c = replace(ex.defaults, tensions=t, payload_kg=0.01, tip_moment=np.array([0.0, 0.0, 0.02]))
+    rest = ex.step("s", c, Action.REST)
+    ref = solve(robot, Loads(t, tip_force=[0.0, 0.0, -0.0981], tip_moment=[0.0, 0.0, 0.02]))
+    assert np.allclose(rest.rest.tip_position, ref.tip_position, atol=1e-9, rtol=0)
+    assert np.allclose(rest.solution.tip_position, ref.tip_position, atol=1e-6, rtol=0)
+    # another model or robot is solved from rest, and says so
+    changed = ex.step("s", replace(c, gravity=False))
+    assert changed.solution.path == "loading" and "solved from rest" in changed.note
+
+
+def test_the_model_menu_comes_from_the_registry():
+    from pytdcr.explore import Explorer
+    from pytdcr.statics import MODELS
+
+    choices = Explorer().model_choices()
+    assert [c[0] for c in choices] == list(MODELS)
+    labels = {name: label for name, label, _ in choices}
+    assert labels["pcc"] == "pcc" and labels["sscr"] == "sscr (slow)"
+
+
+def test_the_page_callback_shows_the_tip_of_solve():
+    """The server callback itself (called as Dash calls it): the tip it shows is solve()'s, to 1e-9 m."""
+    from dash._callback_context import context_value
+    from dash._utils import AttributeDict
+
+    from pytdcr.explore import create_app
+
+    app = create_app()
+    key = next(k for k in app.callback_map if "tip.children" in k)
+    on_change = app.callback_map[key]["callback"].__wrapped__
+    context_value.set(AttributeDict(triggered_inputs=[{"prop_id": "tension-0.value", "value": 5.0}]))
+    t = [5.0, 0, 0, 0, 0, 0, 0, 0]
+    out = on_change(t, [0, 0, 0, 0, 0, 0, 0], {"gravity": ["on"], "friction": "own", "model": "pcc"}, [0, 0], "x")
+    shown = np.array([float(v) for v in out["tip"].split()])
+    assert np.allclose(shown, solve(paper_robot(), Loads(np.array(t))).tip_position, atol=1e-9, rtol=0)
+    bad = on_change([25.0, *t[1:]], [0] * 7, {"gravity": [], "friction": "own", "model": "pcc"}, [0, 0], "x")
+    assert "T1" in str(bad["status"]) and "[0, 20] N" in str(bad["status"])
+
+
+@pytest.mark.parametrize(("args", "words"), [
+    (["--port", "0"], "--port"), (["--port", "70000"], "--port"), (["--model", "nope"], "--model"),
+    (["--workspace", "."], "--workspace")])
+def test_bad_input_is_refused_naming_the_option(capsys, args, words):
+    from pytdcr.cli import main
+
+    assert main(["explore", *args]) == 2
+    err = capsys.readouterr().err
+    assert words in err and err.count("\n") == 1
+
+
+def test_a_port_in_use_is_refused_naming_the_option(capsys):
+    from pytdcr.cli import main
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        s.listen()
+        port = s.getsockname()[1]
+        assert main(["explore", "--port", str(port)]) == 2
+    err = capsys.readouterr().err
+    assert f"--port {port}: cannot listen" in err
+
+
+# ---------------------------------------------------------------- in a browser
+def _browser_missing() -> str:
+    if not CHROMIUM.exists():
+        return "no /usr/bin/chromium (apt-get install chromium chromium-driver)"
+    try:
+        import playwright.sync_api  # noqa: F401
+    except ImportError:
+        return "playwright is not installed (pip install 'playwright>=1.45,<2')"
+    return ""
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def workspace_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("explore") / "ws"
+    subprocess.run([sys.executable, "-m", "pytdcr.cli", "workspace", "--n", "64", "--budget", "60",
+                    "--directions", "0", "--out", str(out), "-q"], check=True, capture_output=True)
+    assert json.loads((out / "workspace.json").read_text())["mesh"] == "fsw.ply"
+    return out
+
+
+@pytest.fixture(scope="module")
+def page_url(workspace_run):
+    why = _browser_missing()
+    if why:
+        pytest.skip(why)
+    port = _free_port()
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen([sys.executable, "-m", "pytdcr.cli", "explore", "--port", str(port), "--workspace",
+                             str(workspace_run)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env)
+    url = f"http://127.0.0.1:{port}/"
+    deadline = time.monotonic() + 90
+    try:
+        while True:
+            try:
+                with urllib.request.urlopen(url, timeout=5) as r:
+                    if r.status == 200:
+                        break
+            except (urllib.error.URLError, ConnectionError, TimeoutError):
+                pass
+            if proc.poll() is not None or time.monotonic() > deadline:
+                pytest.fail(f"the explorer did not answer at {url}: {proc.stdout.read().decode()[-2000:]}")
+            time.sleep(0.3)
+        yield url
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+#: records, in the page, when a key went down and when the tip text and the figure last changed [ms]
+_INSTRUMENT = """() => {
+  window.__tip = []; window.__plot = []; window.__key = 0;
+  new MutationObserver(() => window.__tip.push(performance.now())).observe(document.getElementById('tip'),
+      {childList: true, subtree: true, characterData: true});
+  document.querySelector('#graph .js-plotly-plot').on('plotly_afterplot', () => window.__plot.push(performance.now()));
+  document.addEventListener('keydown', () => { window.__key = performance.now(); }, true);
+}"""
+
+
+def _set(page, box: str, value: float) -> tuple[float, float]:
+    """Type ``value`` in the number box ``box`` and press Enter; the ms until the tip shown and the figure
+    changed."""
+    n, m = page.evaluate("[window.__tip.length, window.__plot.length]")
+    page.fill(box, f"{value:g}")
+    page.press(box, "Enter")
+    page.wait_for_function(f"window.__tip.length > {n} && window.__plot.length > {m}", timeout=30_000)
+    return tuple(page.evaluate(f"[window.__tip[{n}] - window.__key, window.__plot[{m}] - window.__key]"))
+
+
+@pytest.mark.slow
+def test_the_page_in_a_browser(page_url):
+    from PIL import Image
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=str(CHROMIUM), args=CHROMIUM_ARGS)
+        try:
+            page = browser.new_page(viewport={"width": 1400, "height": 900})
+            page.goto(page_url)
+            page.wait_for_function("document.getElementById('tip') && document.getElementById('tip').textContent "
+                                   "&& !!document.querySelector('#graph .js-plotly-plot') && typeof "
+                                   "document.querySelector('#graph .js-plotly-plot').on === 'function'",
+                                   timeout=60_000)
+            assert page.text_content("#tip").split() == ["0.000000000", "0.000000000", "0.400000000"]
+            page.evaluate(_INSTRUMENT)
+
+            # one move from rest, on a unique branch: tendon 1 to 5 N, no tip load
+            _set(page, "#tension-0", 5.0)
+            shown = np.array([float(v) for v in page.text_content("#tip").split()])
+            ref = solve(paper_robot(), Loads(np.array([5.0, 0, 0, 0, 0, 0, 0, 0])))
+            assert np.allclose(shown, ref.tip_position, atol=1e-6, rtol=0), (shown, ref.tip_position)
+            assert "converged" in page.text_content("#status") and "continued" in page.text_content("#status")
+            assert page.get_attribute("#slider-0 [role=slider]", "aria-valuenow") == "5"
+
+            # the workspace's boundary is drawn
+            traces = page.evaluate("Array.from(document.querySelector('#graph .js-plotly-plot').data)"
+                                   ".map(t => [t.type, t.name, (t.i || []).length])")
+            assert any(t == "mesh3d" and name == "FSW boundary" and faces > 0 for t, name, faces in traces), traces
+            assert "FSW boundary" in page.text_content("#workspace-info")
+
+            # the arrow keys on a slider handle move its tendon
+            n = page.evaluate("window.__tip.length")
+            page.focus("#slider-2 [role=slider]")
+            page.keyboard.press("ArrowRight")
+            page.wait_for_function(f"window.__tip.length > {n}", timeout=30_000)
+            assert float(page.input_value("#tension-2")) > 0
+
+            # the figure is not blank
+            png = page.locator("#graph").screenshot()
+            pixels = np.asarray(Image.open(io.BytesIO(png)).convert("L"), dtype=float)
+            assert pixels.std() > 5.0, pixels.std()
+
+            # response: 20 moves of tendon 2 (ms from the key to the new tip shown, and to the figure redrawn)
+            times = [_set(page, "#tension-1", 0.5 * k) for k in range(1, 21)]
+            tip_ms, plot_ms = statistics.median(t[0] for t in times), statistics.median(t[1] for t in times)
+            print(f"\nexplore response over 20 moves (pcc, paper robot): median {tip_ms:.1f} ms to the new tip "
+                  f"shown, {plot_ms:.1f} ms to the figure redrawn")
+            assert "converged" in page.text_content("#status")
+        finally:
+            browser.close()
