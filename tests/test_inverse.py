@@ -240,8 +240,9 @@ def test_the_command_line(tmp_path, capsys):
 
 @pytest.mark.parametrize(("args", "words"), [
     (["--target", "0.1,0.1"], "--target"),
-    (["--target", "0.1,0.1,0.1", "--tol", "0"], "--tol: tol: must be in (0, 0.01] m"),
-    (["--target", "0.1,0.1,0.1", "--direction", "0,0,0"], "--direction: direction: give 3 finite numbers"),
+    (["--target", "0.1,0.1,0.1", "--tol", "0"], "tdcr: error: --tol: must be in (0, 0.01] m"),
+    (["--target", "0.1,0.1,0.1", "--direction", "0,0,0"],
+     "tdcr: error: --direction: give 3 finite numbers, not all zero, got [0, 0, 0]"),
     (["--targets", "@MISSING"], "--targets"),
     (["--target", "0.1,0.1,0.1", "--workspace", "@EMPTY"], "--workspace"),
 ])

@@ -33,7 +33,8 @@ __all__ = ["FLAGS", "Parser", "add_bounds", "add_model", "add_n", "add_out", "ad
 FLAGS = {name: "--" + name.replace("_", "-") for name in (
     "robot", "friction", "tip_force", "tip_moment", "tensions", "bounds", "bounds_file", "model", "shear_extension",
     "atol", "plot", "n", "seed", "pop", "tol", "window", "max_gen", "stable_only", "models", "cases", "disks",
-    "order_cases", "reference_steps", "payload_g", "out", "compliance", "jacobians", "csv", "targets", "workspace")}
+    "order_cases", "reference_steps", "payload_g", "out", "compliance", "jacobians", "csv", "targets", "workspace",
+    "target", "direction", "starts", "max_solves", "objective")}
 FLAGS.update(disk_forces="--disk-force", disk_moments="--disk-moment")
 
 

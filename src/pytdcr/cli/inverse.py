@@ -92,17 +92,15 @@ def run(args: argparse.Namespace) -> int:
     targets = read_targets(args.targets) if args.targets else None
     robot, loads, bounds, model, pool = _problem(args)
     m, options = model_spec(args).resolve(robot, loads) if args.workspace is None else (model, None)
-    try:
-        search = InverseSearch(tol=args.tol, starts=args.starts, max_solves=args.max_solves, seed=args.seed,
-                               options=options, pool=pool)
-        if target is not None:
-            results = [inverse_statics(robot, loads, TipTarget(target, direction), bounds=bounds, model=m,
-                                       objective=args.objective, search=search)]
-        else:
-            results = inverse_path(robot, loads, targets, bounds=bounds, model=m, objective=args.objective,
-                                   direction=direction, search=search)
-    except ValueError as err:
-        raise CliError(f"{_flag_of(err)}{err}") from None
+    # a setting out of range is a SettingsError naming its field: the runner calls it by its option (FLAGS)
+    search = InverseSearch(tol=args.tol, starts=args.starts, max_solves=args.max_solves, seed=args.seed,
+                           options=options, pool=pool)
+    if target is not None:
+        results = [inverse_statics(robot, loads, TipTarget(target, direction), bounds=bounds, model=m,
+                                   objective=args.objective, search=search)]
+    else:
+        results = inverse_path(robot, loads, targets, bounds=bounds, model=m, objective=args.objective,
+                               direction=direction, search=search)
     name = m if isinstance(m, str) else m.name
     if args.json:
         head = {"robot": robot.name, "model": name, "objective": args.objective}
@@ -121,14 +119,6 @@ def run(args: argparse.Namespace) -> int:
         if not args.json:
             print(f"wrote {escape_controls(str(out))}")
     return EXIT_OK if all(r.reachable for r in results) else EXIT_NOT_CONVERGED
-
-
-def _flag_of(err: ValueError) -> str:
-    """The option a library error's first word names (``tol: ...`` is ``--tol``), for the message."""
-    word = str(err).split(":", 1)[0].split(" ", 1)[0]
-    flags = {"tol": "--tol", "starts": "--starts", "max_solves": "--max-solves", "target": "--target",
-             "direction": "--direction", "targets": "--targets"}
-    return f"{flags[word]}: " if word in flags else ""
 
 
 def _vec(v: np.ndarray, digits: int = 6) -> str:

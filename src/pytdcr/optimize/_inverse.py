@@ -40,7 +40,7 @@ from ..design import Robot
 from ..loads import Loads
 from ..results import StaticSolution
 from ..statics import Model, resolve, solve
-from ..validate import as_real_array, check_count
+from ..validate import SettingsError, as_real_array, check_count, show
 from ._inverse_search import (
     NEAREST,
     Point,
@@ -58,6 +58,14 @@ __all__ = ["NEAREST", "OBJECTIVES", "InverseResult", "InverseSearch", "TipTarget
 
 #: how a solution is chosen among the redundant ones
 OBJECTIVES = ("least-squares", "least-max", "least-total")
+
+
+def _numbers(value: Any) -> str:
+    """A value given as numbers, for a message: ``[0, 0, 0]`` (not an array's repr)."""
+    try:
+        return "[" + ", ".join(f"{x:g}" for x in np.asarray(value, dtype=float).reshape(-1)) + "]"
+    except (TypeError, ValueError):
+        return show(value)
 
 
 @dataclass(frozen=True)
@@ -79,13 +87,14 @@ class TipTarget:
     def __post_init__(self) -> None:
         p = as_real_array(self.position, "target").reshape(-1)
         if p.shape != (3,) or not np.all(np.isfinite(p)):
-            raise ValueError(f"target: give 3 finite numbers [m], got {self.position!r}")
+            raise SettingsError("target", f": give 3 finite numbers [m], got {_numbers(self.position)}")
         object.__setattr__(self, "position", p)
         if self.direction is not None:
             d = as_real_array(self.direction, "direction").reshape(-1)
             norm = float(np.linalg.norm(d)) if d.shape == (3,) and np.all(np.isfinite(d)) else 0.0
             if norm == 0.0:
-                raise ValueError(f"direction: give 3 finite numbers, not all zero, got {self.direction!r}")
+                raise SettingsError("direction",
+                                    f": give 3 finite numbers, not all zero, got {_numbers(self.direction)}")
             object.__setattr__(self, "direction", d / norm)
 
     @classmethod
@@ -125,11 +134,13 @@ class InverseSearch:
     def __post_init__(self) -> None:
         tol = float(as_real_array(self.tol, "tol"))
         if not (np.isfinite(tol) and 0.0 < tol <= 0.01):
-            raise ValueError(f"tol: must be in (0, 0.01] m, got {self.tol!r}")
+            raise SettingsError("tol", f": must be in (0, 0.01] m, got {self.tol!r}")
         object.__setattr__(self, "tol", tol)
-        object.__setattr__(self, "starts", check_count(self.starts, "starts", lo=1, hi=100))
-        object.__setattr__(self, "max_solves", check_count(self.max_solves, "max_solves", lo=10))
-        object.__setattr__(self, "seed", check_count(self.seed, "seed", lo=0))
+        for name, lo, hi in (("starts", 1, 100), ("max_solves", 10, None), ("seed", 0, None)):
+            try:
+                object.__setattr__(self, name, check_count(getattr(self, name), name, lo=lo, hi=hi))
+            except ValueError as err:
+                raise SettingsError.about(name, err) from None
         if self.pool is not None:
             t, p = (np.asarray(a, dtype=float) for a in self.pool)
             if t.ndim != 2 or p.shape != (t.shape[0], 3) or t.shape[0] == 0 or not (
@@ -213,7 +224,7 @@ def _setup(robot: Robot, loads: Loads, target: Any, bounds: TensionBounds, model
     """Checked inputs as the search's :class:`Target` (ValueError or TypeError naming the bad argument)."""
     tt = TipTarget.of(target)
     if objective not in OBJECTIVES:
-        raise ValueError(f"objective: must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
+        raise SettingsError("objective", f": must be one of {', '.join(OBJECTIVES)}, got {objective!r}")
     if not isinstance(bounds, TensionBounds):
         raise TypeError(f"bounds must be a pytdcr.TensionBounds, got {type(bounds).__name__}")
     bounds.check_robot(robot)
@@ -352,7 +363,7 @@ def inverse_path(robot: Robot, loads: Loads, targets: Any, *, bounds: TensionBou
     search = InverseSearch() if search is None else search
     pts = as_real_array(targets, "targets")
     if pts.ndim != 2 or pts.shape[1] != 3 or pts.shape[0] == 0 or not np.all(np.isfinite(pts)):
-        raise ValueError(f"targets: give K >= 1 rows of 3 finite numbers [m], got shape {pts.shape}")
+        raise SettingsError("targets", f": give K >= 1 rows of 3 finite numbers [m], got shape {pts.shape}")
     out = [inverse_statics(robot, loads, TipTarget(pts[0], direction), bounds=bounds, model=model,
                            objective=objective, search=search)]
     tg = _setup(robot, loads, TipTarget(pts[0], direction), bounds, model, objective, search)
