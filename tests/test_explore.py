@@ -1,5 +1,6 @@
-"""``tdcr explore``: the page's solves equal the library's, a browser sees the robot and the workspace drawn,
-and the response to a slider move is measured (printed, not asserted: speed belongs in the benchmarks).
+"""``tdcr explore``: the page's solves equal the library's, a target point is answered by inverse statics (or a
+workspace run's nearest sample), a browser sees the robot, the workspace and a reached target drawn, and the
+response to a slider move is measured (printed, not asserted: speed belongs in the benchmarks).
 
 The browser test drives Debian's Chromium (``/usr/bin/chromium``) through Playwright; without either it is
 skipped. Tensions are set through each tendon's number box (fill, Enter): the box is what the server reads, and
@@ -92,11 +93,117 @@ def test_the_page_callback_shows_the_tip_of_solve():
     on_change = app.callback_map[key]["callback"].__wrapped__
     context_value.set(AttributeDict(triggered_inputs=[{"prop_id": "tension-0.value", "value": 5.0}]))
     t = [5.0, 0, 0, 0, 0, 0, 0, 0]
-    out = on_change(t, [0, 0, 0, 0, 0, 0, 0], {"gravity": ["on"], "friction": "own", "model": "pcc"}, [0, 0], "x")
+    options = {"gravity": ["on"], "friction": "own", "model": "pcc"}
+    out = on_change(t, [0, 0, 0, 0, 0, 0, 0], options, [0] * 4, [None] * 3, "x")
     shown = np.array([float(v) for v in out["tip"].split()])
     assert np.allclose(shown, solve(paper_robot(), Loads(np.array(t))).tip_position, atol=1e-9, rtol=0)
-    bad = on_change([25.0, *t[1:]], [0] * 7, {"gravity": [], "friction": "own", "model": "pcc"}, [0, 0], "x")
+    bad = on_change([25.0, *t[1:]], [0] * 7, {**options, "gravity": []}, [0] * 4, [None] * 3, "x")
     assert "T1" in str(bad["status"]) and "[0, 20] N" in str(bad["status"])
+    # "Reach target" with a target made by the forward model: the boxes take the answer's tensions
+    made = solve(paper_robot(), Loads(np.array(TARGET_TENSIONS))).tip_position
+    context_value.set(AttributeDict(triggered_inputs=[{"prop_id": "reach-target.n_clicks", "value": 1}]))
+    out = on_change(t, [0] * 7, options, [0, 0, 1, 0], (made * 1e3).tolist(), "x")
+    assert "target reached: tip" in _plain(out["status"]), out["status"]
+    shown = np.array([float(v) for v in out["tip"].split()])
+    assert np.linalg.norm(shown - made) <= 1e-4
+    assert len(out["tensions"]) == 8 and all(0.0 <= v <= 20.0 for v in out["tensions"])
+    empty = on_change(t, [0] * 7, options, [0, 0, 2, 0], [1.0, None, 2.0], "x")
+    assert "target: give x, y and z in mm" in str(empty["status"])
+
+
+# ---------------------------------------------------------------- the target point
+def _plain(parts) -> str:
+    """The text of the status line's parts (Dash components and strings)."""
+    if isinstance(parts, (list, tuple)):
+        return "".join(_plain(p) for p in parts)
+    if isinstance(parts, str):
+        return parts
+    return _plain(getattr(parts, "children", None) or "")
+
+
+#: the tensions [N] whose tip (from rest, no tip load) is the target made by the forward model
+TARGET_TENSIONS = [6.0, 0, 0, 0, 0, 4.0, 0, 0]
+
+
+def test_a_target_made_by_the_forward_model_is_reached_and_continued():
+    from dataclasses import replace
+
+    from pytdcr.explore import Explorer
+    from pytdcr.explore._target import INVERSE, SEARCH
+    from pytdcr.optimize import InverseSearch
+
+    assert SEARCH.tol == InverseSearch().tol  # the library's own tolerance
+    ex = Explorer()
+    robot = paper_robot()
+    target = solve(robot, Loads(np.array(TARGET_TENSIONS))).tip_position
+    elsewhere = np.zeros(8)
+    elsewhere[2] = 3.0
+    assert ex.step("s", replace(ex.defaults, tensions=elsewhere)).solution.converged
+    out = ex.reach("s", ex.defaults, target)
+    a, session = out.answer, ex.session("s")
+    assert a.method == INVERSE and a.reached and session.reached
+    assert a.distance_m <= SEARCH.tol and np.linalg.norm(out.solution.tip_position - target) <= SEARCH.tol
+    assert np.all(out.tensions >= ex.bounds.lower) and np.all(out.tensions <= ex.bounds.upper)
+    assert a.path in ("continued", "loading path", "another branch") and a.evaluations > 0
+    assert session.last is out.solution and np.array_equal(session.target, target)
+    # the next change (the boxes hold the tensions to 6 decimals) continues from the answer's pose
+    nxt = ex.step("s", replace(ex.defaults, tensions=np.round(out.tensions, 6)))
+    assert nxt.solution.path == "continued" and "solved from rest" not in nxt.note
+    assert np.linalg.norm(nxt.solution.tip_position - out.solution.tip_position) <= 1e-6
+    assert not ex.session("s").reached and np.array_equal(nxt.target, target)  # the marker stays, not reached
+    ex.clear_target("s")
+    assert ex.session("s").target is None
+
+
+def test_a_target_out_of_reach_is_said_so():
+    from pytdcr.explore import Explorer
+    from pytdcr.explore._app import _status
+
+    ex = Explorer()
+    target = np.array([0.45, 0.0, 0.0])  # 0.45 m from the base; the robot is 0.4 m long
+    out = ex.reach("s", ex.defaults, target)
+    assert not out.answer.reached and not ex.session("s").reached
+    assert out.answer.distance_m >= 0.05
+    assert np.isclose(np.linalg.norm(out.solution.tip_position - target), out.answer.distance_m, rtol=0, atol=1e-12)
+    text = _plain(_status(out)[0])
+    assert "out of reach: nearest point found" in text and "target reached" not in text
+    # the nearest point found is an equilibrium: the next change continues from it
+    assert ex.session("s").last is out.solution
+
+
+def test_the_nearest_workspace_sample(workspace_run, monkeypatch):
+    """With a workspace run, its nearest converged, stable sample is named beside the inverse answer; for a
+    model without a tip gradient (no registered one lacks it: the capability check is patched) it is the
+    answer, drawn at its tensions and never called reached."""
+    from pytdcr.explore import Explorer, _session
+    from pytdcr.explore._app import _status
+    from pytdcr.explore._target import SAMPLE, nearest_sample
+    from pytdcr.statics import MODELS
+    from pytdcr.study import read_workspace_pool
+
+    pool = read_workspace_pool(workspace_run)
+    target = pool.tips[3] + np.array([0.004, -0.003, 0.002])
+    near = nearest_sample(pool.tensions, pool.tips, target)
+    d = np.linalg.norm(pool.tips - target, axis=1)
+    assert near.distance_m == d.min() and np.array_equal(near.tip, pool.tips[np.argmin(d)])
+    assert np.array_equal(near.tensions, pool.tensions[np.argmin(d)]) and near.count == len(d)
+    with pytest.raises(ValueError):
+        nearest_sample(np.zeros((0, 8)), np.zeros((0, 3)), target)
+
+    ex = Explorer(workspace=workspace_run)
+    assert ex.samples is not None and all(m.capabilities.gradient is not None for m in MODELS.values())
+    inverse = ex.reach("s", ex.defaults, target)
+    assert inverse.answer.sample.distance_m == near.distance_m and "nearest workspace sample" in inverse.answer.note
+    monkeypatch.setattr(_session, "can_inverse", lambda model: False)
+    out = ex.reach("s", ex.defaults, target)
+    a = out.answer
+    assert a.method == SAMPLE and not a.reached and not ex.session("s").reached
+    assert np.array_equal(out.tensions, ex.bounds.clip(near.tensions)) and a.sample.index == near.index
+    assert np.isclose(a.distance_m, np.linalg.norm(out.solution.tip_position - target), rtol=0, atol=1e-12)
+    assert "nearest workspace sample" in _plain(_status(out)[0])
+    # without a workspace run, a model without inverse statics says so
+    bare = Explorer().reach("s", Explorer().defaults, target)
+    assert "no tip gradient" in bare.error
 
 
 @pytest.mark.parametrize(("args", "words"), [
@@ -200,6 +307,52 @@ def _set(page, box: str, value: float) -> tuple[float, float]:
     return tuple(page.evaluate(f"[window.__tip[{n}] - window.__key, window.__plot[{m}] - window.__key]"))
 
 
+def _reach_in_browser(page) -> None:
+    """Fill the target boxes with a forward-made tip [mm], press "Reach target", wait for the answer; the tip shown
+    lies within 1e-4 m of the target, a target marker is drawn, the boxes hold the answer's tensions (and stay:
+    no second solve overwrites the answer)."""
+    # a click on the boundary fills the target boxes; one on the robot does not (plotly's click event, as the
+    # figure emits it: a real click in a 3D scene counts only where a frame is drawn while the button is down)
+    boxes = ("#target-x", "#target-y", "#target-z")
+    vertex = page.evaluate("""() => {
+        const gd = document.querySelector('#graph .js-plotly-plot');
+        const n = gd.data.findIndex(t => t.name === 'FSW boundary');
+        const m = gd.data[n], pt = {curveNumber: n, pointNumber: 0, x: m.x[0], y: m.y[0], z: m.z[0]};
+        gd.emit('plotly_click', {points: [pt]});
+        return [m.x[0], m.y[0], m.z[0]];
+    }""")
+    page.wait_for_function("document.getElementById('target-x').value !== ''", timeout=10_000)
+    assert [float(page.input_value(b)) for b in boxes] == pytest.approx(vertex, abs=1e-3)
+    page.evaluate("() => document.querySelector('#graph .js-plotly-plot').emit('plotly_click', "
+                  "{points: [{curveNumber: 0, pointNumber: 0, x: 1, y: 2, z: 3}]})")
+    page.wait_for_timeout(300)
+    assert [float(page.input_value(b)) for b in boxes] == pytest.approx(vertex, abs=1e-3)
+
+    target = solve(paper_robot(), Loads(np.array(TARGET_TENSIONS))).tip_position
+    for box, v in zip(boxes, target * 1e3, strict=True):
+        page.fill(box, f"{v:.6f}")
+    page.evaluate("() => document.getElementById('reach-target').addEventListener('click', "
+                  "() => { window.__reach = performance.now(); })")
+    n = page.evaluate("window.__tip.length")
+    page.click("#reach-target")
+    page.wait_for_function("/target reached|out of reach|not solved|NOT converged/.test("
+                           "document.getElementById('status').textContent)", timeout=60_000)
+    ms = page.evaluate(f"window.__tip[{n}] - window.__reach")  # from the click to the new tip shown
+    status = page.text_content("#status")
+    assert "target reached" in status, status
+    shown = np.array([float(v) for v in page.text_content("#tip").split()])
+    assert np.linalg.norm(shown - target) <= 1e-4, (shown, target)
+    marker = page.evaluate("Array.from(document.querySelector('#graph .js-plotly-plot').data)"
+                           ".filter(t => t.name === 'target').map(t => [t.mode, t.marker.symbol, t.x.length])")
+    assert marker == [["markers", "circle-open", 1]], marker
+    page.wait_for_timeout(800)
+    assert "target reached" in page.text_content("#status")
+    tensions = [float(page.input_value(f"#tension-{k}")) for k in range(8)]
+    assert any(v > 0 for v in tensions) and all(0 <= v <= 20 for v in tensions), tensions
+    print(f"\nexplore target (pcc, paper robot, forward-made target): {ms:.0f} ms from the click to the answer "
+          f"shown; {status[:110]}")
+
+
 @pytest.mark.slow
 def test_the_page_in_a_browser(page_url):
     from PIL import Image
@@ -230,6 +383,9 @@ def test_the_page_in_a_browser(page_url):
                                    ".map(t => [t.type, t.name, (t.i || []).length])")
             assert any(t == "mesh3d" and name == "FSW boundary" and faces > 0 for t, name, faces in traces), traces
             assert "FSW boundary" in page.text_content("#workspace-info")
+
+            # a target made by the forward model: "Reach target" puts the tip there and draws a target marker
+            _reach_in_browser(page)
 
             # the arrow keys on a slider handle move its tendon
             n = page.evaluate("window.__tip.length")

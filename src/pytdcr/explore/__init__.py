@@ -2,7 +2,9 @@
 
 Each change is solved by continuation from the last equilibrium shown (``pytdcr.solve(..., start=last)``), the
 quasi-static answer of a robot whose tensions move; "solve from rest" shows the loading path's answer beside it.
-A finished ``tdcr workspace`` folder adds its boundary and its largest-reach pose.
+A target point is answered by inverse statics (:func:`pytdcr.inverse_statics`), or by a workspace run's nearest
+sample for a model without a tip gradient. A finished ``tdcr workspace`` folder adds its boundary and its
+largest-reach pose.
 
 The page is a Dash app (imported when the app is built, never with :mod:`pytdcr`), served on 127.0.0.1 only.
 """
@@ -54,10 +56,14 @@ def create_app(robot: Robot | None = None, *, workspace: str | Path | None = Non
 
 
 def _warm(ex: Explorer) -> None:
-    """Solve once from rest and once by continuation, so the first move on the page does not load the kernels."""
+    """Solve once from rest and once by continuation, so the first move on the page does not load the kernels;
+    and, unless the first model is slow, answer a target once (inverse statics' kernels and its start pool for
+    the first loads, kept on disk: :func:`pytdcr.inverse_statics`)."""
     sid = "warm-up"
     ex.step(sid, ex.defaults)
-    ex.step(sid, replace(ex.defaults, tensions=ex.bounds.lower + 0.1 * (ex.bounds.upper - ex.bounds.lower)))
+    moved = ex.step(sid, replace(ex.defaults, tensions=ex.bounds.lower + 0.1 * (ex.bounds.upper - ex.bounds.lower)))
+    if moved.solution is not None and moved.solution.converged and ex.model.name not in ex.slow_models():
+        ex.reach(sid, ex.defaults, moved.solution.tip_position)
     ex.forget(sid)
 
 

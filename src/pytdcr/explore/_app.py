@@ -1,11 +1,13 @@
 """The explorer's web page (Dash): the controls, the 3D figure, the status line, and the callbacks between them.
 
 One server callback solves: it takes every control, continues the session's last equilibrium
-(:meth:`~pytdcr.explore._session.Explorer.step`) and sends the figure's moving traces as a partial update
-(``dash.Patch``), the status and the tip. Each tendon has a slider and a number box kept equal in the browser
-(a clientside callback: the slider's value while it is dragged or moved by the arrow keys goes to the box); the
-number box is the value the server reads. While a slider is dragged, Dash drops the answers of requests a newer
-one has overtaken, so the page follows the last position.
+(:meth:`~pytdcr.explore._session.Explorer.step`), or answers the target point placed ("Reach target":
+:meth:`~pytdcr.explore._session.Explorer.reach`, whose tensions it writes back into the tendons' boxes), and
+sends the figure's moving traces as a partial update (``dash.Patch``), the status and the tip. A click on the
+workspace boundary fills the target's boxes (in the browser). Each tendon has a slider and a number box kept
+equal in the browser (a clientside callback: the slider's value while it is dragged or moved by the arrow keys
+goes to the box); the number box is the value the server reads. While a slider is dragged, Dash drops the
+answers of requests a newer one has overtaken, so the page follows the last position.
 """
 
 from __future__ import annotations
@@ -16,13 +18,20 @@ from typing import Any
 import numpy as np
 from dash import Dash, Input, Output, Patch, State, ctx, dcc, html, no_update
 
-from ._figure import MM, REST, base_figure, pose_data, rest_data
+from ._figure import MM, MOVING, REST, base_figure, pose_data, rest_data, target_data
 from ._session import FRICTIONS, Action, Controls, Explorer, Outcome, same_equilibrium
+from ._target import INVERSE, SEARCH, show_distance
 
 __all__ = ["build_app"]
 
 _WRENCH = ("force-x", "force-y", "force-z", "moment-x", "moment-y", "moment-z", "payload")
-_BOX = {"width": "74px", "marginLeft": "6px"}
+_TARGET = ("target-x", "target-y", "target-z")
+_ACTIONS = {"reset": Action.RESET, "rest": Action.REST, "reach-target": Action.TARGET,
+            "clear-target": Action.CLEAR}
+#: tensions written back into the boxes are rounded to this many decimals [N]
+_DECIMALS = 6
+_RED, _GREEN = {"color": "#c0392b", "fontWeight": "bold"}, {"color": "#1e8449", "fontWeight": "bold"}
+_BOX = {"width": "86px", "marginLeft": "6px"}
 _SMALL = {"width": "70px", "marginRight": "4px"}
 # the slider and the number box of one tendon, kept equal; the one the user moved wins
 _SYNC_JS = """
@@ -34,6 +43,23 @@ function(drag, box) {
     }
     if (box === null || box === undefined || Number.isNaN(box)) { return [nu, nu]; }
     return [box, nu];
+}
+"""
+# a click on a point of the workspace's traces (the boundary; not the robot's moving traces) fills the target [mm]
+_CLICK_JS = """
+function(click) {
+    const nu = window.dash_clientside.no_update;
+    const p = (click && click.points && click.points.length) ? click.points[0] : null;
+    if (!p || p.curveNumber < MOVING || ![p.x, p.y, p.z].every(v => typeof v === 'number' && Number.isFinite(v))) {
+        return [nu, nu, nu];
+    }
+    return [p.x, p.y, p.z].map(v => Math.round(v * 1000) / 1000);
+}
+""".replace("MOVING", str(MOVING))
+# said at once while the server searches
+_SEARCHING_JS = """
+function(n) {
+    return n ? 'searching for tensions that put the tip at the target ...' : window.dash_clientside.no_update;
 }
 """
 
@@ -84,6 +110,20 @@ def _load_rows(ex: Explorer) -> list[Any]:
         html.Div([html.Button("Reset", id="reset", n_clicks=0),
                   html.Button("Solve from rest", id="rest", n_clicks=0, style={"marginLeft": "8px"})],
                  style={"marginTop": "10px"}),
+        *_target_rows(ex),
+    ]
+
+
+def _target_rows(ex: Explorer) -> list[Any]:
+    """The target point x, y, z [mm] (base frame), "Reach target" and "Clear"."""
+    boxes = [dcc.Input(id=i, type="number", step="any", value=None, placeholder=i[-1], debounce=True, style=_SMALL)
+             for i in _TARGET]
+    hint = " or click the FSW boundary" if ex.workspace is not None and ex.workspace.faces is not None else ""
+    return [
+        html.Div(f"target [mm], base frame{hint}", style={"marginTop": "12px"}),
+        html.Div([*boxes, html.Button("Reach target", id="reach-target", n_clicks=0),
+                  html.Button("Clear", id="clear-target", n_clicks=0, style={"marginLeft": "4px"})],
+                 style={"display": "flex", "alignItems": "center", "flexWrap": "wrap"}),
     ]
 
 
@@ -144,26 +184,56 @@ def _controls(ex: Explorer, tensions: list, wrench: list, options: dict) -> Cont
                     options["friction"], options["model"])
 
 
+def _target_point(aim: list) -> np.ndarray | str:
+    """The target boxes [mm] as a point [m], or what is wrong with them."""
+    if any(v is None or not np.isfinite(float(v)) for v in aim):
+        return "target: give x, y and z in mm"
+    return np.asarray(aim, dtype=float) / MM
+
+
 def _status(out: Outcome) -> tuple[list[Any], str]:
     """The status line's parts and the tip text (metres, 9 decimals; "not converged" without an equilibrium)."""
-    red = {"color": "#c0392b", "fontWeight": "bold"}
     if out.error:
-        return [html.Span(f"not solved: {out.error}", style=red)], "not solved"
+        return [html.Span(f"not solved: {out.error}", style=_RED)], "not solved"
     sol = out.solution
     if sol is None or not sol.converged:
         why = f" ({sol.failure})" if sol is not None and sol.failure else ""
         res = f"max |residual| {sol.residual:.3g} N m > atol {sol.atol:.1g}" if sol is not None else ""
+        note = out.answer.note if out.answer is not None else out.note
         return [html.Span(f"NOT converged: {res}{why}; nothing drawn (the last equilibrium is kept for the next "
-                          "change)", style=red), html.Br(), out.note], "not converged"
+                          "change)", style=_RED), html.Br(), note], "not converged"
     tip = sol.tip_position
     stable = {True: "stable", False: "UNSTABLE", None: "stability untested"}[sol.stable]
+    text = " ".join(f"{v:.9f}" for v in tip)
+    if out.answer is not None:
+        return _answer_text(out, stable), text
+    aim = "" if out.target is None else f" · target {show_distance(float(np.linalg.norm(tip - out.target)))} away"
     parts: list[Any] = [
-        html.Span("converged", style={"color": "#1e8449", "fontWeight": "bold"}),
-        f" · {stable} · path {sol.path} · tip ({tip[0] * MM:.3f}, {tip[1] * MM:.3f}, {tip[2] * MM:.3f}) mm · "
+        html.Span("converged", style=_GREEN),
+        f" · {stable} · path {sol.path} · tip ({tip[0] * MM:.3f}, {tip[1] * MM:.3f}, {tip[2] * MM:.3f}) mm{aim} · "
         f"{out.seconds * 1e3:.1f} ms", html.Br(), out.note]
     if out.rest is not None:
         parts += [html.Br(), _rest_text(out)]
-    return parts, " ".join(f"{v:.9f}" for v in tip)
+    return parts, text
+
+
+def _answer_text(out: Outcome, stable: str) -> list[Any]:
+    """The status line of a target answered (a converged equilibrium drawn)."""
+    a = out.answer
+    tip = out.solution.tip_position * MM
+    how = f"path {a.path}, {a.evaluations} solves, {out.seconds * 1e3:.0f} ms"
+    if a.method == INVERSE and a.reached:
+        head = [html.Span("target reached", style=_GREEN), f": tip {show_distance(a.distance_m)} away, {how}"]
+    elif a.method == INVERSE:
+        head = [html.Span("out of reach", style=_RED), f": nearest point found {show_distance(a.distance_m)} "
+                f"away (inverse statics, tolerance {show_distance(SEARCH.tol)}), {how}"]
+    else:
+        head = [html.Span("nearest workspace sample", style={"color": "#b9770e", "fontWeight": "bold"}),
+                f" (no inverse statics for this model): its tensions solved from rest put the tip "
+                f"{show_distance(a.distance_m)} from the target, {how}"]
+    return [*head, f" · {stable} · tip ({tip[0]:.3f}, {tip[1]:.3f}, {tip[2]:.3f}) mm", html.Br(),
+            "the tendons are set to its tensions; the next change continues from this pose",
+            *([html.Br(), a.note] if a.note else [])]
 
 
 def _rest_text(out: Outcome) -> Any:
@@ -180,15 +250,18 @@ def _rest_text(out: Outcome) -> Any:
                      style={"color": "#b9770e" if same else "#c0392b", "fontWeight": "normal" if same else "bold"})
 
 
-def _patch(out: Outcome) -> Any:
-    """The figure's moving traces for ``out`` (all empty when there is no equilibrium)."""
+def _patch(out: Outcome | None) -> Any:
+    """The figure's moving traces for ``out`` (the pose's empty when there is no equilibrium); with ``out``
+    None, only the target's, emptied."""
     p = Patch()
-    sol = None if out.error else out.solution
-    for i, data in pose_data(out.robot, sol, out.loads).items():
+    sol = None if out is None or out.error else out.solution
+    parts = target_data(None if out is None else out.target, sol)
+    if out is not None:
+        parts |= pose_data(out.robot, sol, out.loads)
+        parts[REST] = rest_data(out.robot, out.rest)
+    for i, data in parts.items():
         for key, value in data.items():
             p["data"][i][key] = value
-    for key, value in rest_data(out.robot, out.rest).items():
-        p["data"][REST][key] = value
     return p
 
 
@@ -202,6 +275,10 @@ def build_app(ex: Explorer) -> Dash:
                                 Output(f"tension-{k}", "value", allow_duplicate=True),
                                 Input(f"slider-{k}", "drag_value"), Input(f"tension-{k}", "value"),
                                 prevent_initial_call=True)
+    app.clientside_callback(_CLICK_JS, [Output(i, "value") for i in _TARGET], Input("graph", "clickData"),
+                            prevent_initial_call=True)
+    app.clientside_callback(_SEARCHING_JS, Output("status", "children", allow_duplicate=True),
+                            Input("reach-target", "n_clicks"), prevent_initial_call=True)
     tension_ids, wrench_ids = [f"tension-{k}" for k in range(n)], list(_WRENCH)
 
     @app.callback(
@@ -212,12 +289,16 @@ def build_app(ex: Explorer) -> Dash:
                 "wrench": [Input(i, "value") for i in wrench_ids],
                 "options": {"gravity": Input("gravity", "value"), "friction": Input("friction", "value"),
                             "model": Input("model", "value")},
-                "clicks": [Input("reset", "n_clicks"), Input("rest", "n_clicks")],
-                "sid": State("session", "data")})
-    def on_change(tensions: list, wrench: list, options: dict, clicks: list, sid: str) -> dict[str, Any]:
-        """Solve the controls (continued from the session's last equilibrium) and redraw."""
-        action = {"reset": Action.RESET, "rest": Action.REST}.get(ctx.triggered_id, Action.CHANGE)
+                "clicks": [Input(i, "n_clicks") for i in _ACTIONS],
+                "aim": [State(i, "value") for i in _TARGET], "sid": State("session", "data")})
+    def on_change(tensions: list, wrench: list, options: dict, clicks: list, aim: list, sid: str) -> dict[str, Any]:
+        """Solve the controls (continued from the session's last equilibrium), or answer the target, and redraw."""
+        action = _ACTIONS.get(ctx.triggered_id, Action.CHANGE)
         keep = {"tensions": [no_update] * n, "wrench": [no_update] * len(_WRENCH), "gravity": no_update}
+        if action is Action.CLEAR:
+            ex.clear_target(sid)
+            return {"figure": _patch(None), "status": html.Span("target cleared", style={"color": "#666"}),
+                    "tip": no_update, **keep}
         if action is Action.RESET:
             d = ex.defaults
             tensions = d.tensions.tolist()
@@ -225,13 +306,18 @@ def build_app(ex: Explorer) -> Dash:
             options = {**options, "gravity": ["on"] if d.gravity else []}
             keep = {"tensions": tensions, "wrench": wrench, "gravity": options["gravity"]}
         c = _controls(ex, tensions, wrench, options)
-        if isinstance(c, str):
-            return {"figure": no_update, "status": html.Span(f"not solved: {c}", style={"color": "#c0392b"}),
-                    "tip": no_update, **keep}
+        point = _target_point(aim) if action is Action.TARGET else None
+        for wrong in (c, point):
+            if isinstance(wrong, str):
+                return {"figure": no_update, "status": html.Span(f"not solved: {wrong}", style={"color": "#c0392b"}),
+                        "tip": no_update, **keep}
         try:
-            out = ex.step(sid, c, action)
+            out = ex.step(sid, c, action) if point is None else ex.reach(sid, c, point)
         except Exception as err:  # shown on the page, not a silent failed request (a bug: please report it)
             out = Outcome(ex.robot, error=f"internal error: {type(err).__name__}: {err}")
+        if out.tensions is not None and out.solution is not None and out.solution.converged:
+            # the answer's tensions, into the boxes (the sliders follow in the browser)
+            keep["tensions"] = np.clip(np.round(out.tensions, _DECIMALS), ex.bounds.lower, ex.bounds.upper).tolist()
         status, tip = _status(out)
         return {"figure": _patch(out), "status": status, "tip": tip, **keep}
 

@@ -15,20 +15,24 @@ from ..loads import Loads
 from ..results import StaticSolution
 from ._workspace import WorkspaceView
 
-__all__ = ["BACKBONE", "DISKS", "FORCE", "MM", "MOMENT", "MOVING", "REST", "TENDONS", "TIP_AXES", "WORKSPACE_NAME",
-           "base_figure", "pose_data", "rest_data"]
+__all__ = ["BACKBONE", "DISKS", "FORCE", "MISS", "MM", "MOMENT", "MOVING", "REST", "TARGET", "TARGET_NAME", "TENDONS",
+           "TIP_AXES", "WORKSPACE_NAME", "base_figure", "pose_data", "rest_data", "target_data"]
 
 #: metres to the figure's millimetres
 MM = 1e3
 #: the traces that move, by index: backbone, disks, tendons, the tip frame's x, y, z axes, the tip force and
-#: moment arrows, the loading path's backbone
+#: moment arrows, the loading path's backbone (the pose's, :func:`pose_data`), then the target marker and the
+#: dashed line from the tip to it (:func:`target_data`)
 BACKBONE, DISKS, TENDONS = 0, 1, 2
 TIP_AXES = (3, 4, 5)
 FORCE, MOMENT = 6, 7
 REST = 8
-MOVING = 9
+TARGET, MISS = 9, 10
+MOVING = 11
 #: the name of the workspace boundary's trace
 WORKSPACE_NAME = "FSW boundary"
+#: the name of the target marker's trace
+TARGET_NAME = "target"
 _RING = 24  # points on a disk's circle
 
 
@@ -59,11 +63,16 @@ def base_figure(robot: Robot, workspace: WorkspaceView | None) -> dict[str, Any]
             _line("tip x", "#e74c3c", 6, showlegend=False), _line("tip y", "#27ae60", 6, showlegend=False),
             _line("tip z", "#2f6fd6", 6, showlegend=False), _line("tip force", "#e67e22", 5),
             _line("tip moment (double head)", "#8e44ad", 5),
-            _line("loading path from rest", "rgba(255,140,0,0.45)", 14)]
+            _line("loading path from rest", "rgba(255,140,0,0.45)", 14),
+            {"type": "scatter3d", "mode": "markers", "name": TARGET_NAME, "x": [], "y": [], "z": [],
+             "marker": {"size": 11, "color": "#d10fbe", "symbol": "circle-open", "line": {"width": 3}},
+             "hoverinfo": "text", "hovertext": []},
+            _line("tip to target", "#d10fbe", 3, showlegend=False)]
+    data[MISS]["line"]["dash"] = "dash"
     if workspace is not None:
         data += _workspace_traces(workspace)
     span = 1.05 * robot.length * MM
-    axis = {"range": [-span, span], "autorange": False, "zeroline": False}
+    axis = {"range": [-span, span], "autorange": False, "zeroline": False, "showspikes": False}
     layout = {"uirevision": "explore", "margin": {"l": 0, "r": 0, "t": 0, "b": 0},
               "legend": {"x": 0.01, "y": 0.99, "bgcolor": "rgba(255,255,255,0.6)"},
               "scene": {"aspectmode": "cube", "xaxis": {**axis, "title": {"text": "x [mm]"}},
@@ -81,7 +90,7 @@ def _workspace_traces(ws: WorkspaceView) -> list[dict[str, Any]]:
         out.append({"type": "mesh3d", "name": WORKSPACE_NAME, "x": v[:, 0].tolist(), "y": v[:, 1].tolist(),
                     "z": v[:, 2].tolist(), "i": f[:, 0].tolist(), "j": f[:, 1].tolist(), "k": f[:, 2].tolist(),
                     "color": "#5dade2", "opacity": 0.16, "flatshading": True, "showlegend": True,
-                    "hoverinfo": "skip"})
+                    "hovertemplate": "(%{x:.1f}, %{y:.1f}, %{z:.1f}) mm<br>click: the target<extra></extra>"})
     r = ws.reach
     if r is not None:
         if r.backbone is not None:
@@ -111,11 +120,11 @@ def _arrow(origin: np.ndarray, vector: np.ndarray, length: float, heads: int = 1
 
 
 def pose_data(robot: Robot, sol: StaticSolution | None, loads: Loads | None) -> dict[int, dict[str, Any]]:
-    """The data of the moving traces (by index, :data:`MOVING`) for a converged ``sol`` under ``loads``; with
-    ``sol`` None (no equilibrium), every moving trace empty, so that nothing is drawn as if it were one."""
+    """The data of the pose's traces (by index, those before :data:`TARGET`) for a converged ``sol`` under
+    ``loads``; with ``sol`` None (no equilibrium), every one empty, so that nothing is drawn as if it were one."""
     empty = {"x": [], "y": [], "z": []}
     if sol is None or not sol.converged:
-        return {i: dict(empty) for i in range(MOVING)}
+        return {i: dict(empty) for i in range(TARGET)}
     p, R = sol.disk_positions, sol.disk_rotations
     t = np.linspace(0.0, 2.0 * np.pi, _RING + 1)
     ring = robot.disk_radius * np.stack([np.cos(t), np.sin(t), np.zeros_like(t)], axis=1)  # (T, 3)
@@ -133,6 +142,20 @@ def pose_data(robot: Robot, sol: StaticSolution | None, loads: Loads | None) -> 
         out[i] = {**_columns(_arrow(tip, v, 0.2 * robot.length, heads)), "name": what.format(np.linalg.norm(v))}
     out[REST] = empty
     return out
+
+
+def target_data(target: np.ndarray | None, sol: StaticSolution | None) -> dict[int, dict[str, Any]]:
+    """The data of the target marker and of the dashed line from the tip of a converged ``sol`` to it (both
+    empty without a target [m]; the line empty without an equilibrium)."""
+    empty: dict[str, Any] = {"x": [], "y": [], "z": []}
+    if target is None:
+        return {TARGET: {**empty, "hovertext": []}, MISS: empty}
+    t = np.asarray(target, dtype=float)
+    mm = t * MM
+    marker = {**_columns(t[None]), "hovertext": [f"target ({mm[0]:.2f}, {mm[1]:.2f}, {mm[2]:.2f}) mm"]}
+    if sol is None or not sol.converged:
+        return {TARGET: marker, MISS: empty}
+    return {TARGET: marker, MISS: _columns(np.vstack([sol.tip_position, t]))}
 
 
 def rest_data(robot: Robot, rest: StaticSolution | None) -> dict[str, Any]:

@@ -1,5 +1,6 @@
 """The explorer's state, without the web framework: the robot and its variants, the controls turned into loads,
-and each browser session's last equilibrium, continued on every change.
+and each browser session's last equilibrium, continued on every change, and its target point (answered by
+inverse statics, or by the nearest sample of a workspace run: :mod:`._target`).
 
 Sessions live in the server's memory, keyed by an id each page load draws (the page keeps it in a
 ``dcc.Store``); each has its own lock, so two tabs solve independently and one tab's changes are solved in turn.
@@ -22,7 +23,17 @@ from ..loads import Loads
 from ..paper import STANDARD_GRAVITY, paper_bounds, paper_robot, payload_gravity
 from ..results import StaticSolution
 from ..statics import MODELS, Model, UnsupportedFeatureError, get_model, solve
+from ..study import read_workspace_pool
 from ..validate import SettingsError
+from ._target import (
+    SAME_TIP_M,
+    NearestSample,
+    TargetAnswer,
+    answer_by_inverse,
+    answer_by_sample,
+    can_inverse,
+    nearest_sample,
+)
 from ._workspace import WorkspaceView, read_workspace
 
 __all__ = ["FRICTIONS", "MAX_SESSIONS", "SAME_TIP_M", "SLOW_FACTOR", "Action", "Controls", "Explorer", "Outcome",
@@ -35,16 +46,16 @@ SLOW_FACTOR = 10.0
 MAX_SESSIONS = 32
 #: the friction choices: the robot's own law, or none
 FRICTIONS = ("own", "none")
-#: two tips closer than this are the same equilibrium [m]
-SAME_TIP_M = 1e-6
 
 
 class Action(enum.Enum):
-    """What asked for a solve: a control changed, Reset, or "solve from rest"."""
+    """What asked for a solve: a control changed, Reset, "solve from rest", "Reach target" or clear the target."""
 
     CHANGE = "change"
     RESET = "reset"
     REST = "rest"
+    TARGET = "target"
+    CLEAR = "clear"
 
 
 @dataclass(frozen=True)
@@ -64,7 +75,9 @@ class Controls:
 @dataclass(frozen=True, eq=False)
 class Outcome:
     """One solve for the page: the equilibrium drawn (None when there is none), the loading path's answer
-    (``Action.REST`` only), the robot solved, what went wrong (``error``) and notes on how it was solved."""
+    (``Action.REST`` only), the robot solved, what went wrong (``error``), notes on how it was solved and the
+    wall time [s]; the session's target [m] (None: none placed), and for ``Action.TARGET`` how it was answered
+    (``answer``) and the tensions [N] the page's controls take (``tensions``)."""
 
     robot: Robot
     loads: Loads | None = None
@@ -73,16 +86,23 @@ class Outcome:
     error: str = ""
     note: str = ""
     seconds: float = 0.0
+    target: np.ndarray | None = None
+    answer: TargetAnswer | None = None
+    tensions: np.ndarray | None = None
 
 
 @dataclass(eq=False)
 class Session:
-    """One browser session: its last converged equilibrium, with the robot and model that solved it."""
+    """One browser session: its last converged equilibrium, with the robot and model that solved it, the target
+    placed [m] (None: none) and whether the pose drawn reaches it (``reached``: set by a reaching answer, cleared
+    by the next change)."""
 
     lock: threading.Lock = field(default_factory=threading.Lock)
     last: StaticSolution | None = None
     robot: Robot | None = None
     model: Model | None = None
+    target: np.ndarray | None = None
+    reached: bool = False
 
     def start_for(self, robot: Robot, model: Model) -> tuple[StaticSolution | None, str]:
         """The equilibrium to continue for ``robot`` and ``model`` (None: solve from rest) and why not."""
@@ -132,21 +152,43 @@ class Explorer:
         self.defaults = Controls(self.bounds.lower.copy(), np.array(base.tip_force), np.array(base.tip_moment), 0.0,
                                  bool(np.any(self.robot.gravity)), friction, self.model.name)
         self.point_loads = base.point_loads if own else ()
+        self.samples = self._samples()
         self._robots: dict[tuple[bool, str], Robot] = {}
         self._sessions: OrderedDict[str, Session] = OrderedDict()
         self._lock = threading.Lock()
 
+    def _samples(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The workspace run's converged, stable samples' tensions (K, n_tendons) [N] and tips (K, 3) [m]; None
+        without a run, or for a run of another robot than the one explored."""
+        ws = self.workspace
+        if ws is None or ws.robot != self.robot:
+            return None
+        try:
+            pool = read_workspace_pool(ws.folder)
+        except SettingsError:  # no converged, stable sample
+            return None
+        return pool.tensions, pool.tips
+
     # ------------------------------------------------------------------ what the page offers
-    def model_choices(self) -> list[tuple[str, str, str]]:
-        """(name, label, description) of every registered model; those whose estimated solve time on this robot
-        exceeds :data:`SLOW_FACTOR` times the fastest's are labelled ``(slow)``."""
+    def slow_models(self) -> set[str]:
+        """The registered models whose estimated solve time on this robot (``Model.resources``) exceeds
+        :data:`SLOW_FACTOR` times the fastest's."""
         cost = {}
         for name, m in MODELS.items():
             estimate = getattr(m, "resources", None)
             cost[name] = estimate(self.robot, m.default_options()).seconds if estimate is not None else np.inf
         fastest = min(cost.values())
-        return [(name, f"{name} (slow)" if cost[name] > SLOW_FACTOR * fastest else name, m.description)
-                for name, m in MODELS.items()]
+        return {name for name, c in cost.items() if c > SLOW_FACTOR * fastest}
+
+    def model_choices(self) -> list[tuple[str, str, str]]:
+        """(name, label, description) of every registered model; the :meth:`slow_models` labelled ``(slow)``."""
+        slow = self.slow_models()
+        return [(name, f"{name} (slow)" if name in slow else name, m.description) for name, m in MODELS.items()]
+
+    def nearest_sample(self, target: np.ndarray) -> NearestSample | None:
+        """The workspace run's converged, stable sample whose tip lies nearest ``target`` (3,) [m]; None without
+        a run's samples (:meth:`_samples`)."""
+        return None if self.samples is None else nearest_sample(*self.samples, target)
 
     def robot_for(self, gravity: bool, friction: str) -> Robot:
         """The robot with gravity on or off (on: its own, or -9.81 m/s^2 along base z if it has none) and
@@ -200,17 +242,15 @@ class Explorer:
             if action is Action.RESET:
                 session.last = None
             try:
-                robot = self.robot_for(controls.gravity, controls.friction)
-                model = get_model(controls.model)
-                loads = self.loads_for(robot, controls)
+                robot, model, loads = self._inputs(controls)
             except ValueError as err:
-                return Outcome(self.robot, error=str(err))
+                return Outcome(self.robot, error=str(err), target=session.target)
             start, note = session.start_for(robot, model)
             t0 = time.perf_counter()
             try:
                 sol = solve(robot, loads, model=model, start=start)
             except UnsupportedFeatureError as err:
-                return Outcome(robot, loads, error=str(err))
+                return Outcome(robot, loads, error=str(err), target=session.target)
             except ValueError as err:  # the last state cannot be continued to these loads
                 note = f"cannot continue the last state ({err}): solved from rest"
                 sol = solve(robot, loads, model=model)
@@ -218,7 +258,56 @@ class Explorer:
             seconds = time.perf_counter() - t0
             if sol.converged:
                 session.last, session.robot, session.model = sol, robot, model
-            return Outcome(robot, loads, sol, rest, note=note, seconds=seconds)
+                session.reached = False
+            return Outcome(robot, loads, sol, rest, note=note, seconds=seconds, target=session.target)
+
+    def _inputs(self, controls: Controls) -> tuple[Robot, Model, Loads]:
+        """The robot, model and loads of the controls (ValueError naming what is wrong)."""
+        robot = self.robot_for(controls.gravity, controls.friction)
+        return robot, get_model(controls.model), self.loads_for(robot, controls)
+
+    def reach(self, sid: str, controls: Controls, target: np.ndarray) -> Outcome:
+        """Answer ``target`` (3,) [m] for session ``sid`` under the controls' robot, loads and model (their
+        tensions ignored): by :func:`pytdcr.inverse_statics` where the model has a tip gradient (its registered
+        capabilities), with the nearest workspace sample named beside it; else by the nearest workspace sample.
+        A converged answer becomes the last equilibrium, continued by the next change; ``session.reached`` says
+        whether its tip lies within the search's tolerance of the target."""
+        session = self.session(sid)
+        with session.lock:
+            point = np.asarray(target, dtype=float).reshape(-1)
+            if point.shape != (3,) or not np.all(np.isfinite(point)):
+                return Outcome(self.robot, error="target: give x, y, z as finite numbers", target=session.target)
+            session.target, session.reached = point, False
+            try:
+                robot, model, loads = self._inputs(controls)
+            except ValueError as err:
+                return Outcome(self.robot, error=str(err), target=point)
+            sample = self.nearest_sample(point)
+            start, _ = session.start_for(robot, model)
+            t0 = time.perf_counter()
+            try:
+                if can_inverse(model):
+                    answer, sol, tensions = answer_by_inverse(robot, loads, model, self.bounds, point, start, sample)
+                elif sample is not None:
+                    answer, sol, tensions = answer_by_sample(robot, loads, model, self.bounds, point, sample)
+                else:
+                    return Outcome(robot, loads, error=f"model '{model.name}' has no tip gradient, so no inverse "
+                                   "statics; with a workspace run (--workspace) its nearest sample is offered",
+                                   target=point)
+            except ValueError as err:
+                return Outcome(robot, loads, error=str(err), target=point)
+            seconds = time.perf_counter() - t0
+            if sol.converged:
+                session.last, session.robot, session.model = sol, robot, model
+                session.reached = answer.reached
+            return Outcome(robot, loads.with_tensions(tensions), sol, seconds=seconds, target=point, answer=answer,
+                           tensions=tensions)
+
+    def clear_target(self, sid: str) -> None:
+        """Forget session ``sid``'s target."""
+        session = self.session(sid)
+        with session.lock:
+            session.target, session.reached = None, False
 
 
 def same_equilibrium(a: StaticSolution, b: StaticSolution) -> tuple[bool, float]:

@@ -261,7 +261,8 @@ def inverse_statics(robot: Robot, loads: Loads, target: Any, *, bounds: TensionB
         The tip position wanted [m], base frame (a :class:`TipTarget` adds the axis's direction).
     bounds : TensionBounds
     model : str or Model
-        A model with exact derivatives (``pcc``, ``pcc2``, ``sscr``).
+        A model with a tip gradient (its registry entry's ``capabilities.gradient``): exact for ``pcc``,
+        ``pcc2`` and ``sscr``, by finite differences for ``cosserat`` (slower, less sure).
     objective : str
         ``"least-squares"`` (default), ``"least-max"`` or ``"least-total"``.
     start : array-like, shape (n_tendons,), optional
@@ -279,7 +280,7 @@ def inverse_statics(robot: Robot, loads: Loads, target: Any, *, bounds: TensionB
     ------
     ValueError
         A target that is not three finite numbers, a zero direction, an unknown objective, bounds or a start
-        of another robot, a model without exact derivatives.
+        of another robot, a model without a tip gradient.
     """
     clock = time.perf_counter()
     search = InverseSearch() if search is None else search
