@@ -251,7 +251,8 @@ def workspace_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("explore") / "ws"
     subprocess.run([sys.executable, "-m", "pytdcr.cli", "workspace", "--n", "64", "--budget", "60",
                     "--directions", "0", "--out", str(out), "-q"], check=True, capture_output=True)
-    assert json.loads((out / "workspace.json").read_text())["mesh"] == "fsw.ply"
+    summary = json.loads((out / "workspace.json").read_text())
+    assert summary["mesh"] == "fsw.ply" and summary["realisable"]["mesh"] == "fsw_realisable.ply"
     return out
 
 
@@ -382,6 +383,7 @@ def test_the_page_in_a_browser(page_url):
             traces = page.evaluate("Array.from(document.querySelector('#graph .js-plotly-plot').data)"
                                    ".map(t => [t.type, t.name, (t.i || []).length])")
             assert any(t == "mesh3d" and name == "FSW boundary" and faces > 0 for t, name, faces in traces), traces
+            assert any(t == "mesh3d" and name == "realisable part" and faces > 0 for t, name, faces in traces), traces
             assert "FSW boundary" in page.text_content("#workspace-info")
 
             # a target made by the forward model: "Reach target" puts the tip there and draws a target marker
@@ -407,3 +409,16 @@ def test_the_page_in_a_browser(page_url):
             assert "converged" in page.text_content("#status")
         finally:
             browser.close()
+
+
+def test_a_workspace_runs_boundaries_are_read_whole(workspace_run):
+    """The FSW boundary and its realisable part are the run's own meshes, every face (a small run is under the
+    drawing's face limit)."""
+    import trimesh
+
+    from pytdcr.explore import read_workspace
+
+    view = read_workspace(workspace_run)
+    for (v, f), name in (((view.vertices, view.faces), "fsw.ply"), (view.realisable, "fsw_realisable.ply")):
+        mesh = trimesh.load(workspace_run / name, force="mesh")
+        assert np.allclose(v, mesh.vertices) and np.array_equal(f, mesh.faces)

@@ -134,6 +134,7 @@ def _workspace_text(ex: Explorer) -> str:
         return ""
     shown = f"{len(ws.faces)} of {ws.faces_total} faces" if ws.faces is not None else "no boundary mesh"
     text = f"workspace run {ws.folder}: FSW boundary ({shown})"
+    text += ", its realisable part (no disk below the base, none intersecting)" if ws.realisable is not None else ""
     if ws.reach is not None:
         text += f"; largest reach {np.linalg.norm(ws.reach.tip) * MM:.1f} mm"
         text += f" ({ws.reach.note})" if ws.reach.note else ""

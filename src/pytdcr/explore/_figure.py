@@ -15,8 +15,26 @@ from ..loads import Loads
 from ..results import StaticSolution
 from ._workspace import WorkspaceView
 
-__all__ = ["BACKBONE", "DISKS", "FORCE", "MISS", "MM", "MOMENT", "MOVING", "REST", "TARGET", "TARGET_NAME", "TENDONS",
-           "TIP_AXES", "WORKSPACE_NAME", "base_figure", "pose_data", "rest_data", "target_data"]
+__all__ = [
+    "BACKBONE",
+    "DISKS",
+    "FORCE",
+    "MISS",
+    "MM",
+    "MOMENT",
+    "MOVING",
+    "REALISABLE_NAME",
+    "REST",
+    "TARGET",
+    "TARGET_NAME",
+    "TENDONS",
+    "TIP_AXES",
+    "WORKSPACE_NAME",
+    "base_figure",
+    "pose_data",
+    "rest_data",
+    "target_data",
+]
 
 #: metres to the figure's millimetres
 MM = 1e3
@@ -31,6 +49,8 @@ TARGET, MISS = 9, 10
 MOVING = 11
 #: the name of the workspace boundary's trace
 WORKSPACE_NAME = "FSW boundary"
+#: the name of the realisable part's boundary trace (the run's ``fsw_realisable.ply``)
+REALISABLE_NAME = "realisable part"
 #: the name of the target marker's trace
 TARGET_NAME = "target"
 _RING = 24  # points on a disk's circle
@@ -91,6 +111,12 @@ def _workspace_traces(ws: WorkspaceView) -> list[dict[str, Any]]:
                     "z": v[:, 2].tolist(), "i": f[:, 0].tolist(), "j": f[:, 1].tolist(), "k": f[:, 2].tolist(),
                     "color": "#5dade2", "opacity": 0.16, "flatshading": True, "showlegend": True,
                     "hovertemplate": "(%{x:.1f}, %{y:.1f}, %{z:.1f}) mm<br>click: the target<extra></extra>"})
+    if ws.realisable is not None and len(ws.realisable[1]):
+        v, f = np.round(ws.realisable[0] * MM, 3), ws.realisable[1]
+        out.append({"type": "mesh3d", "name": REALISABLE_NAME, "x": v[:, 0].tolist(), "y": v[:, 1].tolist(),
+                    "z": v[:, 2].tolist(), "i": f[:, 0].tolist(), "j": f[:, 1].tolist(), "k": f[:, 2].tolist(),
+                    "color": "#f5b041", "opacity": 0.1, "flatshading": True, "showlegend": True,
+                    "hoverinfo": "skip"})
     r = ws.reach
     if r is not None:
         if r.backbone is not None:

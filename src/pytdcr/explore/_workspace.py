@@ -37,7 +37,9 @@ class ReachPose:
 @dataclass(frozen=True, eq=False)
 class WorkspaceView:
     """What the explorer draws of a workspace run: the folder, its robot, loads, bounds and model name, the
-    boundary mesh's vertices (V, 3) [m] and faces (F, 3) (None without a mesh) and the largest-reach pose."""
+    boundary mesh's vertices (V, 3) [m] and faces (F, 3) (None without a mesh), the realisable part's boundary
+    (vertices, faces; None without one: the FSW less the poses with a disk below the base plane or two disks
+    intersecting, ``fsw_realisable.ply``) and the largest-reach pose."""
 
     folder: Path
     robot: Robot
@@ -48,6 +50,7 @@ class WorkspaceView:
     faces: np.ndarray | None
     faces_total: int
     reach: ReachPose | None
+    realisable: tuple[np.ndarray, np.ndarray] | None = None
 
 
 def read_workspace(folder: str | Path) -> WorkspaceView:
@@ -59,8 +62,10 @@ def read_workspace(folder: str | Path) -> WorkspaceView:
     total = 0
     if summary.get("mesh"):
         vertices, faces, total = _mesh(d / str(summary["mesh"]))
+    real = (summary.get("realisable") or {}).get("mesh")
+    realisable = _mesh(d / str(real))[:2] if real else None
     return WorkspaceView(d, robot, loads, bounds, model, vertices, faces, total,
-                         _reach(robot, loads, model, summary.get("largest_reach")))
+                         _reach(robot, loads, model, summary.get("largest_reach")), realisable)
 
 
 def _mesh(path: Path) -> tuple[np.ndarray, np.ndarray, int]:
