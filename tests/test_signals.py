@@ -6,6 +6,7 @@ How long each command takes from SIGINT to exit is measured by ``bench/interrupt
 
 from __future__ import annotations
 
+import codecs
 import csv
 import json
 import os
@@ -42,8 +43,11 @@ class Proc:
         self.reader.start()
 
     def _read(self) -> None:
-        while chunk := self.p.stderr.read(64):
-            self.err.append(chunk)
+        # whatever has come, as it comes (a text read(64) would wait for 64 characters: a short progress line
+        # would then be seen only with the next, and the test would interrupt later than it means to)
+        fd, text = self.p.stderr.fileno(), codecs.getincrementaldecoder("utf-8")("replace")
+        while chunk := os.read(fd, 4096):
+            self.err.append(text.decode(chunk))
 
     def stderr(self) -> str:
         return "".join(self.err)
