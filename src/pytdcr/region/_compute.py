@@ -15,7 +15,7 @@ from ..statics import Model, check_resources, resolve
 from ._frontier import BoundarySearch, GrowthSettings, SearchRound, SearchState, grow_region
 from ._grid import Region
 from ._history import Multistability, measure_multistability
-from ._plan import plan_tensions
+from ._plan import TensionPlan, plan_tensions
 from ._settings import VOXELS_PER_LENGTH, WorkspaceHooks, WorkspaceSettings, search_budget
 from ._solve import (
     EQUILIBRIA,
@@ -102,6 +102,13 @@ def _search(solver: _Solver, samples: RegionSamples, bounds: TensionBounds, voxe
     return samples, BoundarySearch(tuple(rounds), spent, stop, growth.tol, growth.budget)
 
 
+def _sampling(m: Model, bounds: TensionBounds, s: WorkspaceSettings) -> tuple[TensionPlan, str, Any]:
+    """The sampling of a workspace study: its plan, which equilibria it holds and its warm starts (False: none)."""
+    plan = plan_tensions(bounds, s.n, seed=s.seed)
+    kind = equilibria_for(m, s.equilibria)
+    return plan, kind, WarmStarts(seed=s.seed) if s.warm and kind == EQUILIBRIA[1] else False
+
+
 def planned_work(robot: Robot, loads: Loads, bounds: TensionBounds, settings: WorkspaceSettings | None = None, *,
                  model: str | Model = "pcc", options: Any = None) -> dict[str, int]:
     """The most work a workspace study (:func:`pytdcr.region.workspace_study`) of these inputs plans, by stage,
@@ -110,9 +117,7 @@ def planned_work(robot: Robot, loads: Loads, bounds: TensionBounds, settings: Wo
     when it runs (the model must have a tip gradient for h(d) and the search). Nothing is solved."""
     s = (settings if settings is not None else WorkspaceSettings()).check(robot)
     m, _ = resolve(model, robot, loads, options)
-    plan = plan_tensions(bounds, s.n, seed=s.seed)
-    kind = equilibria_for(m, s.equilibria)
-    warm = WarmStarts(seed=s.seed) if s.warm and kind == EQUILIBRIA[1] else False
+    plan, _, warm = _sampling(m, bounds, s)
     rows = plan.tensions.shape[0]
     searched = m.capabilities.gradient is not None
     directions = s.direction_vectors()
@@ -152,9 +157,7 @@ def workspace_region(robot: Robot, loads: Loads, bounds: TensionBounds, settings
     hooks = hooks if hooks is not None else WorkspaceHooks()
     m, opts = resolve(model, robot, loads, options)
     voxel = s.voxel_for(robot)
-    plan = plan_tensions(bounds, s.n, seed=s.seed)
-    kind = equilibria_for(m, s.equilibria)
-    warm = WarmStarts(seed=s.seed) if s.warm and kind == EQUILIBRIA[1] else False
+    plan, kind, warm = _sampling(m, bounds, s)
     step = hooks.progress("sampling", solves_needed(plan, warm)) if hooks.progress else None
     if kind == EQUILIBRIA[0]:
         samples = continue_plan(robot, loads, plan, model=m, options=opts, threads=s.threads, progress=step)

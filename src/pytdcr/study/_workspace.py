@@ -561,8 +561,12 @@ def _write_comparison(out: Path, cases: list[WorkspaceCase], robot: Robot, comma
     return [*files, "comparison.md", "comparison.json"]
 
 
-def _section_cases(robot: Robot, s: Any, seed: int) -> dict[str, tuple[Robot, Loads, WorkspaceSettings, str]]:
-    """The workspace cases of :func:`workspace_section`: name → robot, loads, settings, model."""
+_SectionCases = dict[str, tuple[Robot, Loads, WorkspaceSettings, str]]
+
+
+def _section_cases(robot: Robot, s: Any, seed: int) -> tuple[_SectionCases, _SectionCases]:
+    """The workspace cases of :func:`workspace_section` and those of its models' comparison (empty without
+    ``s.workspace_models``), each name → robot, loads, settings, model."""
     from ..paper import workspace_load_cases
 
     cases = {k: v for k, v in workspace_load_cases(robot).items() if k in ("no load", "paper wrench")}
@@ -571,18 +575,17 @@ def _section_cases(robot: Robot, s: Any, seed: int) -> dict[str, tuple[Robot, Lo
                                  directions=s.workspace_directions, multistability=0, equilibria="loading-path",
                                  reach="search" if s.workspace_directions else "samples")
     out = {name: (r, loads, settings, "pcc") for name, (r, loads) in cases.items()}
-    if s.workspace_models:
-        settings = WorkspaceSettings(n=s.models_n, seed=seed, voxel=robot.length / s.models_voxels, directions=0,
-                                     multistability=0, reach="samples")
-        r, loads = cases["paper wrench"]
-        out.update({f"model {m}": (r, loads, settings, m) for m in s.workspace_models})
-    return out
+    settings = WorkspaceSettings(n=s.models_n, seed=seed, voxel=robot.length / s.models_voxels, directions=0,
+                                 multistability=0, reach="samples")
+    r, loads = cases["paper wrench"]
+    return out, {m: (r, loads, settings, m) for m in s.workspace_models}
 
 
 def section_estimate(robot: Robot, bounds: TensionBounds, s: Any, *, seed: int = 0) -> Estimate:
     """The expected length of :func:`workspace_section` at the settings ``s``
     (:func:`~pytdcr.region.workspace_estimate`)."""
-    return workspace_estimate([(r, loads, st, m, None) for r, loads, st, m in _section_cases(robot, s, seed).values()],
+    cases, models = _section_cases(robot, s, seed)
+    return workspace_estimate([(r, loads, st, m, None) for r, loads, st, m in [*cases.values(), *models.values()]],
                               bounds)
 
 
@@ -601,9 +604,8 @@ def workspace_section(robot: Robot, bounds: TensionBounds, s: Any, out: Path, fi
             return WorkspaceHooks()
         return WorkspaceHooks(lambda stage, total: progress(f"workspace, {name}: {stage}", total, "solve"))
 
-    cases = _section_cases(robot, s, seed)
-    done = [_case(name, r, loads, bounds, st, m, None, hooks(name)) for name, (r, loads, st, m) in cases.items()
-            if not name.startswith("model ")]
+    cases, models = _section_cases(robot, s, seed)
+    done = [_case(name, r, loads, bounds, st, m, None, hooks(name)) for name, (r, loads, st, m) in cases.items()]
     for case in (c for c in done if c.region.fsw.has_volume):
         name = f"workspace_fsw_{_slug(case.name)}.ply"
         case.region.fsw_region.mesh().export(out / name, file_type="ply")
@@ -613,8 +615,7 @@ def workspace_section(robot: Robot, bounds: TensionBounds, s: Any, out: Path, fi
                          out, "workspace_slices")
     section = {"n": s.workspace_n, "voxel_m": cases["no load"][2].voxel, "budget": s.workspace_budget,
                "cases": _comparison(done)}
-    if s.workspace_models:
-        models = {name[len("model "):]: v for name, v in cases.items() if name.startswith("model ")}
+    if models:
         section["models"] = _models_section(robot, models, bounds, s, out, files, hooks)
     return section
 
