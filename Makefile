@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 DOCS_STAMP := $(VENV)/.docs-installed
 
-.PHONY: demo test docs lint bench clean
+.PHONY: demo test test-slow docs lint bench clean
 
 KERNELS := $(wildcard src/pytdcr/statics/kernels/*.py) src/pytdcr/kinematics.py
 
@@ -23,8 +23,14 @@ $(STAMP): pyproject.toml $(KERNELS)
 demo: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/tdcr reproduce --robot paper --out out/reproduce
 
+# the tests but the slow validation runs (marked `slow`): the check to run while working
 test: $(STAMP)
-	MPLBACKEND=Agg $(BIN)/python -m pytest -q
+	MPLBACKEND=Agg $(BIN)/python -m pytest -q -m "not slow"
+
+# the slow validation runs alone: golden baselines of the long commands, signals, the notebook, the browser;
+# CI runs them after `make test`
+test-slow: $(STAMP)
+	MPLBACKEND=Agg $(BIN)/python -m pytest -q -m slow
 
 $(DOCS_STAMP): $(STAMP) pyproject.toml
 	$(BIN)/python -m pip install -e '.[dev,docs]'

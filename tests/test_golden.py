@@ -223,7 +223,7 @@ CASES: dict[str, Callable[[Path], dict[str, Any]]] = {
     "sample": _sample, "sample_sscr": _sample_sscr, "workspace": _workspace, "optimize": _optimize,
     "compare": _compare, "designs": _designs, "reproduce": _reproduce, "reproduce_demo": _reproduce_demo,
 }
-SLOW = {"reproduce_demo", "designs", "workspace"}
+SLOW = {"reproduce_demo", "reproduce", "designs", "workspace", "optimize"}
 #: cases whose results depend on the last bits of every solve (seen: another CPU's flags move all five)
 CHAOTIC = {"workspace", "optimize", "designs", "reproduce", "reproduce_demo"}
 

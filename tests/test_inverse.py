@@ -61,6 +61,7 @@ def _check_truthful(r, target) -> None:
     assert abs(r.distance_m - float(np.linalg.norm(r.tip_position - target))) < 1e-12
 
 
+@pytest.mark.slow
 def test_fifty_made_targets_are_reached_and_the_answers_tell_the_truth():
     tensions, targets = _made_targets(50, seed=28)
     results = [inverse_statics(ROBOT, LOADS, p, bounds=BOUNDS) for p in targets]

@@ -172,6 +172,7 @@ def test_tdcr_workspace_writes_the_named_files(capsys, tmp_path):
     assert code == 2 and "--voxel = 5: must be in" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_tdcr_workspace_equilibria_both_compares_the_two_regions(capsys, tmp_path):
     import json
 

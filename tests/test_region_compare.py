@@ -91,6 +91,7 @@ def test_tdcr_workspace_compare_models(capsys, tmp_path):
         assert not (tmp_path / "no").exists()
 
 
+@pytest.mark.slow
 def test_the_reproduce_workspace_section_compares_the_models(tmp_path):
     """``tdcr reproduce --full``'s workspace section with models (here a small budget and two): per model a
     volume, per pair the overlap, the slices written and the report's table."""

@@ -122,6 +122,7 @@ def test_equilibria_are_named_and_checked(paper):
         WorkspaceSettings(multistability=-1)
 
 
+@pytest.mark.slow
 def test_h_and_the_largest_reach_come_from_stable_equilibria(paper):
     """Under the paper's load the support function and the reach search refuse unstable equilibria (issue 27,
     item 3), and report the equilibria of the continued region: every row is marked stable, and each searched

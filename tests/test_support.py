@@ -172,6 +172,7 @@ def test_bad_input_is_refused(case):
         support_function(problem, T, P, settings=SupportSettings(starts=0))
 
 
+@pytest.mark.slow
 def test_largest_reach_beats_the_samples_and_reproduces(case, support):
     problem, T, P = case
     far = largest_reach(problem, T, P, support, starts=2)
