@@ -96,6 +96,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.flush()
     finally:
         guard.uninstall()
+        set_quiet(False)  # --quiet was this run's: a later main() or library call in the process shows progress
     # the reader of the messages went away: a run that finished says so as one whose output's reader did
     return EXIT_PIPE_CLOSED if guard.lost and code in (EXIT_OK, EXIT_NOT_CONVERGED) else code
 

@@ -34,6 +34,8 @@ __all__ = ["add_parser", "run"]
 #: the region's equilibria (:data:`pytdcr.region.EQUILIBRIA`: the parser is built without importing the region
 #: package, so they are named here and a test checks them against the library's)
 EQUILIBRIA_CHOICES = ("continuation", "loading-path")
+#: the boundary search's rules at a fold (:data:`pytdcr.region.FOLD_RULES`), likewise
+FOLD_CHOICES = ("snap", "stop")
 
 
 def add_parser(sub: Any) -> None:
@@ -50,6 +52,10 @@ def add_parser(sub: Any) -> None:
     ws.add_argument("--no-search", action="store_true", help="no boundary search: the region of the samples alone")
     ws.add_argument("--budget", type=count_type, default=None,
                     help="the boundary search's budget of solves [25 n]")
+    ws.add_argument("--search-folds", choices=FOLD_CHOICES, default=FOLD_CHOICES[0],
+                    help="where a boundary-search step meets a fold: 'snap' through it and keep the equilibrium "
+                    "past it, or 'stop' there and keep nothing (about half the search's time; the region grows "
+                    "only along paths without a snap from its samples) [snap]")
     ws.add_argument("--directions", type=count_type, default=200,
                     help="directions of the support function h(d) on a Fibonacci sphere; 0: none [200]")
     ws.add_argument("--equilibria", choices=[*EQUILIBRIA_CHOICES, "both"], default=None,
@@ -145,6 +151,7 @@ def run(args: argparse.Namespace) -> int:
     try:  # the settings check their ranges (the only place they live); the message names the option
         settings = WorkspaceSettings(n=args.n, seed=args.seed, voxel=args.voxel, warm=not args.no_warm,
                                      search=not args.no_search, budget=args.budget, directions=args.directions,
+                                     folds=args.search_folds,
                                      equilibria=None if args.equilibria == "both" else args.equilibria
                                      ).check(robot)
     except ValueError as err:

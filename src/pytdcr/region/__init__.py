@@ -5,7 +5,7 @@ what is physically realisable. :func:`workspace_study` does it all, from one :cl
 
 from ._compute import WorkspaceRegion, planned_work, workspace_region
 from ._estimate import Estimate, solve_seconds, workspace_estimate
-from ._frontier import BoundarySearch, GrowthSettings, SearchRound, SearchState, grow_region, tension_step
+from ._frontier import FOLD_RULES, BoundarySearch, GrowthSettings, SearchRound, SearchState, grow_region, tension_step
 from ._grid import MIN_MESH_POINTS, Region, inside, region_from_points
 from ._history import Multistability, measure_multistability
 from ._overlap import RegionOverlap, region_overlap
@@ -47,6 +47,7 @@ __all__ = [
     "AGREEMENT_REQUIRED",
     "EQUILIBRIA",
     "FIRST_WAVE",
+    "FOLD_RULES",
     "MEASURES",
     "MIN_MESH_POINTS",
     "REACH_RULES",

@@ -170,7 +170,7 @@ def workspace_region(robot: Robot, loads: Loads, bounds: TensionBounds, settings
                      bool(m.capabilities.stability))
     if s.search:
         check_resources(m, robot, opts)
-        growth = GrowthSettings(tol=s.tol, budget=s.search_budget, warm=False, seed=s.seed)
+        growth = GrowthSettings(tol=s.tol, budget=s.search_budget, warm=False, seed=s.seed, folds=s.folds)
         samples, record = _search(solver, samples, bounds, voxel, growth, hooks)
     if s.multistability:
         total = min(s.multistability, int(samples.feasible.sum()))

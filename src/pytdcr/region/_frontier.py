@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -26,12 +26,15 @@ from ._plan import SOURCES
 from ._solve import RegionSamples, WarmStartCheck, _checked, _Solver
 from ._step_kernel import box_least_squares
 
-__all__ = ["BoundarySearch", "GrowthSettings", "SearchRound", "SearchState", "grow_region"]
+__all__ = ["FOLD_RULES", "BoundarySearch", "GrowthSettings", "SearchRound", "SearchState", "grow_region"]
 
 #: the six face directions of a voxel
 FACES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]])
 #: source code of the search's rows
 SEARCH = SOURCES.index("search")
+#: what a search step does where its path meets a fold: ``"snap"`` through to the equilibrium past it (kept as a
+#: sample), or ``"stop"`` there (the step adds nothing; no snap-through is sought, which is most of a search's cost)
+FOLD_RULES = ("snap", "stop")
 
 
 @dataclass(frozen=True)
@@ -60,6 +63,8 @@ class SearchRound:
         the loading path) or ``"loading path"``.
     checked, agreed : int
         The round's checked subset (solved both ways) and how many reached the same equilibrium.
+    at_fold : int
+        Steps that stopped at a fold (``folds="stop"``; counted in ``steps``, not kept as samples).
     """
 
     stage: int
@@ -73,6 +78,7 @@ class SearchRound:
     warm: str = "loading path"
     checked: int = 0
     agreed: int = 0
+    at_fold: int = 0
 
 
 @dataclass(frozen=True)
@@ -98,6 +104,9 @@ class GrowthSettings:
         The checked subset's size, >= 0.
     seed : int
         Seed of the checked subsets (with the stage and the round), >= 0.
+    folds : str
+        Where a step's continuation meets a fold (:data:`FOLD_RULES`): ``"snap"`` through it and keep the
+        equilibrium past it, or ``"stop"`` there and keep nothing (models without the choice snap).
     """
 
     tol: float = 0.002
@@ -108,12 +117,15 @@ class GrowthSettings:
     warm: bool = True
     check: int = 200
     seed: int = 0
+    folds: str = FOLD_RULES[0]
 
     def __post_init__(self) -> None:
         for name, lo in (("max_rounds", 1), ("budget", 0), ("tries", 1), ("check", 0), ("seed", 0)):
             object.__setattr__(self, name, check_count(getattr(self, name), name, lo=lo))
         if not (np.isfinite(self.step) and self.step > 0):
             raise ValueError(f"step = {self.step!r}: must be a positive number of voxels")
+        if self.folds not in FOLD_RULES:
+            raise ValueError(f"folds = {self.folds!r}: must be one of {', '.join(FOLD_RULES)}")
 
 
 @dataclass
@@ -150,6 +162,7 @@ class BoundarySearch:
         return {"solves": self.solves, "stop": self.stop, "tol": self.tol, "budget": self.budget,
                 "warm_rounds": sum(r.warm == "warm" for r in self.rounds),
                 "warm_checked": sum(r.checked for r in self.rounds), "warm_agreement": self.warm_agreement,
+                "at_fold": sum(r.at_fold for r in self.rounds),
                 "rounds": [asdict(r) for r in self.rounds]}
 
 
@@ -262,11 +275,23 @@ def _solved(solver: _Solver, samples: RegionSamples, T: np.ndarray, parents: np.
     else:
         assert samples.q is not None
         got, report = _checked(solver, T, samples.q[parents], check, seed, 0)
+    if "at_fold" in got and np.any(got["at_fold"]):  # steps that stopped at a fold reached nothing new
+        keep = ~got["at_fold"]
+        got, T = {k: v[keep] for k, v in got.items()}, T[keep]
+        parent = None if parent is None else parent[keep]
     return RegionSamples(T, np.full(T.shape[0], SEARCH, dtype=np.int8), got["tip_position"], got["converged"],
                          got["stable"], got["below_base"], got["disks_touch"], 0, seconds=time.perf_counter() - t0,
                          q=got["q"], stage=np.full(T.shape[0], stage, dtype=np.int8), curvature=got["curvature"],
                          parent=parent, residual=got["residual"], atol=got["atol"],
                          root=samples.root), report
+
+
+def _stopping_at_folds(solver: _Solver, folds: str) -> _Solver:
+    """``solver`` with its model's fold handling set to stop at a fold for ``folds="stop"`` (where the model's
+    options have the choice), else ``solver`` itself."""
+    if folds != "stop" or "fold" not in getattr(type(solver.options), "__dataclass_fields__", {}):
+        return solver
+    return replace(solver, options=replace(solver.options, fold="stop"))
 
 
 def _voxels(samples: RegionSamples, mask: np.ndarray, voxel: float) -> int:
@@ -297,6 +322,7 @@ def grow_region(solver: _Solver, samples: RegionSamples, bounds: TensionBounds, 
     tried, counts = state.tried, state.counts
     rounds: list[SearchRound] = []
     spent, stop = 0, "rounds"
+    stepper = _stopping_at_folds(solver, g.folds)
     active = samples.stage <= stage
     before = (_voxels(samples, samples.feasible & active, voxel), _voxels(samples, samples.realisable & active, voxel))
     for k in range(g.max_rounds):
@@ -313,16 +339,17 @@ def grow_region(solver: _Solver, samples: RegionSamples, bounds: TensionBounds, 
         T = _steps(solver, samples, rows, faces, bounds, g.step * voxel, state.gradients)
         ok = np.all(np.isfinite(T), axis=1)
         parents, T = rows[ok][: max(0, g.budget - spent)], T[ok][: max(0, g.budget - spent)]
-        new, report = _solved(solver, samples, T, parents, g.warm, stage, g.check,
+        new, report = _solved(stepper, samples, T, parents, g.warm, stage, g.check,
                               int(np.random.SeedSequence([g.seed, stage, k]).generate_state(1)[0]))
         spent += T.shape[0]
         samples = samples.joined(new)
-        tried = np.concatenate([tried, np.zeros((T.shape[0], *tried.shape[1:]), dtype=bool)])
+        tried = np.concatenate([tried, np.zeros((new.source.size, *tried.shape[1:]), dtype=bool)])
         active = samples.stage <= stage
         now = (_voxels(samples, samples.feasible & active, voxel),
                _voxels(samples, samples.realisable & active, voxel))
         rounds.append(SearchRound(stage, k, int(rows.size), int(T.shape[0]), int(ok.sum()), now[0], now[1],
-                                  time.perf_counter() - t0, report.mode, report.checked, report.agreed))
+                                  time.perf_counter() - t0, report.mode, report.checked, report.agreed,
+                                  int(T.shape[0] - new.source.size)))
         if on_round is not None:
             on_round(rounds[-1])
         grown = max((a - b) / max(b, 1) for a, b in zip(now, before, strict=True))

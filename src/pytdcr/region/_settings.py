@@ -13,6 +13,7 @@ import numpy as np
 
 from ..limits import ResourceLimitError, check_memory
 from ..validate import check_count, show
+from ._frontier import FOLD_RULES
 from ._solve import EQUILIBRIA
 from ._support import fibonacci_directions
 
@@ -141,6 +142,12 @@ class WorkspaceSettings:
         Samples of the region also solved the other way (from rest along the loading path for a continued
         region; continued from the root for a loading-path one) to measure how often the equilibrium depends
         on the history, in [0, 100000] (0: not measured; fewer when the region has fewer).
+    folds : str
+        What a boundary-search step does where its continuation meets a fold (:data:`pytdcr.region.FOLD_RULES`):
+        ``"snap"`` (default) through to the equilibrium past it, kept as a sample; ``"stop"`` there, keeping
+        nothing: the region then grows only along paths without a snap from its samples (which may have snapped),
+        at about half the search's cost (docs/workspace.md gives the measured difference). Models without the
+        choice snap.
     """
 
     n: int = 4000
@@ -155,6 +162,7 @@ class WorkspaceSettings:
     threads: int | None = None
     equilibria: str | None = None
     multistability: int = MULTISTABILITY_CHECK
+    folds: str = FOLD_RULES[0]
 
     def __post_init__(self) -> None:
         put = object.__setattr__
@@ -179,6 +187,8 @@ class WorkspaceSettings:
             raise ValueError(f"equilibria = {show(self.equilibria)}: must be one of {', '.join(map(repr, EQUILIBRIA))}"
                              " or None (continuation where the model can)")
         put(self, "multistability", check_count(self.multistability, "multistability", lo=0, hi=100_000))
+        if self.folds not in FOLD_RULES:
+            raise ValueError(f"folds = {show(self.folds)}: must be one of {', '.join(map(repr, FOLD_RULES))}")
 
     def check(self, robot: Robot) -> WorkspaceSettings:
         """These settings if they suit ``robot``, before any work: the voxel lies in [0.0001, the robot's length]

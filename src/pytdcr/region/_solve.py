@@ -18,6 +18,7 @@ from ..limits import check_memory
 from ..loads import Loads
 from ..results import BatchSolution
 from ..statics import Model, check_resources, resolve, solve_batch
+from ..statics.options import PATH_FOLD, PATH_NAMES
 from ..validate import check_count
 from ._plan import TensionPlan
 
@@ -271,6 +272,7 @@ class _Solver:
         atol = np.full(ok.shape, np.nan) if b.atol is None else np.asarray(b.atol, dtype=float)
         return {"tip_position": b.tip_position, "converged": ok, "stable": stable, "q": q, "curvature": kappa,
                 "plain": np.asarray(b.path == "loading", dtype=bool), "residual": np.asarray(b.residual, float),
+                "at_fold": np.asarray(b.path == PATH_NAMES[PATH_FOLD], dtype=bool),
                 "atol": atol,
                 "below_base": disks_below_base(pos, rot, r) & ok, "disks_touch": disks_touch(pos, rot, r) & ok}
 

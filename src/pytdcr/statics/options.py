@@ -17,10 +17,10 @@ import numpy as np
 
 from ..validate import show_number
 
-__all__ = ["DEFAULT_ATOL", "FOLDS", "FOLD_ARCLENGTH", "FOLD_RELAX", "LOAD_STEPPING", "MAX_ATOL", "MIN_ATOL",
-           "MIN_STEP_SCALE", "PATH_CONTINUED", "PATH_DIRECT", "PATH_FALLBACK", "PATH_LOADING", "PATH_NAMES",
-           "PATH_NO_START", "PATH_SELF_CONTACT", "PATH_SNAP", "SAME_EQUILIBRIUM", "STEP_CONTINUE", "TIGHT_ATOL",
-           "CosseratOptions", "SSCROptions", "SolverOptions", "check_common_options"]
+__all__ = ["DEFAULT_ATOL", "FOLDS", "FOLD_ARCLENGTH", "FOLD_RELAX", "FOLD_STOP", "LOAD_STEPPING", "MAX_ATOL",
+           "MIN_ATOL", "MIN_STEP_SCALE", "PATH_CONTINUED", "PATH_DIRECT", "PATH_FALLBACK", "PATH_FOLD",
+           "PATH_LOADING", "PATH_NAMES", "PATH_NO_START", "PATH_SELF_CONTACT", "PATH_SNAP", "SAME_EQUILIBRIUM",
+           "STEP_CONTINUE", "TIGHT_ATOL", "CosseratOptions", "SSCROptions", "SolverOptions", "check_common_options"]
 
 #: Newton from the start point at full load
 PATH_DIRECT = 0
@@ -32,8 +32,10 @@ PATH_SNAP = 2
 PATH_FALLBACK = 3
 #: continuation from a solved state along the straight path of the loads to the new ones
 PATH_CONTINUED = 4
+#: the path met a fold and stopped there (``fold="stop"``): not converged, no snap-through sought
+PATH_FOLD = 5
 #: ``StaticSolution.path`` by path code
-PATH_NAMES = ("direct", "loading", "snap", "fallback", "continued")
+PATH_NAMES = ("direct", "loading", "snap", "fallback", "continued", "fold")
 #: ``path`` of an equilibrium refused because the backbone passes through itself (:mod:`pytdcr.contact`)
 PATH_SELF_CONTACT = "self-contact"
 #: ``path`` of a batch row not continued because its start did not converge (``solve_batch(..., start=batch)``)
@@ -57,8 +59,11 @@ TIGHT_ATOL = 1e-12
 FOLD_RELAX = 0
 #: at a fold, follow the equilibrium curve through its turning points (pseudo-arclength) to full load
 FOLD_ARCLENGTH = 1
+#: at a fold, stop: the solve is not converged (path ``"fold"``) and no snap-through is sought; for callers that
+#: only want equilibria reached without one (the workspace's boundary search, ``folds="stop"``)
+FOLD_STOP = 2
 #: fold handling by name, as the kernels take it
-FOLDS = {"relax": FOLD_RELAX, "arclength": FOLD_ARCLENGTH}
+FOLDS = {"relax": FOLD_RELAX, "arclength": FOLD_ARCLENGTH, "stop": FOLD_STOP}
 
 #: the loosest convergence tolerance accepted [N m]: a looser one passes poses visibly out of balance
 MAX_ATOL = 1e-4
@@ -98,11 +103,12 @@ class SolverOptions:
         'never' is Newton alone.
     step_iter : int
         Newton iterations allowed per load step before the step is halved.
-    fold : {'relax', 'arclength'}
+    fold : {'relax', 'arclength', 'stop'}
         Where the loading path meets a fold: 'relax' at full load from the
         last equilibrium (pseudo-transient continuation: the snap-through),
-        or 'arclength': follow the equilibrium curve through its turning
-        points (pseudo-arclength continuation) to full load.
+        'arclength': follow the equilibrium curve through its turning
+        points (pseudo-arclength continuation) to full load, or 'stop': the
+        solve ends there, not converged (path ``"fold"``; no snap-through).
     step_scale : float
         Scales the loading path's steps: the bend or twist a load step aims at and the largest step
         (default 1; 0.25 takes steps four times finer: the reference the solver's path is checked against).
@@ -113,7 +119,7 @@ class SolverOptions:
     max_dtheta: float = 0.5
     load_stepping: Literal["always", "auto", "never"] = "always"
     step_iter: int = 8
-    fold: Literal["relax", "arclength"] = "relax"
+    fold: Literal["relax", "arclength", "stop"] = "relax"
     step_scale: float = 1.0
 
     def __post_init__(self) -> None:
@@ -150,7 +156,7 @@ class SSCROptions(SolverOptions):
     """
 
     step_iter: int = 12
-    fold: Literal["relax", "arclength"] = "arclength"
+    fold: Literal["relax", "arclength", "stop"] = "arclength"
     steps_per_subsegment: int = 4
     shear_extension: bool = False
 

@@ -229,7 +229,7 @@ def _case(name: str, robot: Robot, loads: Loads, bounds: TensionBounds, settings
                                       solver=options_record(ws.model, ws.options), warm_starts=settings.warm,
                                       boundary_search=settings.search, search_budget=settings.budget,
                                       directions=_directions_record(settings), equilibria=settings.equilibria,
-                                      multistability=settings.multistability)
+                                      multistability=settings.multistability, search_folds=settings.folds)
     summary["warnings"] = _warnings(summary)
     return WorkspaceCase(name, loads, ws, summary)
 

@@ -23,17 +23,19 @@ from numba.extending import overload
 from ..options import (
     FOLD_ARCLENGTH,
     FOLD_RELAX,
+    FOLD_STOP,
     PATH_CONTINUED,
     PATH_DIRECT,
     PATH_FALLBACK,
+    PATH_FOLD,
     PATH_LOADING,
     PATH_SNAP,
     STEP_CONTINUE,
 )
 
-__all__ = ["FOLD_ARCLENGTH", "FOLD_RELAX", "Homotopy", "Outcome", "Settings", "arclength", "continue_range",
-           "model_angle", "model_evaluate", "model_with_tension", "model_work", "newton", "relax", "snap_through",
-           "solve_one", "solve_range"]
+__all__ = ["FOLD_ARCLENGTH", "FOLD_RELAX", "FOLD_STOP", "Homotopy", "Outcome", "Settings", "arclength",
+           "continue_range", "model_angle", "model_evaluate", "model_with_tension", "model_work", "newton", "relax",
+           "snap_through", "solve_one", "solve_range"]
 
 _STALL = 15  # Newton gives up after this many iterations without halving the residual
 _MAX_DLAM = 0.25  # largest load step
@@ -57,7 +59,7 @@ class Settings(NamedTuple):
     max_dtheta: float
     stepping: int
     step_iter: int  # Newton iterations allowed per load step
-    fold: int  # at a fold of the loading path: FOLD_RELAX or FOLD_ARCLENGTH
+    fold: int  # at a fold of the loading path: FOLD_RELAX, FOLD_ARCLENGTH or FOLD_STOP
     step_atol: float
     step_scale: float  # scales the loading path's step target and largest step
 
@@ -929,6 +931,8 @@ def solve_one(q0, m, settings, work):
             kept[:] = q
             kept_res = res
             kept_path = path
+        elif path == PATH_FOLD:  # the path ends at a fold (one that a coarser walk stepped over, if any)
+            break
         elif attempt > 0:  # a finer walk found no way: the answer a coarser one reached (if any) stands
             if kept_res <= atol:
                 q[:] = kept
@@ -936,9 +940,10 @@ def solve_one(q0, m, settings, work):
             break
         scale *= 0.25  # stepped over a fold pair, or stalled with no way on: walk again in finer steps
     if lam < 1.0:
-        # last resort: any equilibrium at full load, from the last equilibrium, then from q0
+        # last resort: any equilibrium at full load, from the last equilibrium, then from q0 (none where the
+        # path was to stop at a fold)
         qs = np.empty(nq)
-        for which in range(2):
+        for which in range(0 if path == PATH_FOLD else 2):
             if which == 0:
                 qs[:] = q
             else:
@@ -1022,6 +1027,9 @@ def _walk(q, m, settings, work, H, scale, cont, r_full):
         else:
             dlam *= 0.5
             if dlam < 1.0 / 128.0:
+                if settings.fold == FOLD_STOP:  # no way on: the path ends at a fold, and so does the solve
+                    path = PATH_FOLD
+                    break
                 qs[:] = q
                 if settings.fold == FOLD_ARCLENGTH:
                     # follow the equilibrium curve through the fold, in (q, lam)
