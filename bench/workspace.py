@@ -7,11 +7,12 @@ Three measurements (2-core figures are in docs/speed.md and docs/workspace.md):
   equilibria only, as ``tdcr workspace`` computes it: each search warm from its sample's equilibrium, its end
   continued from it (target 200 in 30 s); with ``--cold``, every cost a cold solve from rest as before;
 - region: ``workspace_region`` at ``--n`` base samples with the boundary search (its default budget, or
-  ``--budget`` solves): the seconds, the solves, the FSW's volume and error.
+  ``--budget`` solves; ``--folds stop``: its steps stop at folds instead of snapping through): the seconds, the
+  solves, the steps stopped at a fold, the FSW's volume and error.
 Each is repeated ``--repeat`` times; medians are printed and written to ``bench/results/workspace.json``.
 
 Usage: python bench/workspace.py [--samples 20000] [--n 4000] [--budget N] [--directions 200] [--repeat 1]
-       [--cold] [--skip region]
+       [--cold] [--folds snap|stop] [--skip region]
 """
 
 from __future__ import annotations
@@ -63,14 +64,15 @@ def support(n: int, k: int, seed: int, cold: bool = False) -> dict[str, float]:
             "h_mean_m": float(np.mean(sf.h)), "searches": "cold" if cold else "warm, continued ends"}
 
 
-def region(n: int, seed: int, budget: int | None = None) -> dict[str, float]:
+def region(n: int, seed: int, budget: int | None = None, folds: str = "snap") -> dict[str, float]:
     robot, loads, b = paper_robot(), paper_loads(), paper_bounds()
     t0 = time.perf_counter()
-    wr = workspace_region(robot, loads, b, WorkspaceSettings(n=n, seed=seed, budget=budget))
+    wr = workspace_region(robot, loads, b, WorkspaceSettings(n=n, seed=seed, budget=budget, folds=folds))
     sec = time.perf_counter() - t0
     assert wr.search is not None
-    return {"n": n, "seconds": sec, "solves": int(wr.samples.source.size + wr.samples.warm.checked),
-            "search_solves": wr.search.solves, "search_stop": wr.search.stop,
+    return {"n": n, "folds": folds, "seconds": sec, "solves": int(wr.samples.source.size + wr.samples.warm.checked),
+            "search_solves": wr.search.solves, "search_at_fold": wr.search.to_dict()["at_fold"],
+            "search_stop": wr.search.stop,
             "volume_cm3": wr.fsw.volume_m3 * 1e6, "error_cm3": wr.fsw.error_m3 * 1e6,
             "realisable_cm3": wr.realisable.volume_m3 * 1e6, "realisable_error_cm3": wr.realisable.error_m3 * 1e6}
 
@@ -90,6 +92,8 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--seed", type=int, default=5)
     ap.add_argument("--cold", action="store_true", help="h(d) with every cost solved from rest (the old way)")
+    ap.add_argument("--folds", choices=("snap", "stop"), default="snap",
+                    help="what a boundary-search step does at a fold (region)")
     ap.add_argument("--skip", default="", help="comma-separated: sampling, support, region")
     ap.add_argument("--json", action="store_true", help="also print the result as one JSON line")
     args = ap.parse_args()
@@ -98,7 +102,7 @@ def main() -> None:
     out = {}
     jobs = {"sampling": lambda: sampling(args.samples, args.seed),
             "support": lambda: support(args.n, args.directions, args.seed, args.cold),
-            "region": lambda: region(args.n, args.seed, args.budget)}
+            "region": lambda: region(args.n, args.seed, args.budget, args.folds)}
     for name, job in jobs.items():
         if name in skip:
             continue
