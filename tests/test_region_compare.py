@@ -110,6 +110,12 @@ def test_the_reproduce_workspace_section_compares_the_models(tmp_path):
     assert "workspace_models_slices.png" in files and (tmp_path / "workspace_models_slices.png").is_file()
     text = "\n".join(workspace_text(ws, s))
     assert "### The workspace by model" in text and "| pcc2 |" in text and "Hausdorff" in text
+    # the models' searches stop at folds (an sscr search that snaps through them takes hours)
+    from pytdcr.study._workspace import _section_cases
+
+    loads_cases, model_cases = _section_cases(paper_robot(), s, 1)
+    assert {v[2].folds for v in model_cases.values()} == {"stop"}
+    assert {v[2].folds for v in loads_cases.values()} == {"snap"}
     assert "models" not in workspace_section(paper_robot(), paper_bounds(), ReproduceSettings(workspace_n=16,
                                              workspace_budget=0, workspace_voxels=10), tmp_path, [], seed=1)
 

@@ -575,8 +575,9 @@ def _section_cases(robot: Robot, s: Any, seed: int) -> tuple[_SectionCases, _Sec
                                  directions=s.workspace_directions, multistability=0, equilibria="loading-path",
                                  reach="search" if s.workspace_directions else "samples")
     out = {name: (r, loads, settings, "pcc") for name, (r, loads) in cases.items()}
+    # the search stops at folds: snapping through them, an sscr search takes hours (docs/workspace.md)
     settings = WorkspaceSettings(n=s.models_n, seed=seed, voxel=robot.length / s.models_voxels, directions=0,
-                                 multistability=0, reach="samples")
+                                 multistability=0, reach="samples", folds="stop")
     r, loads = cases["paper wrench"]
     return out, {m: (r, loads, settings, m) for m in s.workspace_models}
 
