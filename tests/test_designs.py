@@ -63,6 +63,7 @@ def _study(**over):
     ({"objectives": [{"measure": "volume_m3", "goal": "max"}, {"measure": "volume_m3", "goal": "min"}]},
      "the same measure and load case twice"),
     ({"budget": {"samples": 24, "voxel": 0.0}}, "budget.voxel"),
+    ({"budget": {"samples": 24, "folds": "bounce"}}, "budget.folds"),
 ])
 def test_a_bad_study_is_refused_naming_the_key(change, says):
     with pytest.raises(StudyError) as err:
@@ -174,6 +175,7 @@ def test_tdcr_designs_runs_the_small_example(tmp_path, capsys):
         assert (out / f"{stem}.png").stat().st_size > 10_000 and (out / f"{stem}.pdf").exists()
     report = (out / "report.md").read_text()
     assert "Against the base robot 'paper'" in report and "![pareto.png](pareto.png)" in report
+    assert "(search steps snapping through at folds)" in report  # the example leaves the default rule
     assert (out / "study.toml").read_text() == open("examples/design_study_small.toml").read()
     assert json.loads((out / "manifest.json").read_text())["status"] == "complete"
     code = main(["designs", "examples/design_study_small.toml", "--out", str(out)])

@@ -82,3 +82,26 @@ def test_the_command_records_the_rule_and_the_steps_stopped(tmp_path, capsys):
     assert summary["boundary_search"]["at_fold"] == sum(r["at_fold"] for r in summary["boundary_search"]["rounds"])
     code = main(["workspace", "--search-folds", "bounce", "--out", str(tmp_path / "no")])
     assert code == 2 and "--search-folds" in capsys.readouterr().err
+
+
+def test_a_design_study_searches_by_its_fold_rule(paper):
+    """``[budget] folds`` reaches each design's workspace study: a design evaluated with ``"stop"`` has the volume
+    of the same workspace study run directly with that rule, and not the snapping one's."""
+    from pytdcr.designs import apply_parameters, design_seed, evaluate_design, study_from_dict
+    from pytdcr.region import workspace_study
+
+    data = {"name": "f", "robot": "paper", "seed": 3, "bounds": [0.0, 20.0],
+            "parameters": {"routing_radius_2": {"values": [0.01]}}, "loads": {"cases": ["paper wrench"]},
+            "budget": {"samples": 32, "search": 400, "voxel": 0.025}}
+    volume = {}
+    for rule in FOLD_RULES:
+        study, robot = study_from_dict({**data, "budget": {**data["budget"], "folds": rule}})
+        rec = evaluate_design(study.model_dump(), robot.model_dump(), 0, {"routing_radius_2": 0.01})
+        assert rec["status"] == "ok", rec["reason"]
+        volume[rule] = rec["rows"][0]["volume_m3"]
+    settings = WorkspaceSettings(n=32, seed=design_seed(3, 0), voxel=0.025, budget=400, directions=0,
+                                 reach="support", threads=1, multistability=0, folds="stop")
+    case_robot, loads = study.load_cases(apply_parameters(robot, {"routing_radius_2": 0.01}))["paper wrench"]
+    direct = workspace_study(case_robot, loads, paper_bounds(), settings)
+    assert direct.region.search is not None and direct.region.search.to_dict()["at_fold"] > 0
+    assert volume["stop"] == direct.region.fsw.volume_m3 != volume["snap"]

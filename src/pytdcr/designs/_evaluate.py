@@ -36,12 +36,12 @@ def _workspace_settings(study: DesignStudy, base: Any, seed: int) -> WorkspaceSe
     ``seed``, h(d) along the study's named directions, on one thread (designs run side by side), on one grid
     for every design (the voxel of the base robot ``base``). The largest reach is the farthest of the feasible
     samples and the tips attaining h(d), and of the reach search with ``budget.reach_search``. No multistability
-    check: it would cost 200 solves a design and rank nothing."""
+    check: it would cost 200 solves a design and rank nothing. The search meets folds as ``budget.folds`` says."""
     directions = tuple(tuple(v) for v in study.measures.directions.values())
     return WorkspaceSettings(n=study.budget.samples, seed=seed, voxel=study.budget.voxel,
                              search=study.budget.search > 0, budget=study.budget.search, directions=directions or 0,
                              reach="farthest" if study.budget.reach_search else "support",
-                             threads=1, multistability=0).with_voxel_for(base)
+                             threads=1, multistability=0, folds=study.budget.folds).with_voxel_for(base)
 
 
 def designs_estimate(study: DesignStudy, robot: Any, designs: int, workers: int) -> Estimate:

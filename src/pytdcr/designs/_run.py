@@ -28,6 +28,7 @@ import numpy as np
 from .. import __version__
 from ..design import Robot
 from ..io import write_robot
+from ..region import FOLD_RULES
 from ..runtime import RunInterrupted, atomic_write, atomic_write_text, default_threads, resumable_folder, write_json
 from ..statics import check_cancelled, mark_saving
 from ..validate import check_count
@@ -353,13 +354,17 @@ def _front_table(study: DesignStudy, ok: Any) -> list[str]:
             "|---" * (1 + len(study.parameters) + len(heads)) + "|", *(r[1] for r in rows)]
 
 
+#: how the report says what the search's steps do at folds, by rule (:data:`~pytdcr.region.FOLD_RULES`)
+_FOLD_WORDS = dict(zip(FOLD_RULES, ("snapping through", "stopping"), strict=True))
+
+
 def _report(study: DesignStudy, table: Any, summary: dict[str, Any], best: list[tuple[str, int, str]],
             figures: list[str]) -> str:
     lines = [f"# Design study '{study.name}'", "",
              f"{summary['designs']} designs ({study.designs.method}) of robot '{study.robot}', load cases "
              f"{', '.join(summary['load_cases'])}, tensions in [{study.bounds[0]:g}, {study.bounds[1]:g}] N, model "
              f"{study.model}, {study.budget.samples} samples and {study.budget.search} search solves per design "
-             f"and load case; seed {study.seed}.", "",
+             f"and load case (search steps {_FOLD_WORDS[study.budget.folds]} at folds); seed {study.seed}.", "",
              f"Computed {summary['designs_computed']}, reused {summary['designs_reused']}, failed "
              f"{summary['designs_failed']}; ran on {summary['executor']} in {summary['seconds']:.0f} s.", ""]
     ok = table[table["status"] == "ok"]

@@ -22,6 +22,7 @@ An example (``examples/design_study_small.toml`` is a complete one)::
     search = 0                 # boundary-search solves per design and load case (fills the region: without
                                # them the volume is only the voxels the samples hit, far below the FSW's)
     voxel = 0.05               # the volume's voxel edge [m] (default the base robot's length / 32)
+    folds = "stop"             # where a search step meets a fold: "snap" through it (default) or "stop" there
 
     [loads]
     cases = ["paper wrench"]   # names of tdcr workspace --compare-loads; custom ones below
@@ -50,6 +51,7 @@ from ..design import Robot
 from ..io import format_validation_error, load_robot, read_toml
 from ..loads import Loads
 from ..paper import workspace_load_cases
+from ..region import FOLD_RULES
 from ..statics import MODELS
 from ._space import apply_parameters, parameter_info
 
@@ -142,12 +144,15 @@ class Designs(_Strict):
 
 class Budget(_Strict):
     """Work per design and load case: base samples, boundary-search solves, whether to search the largest reach,
-    and the volume's voxel edge [m] (the same for every design; default the base robot's length / 32)."""
+    the volume's voxel edge [m] (the same for every design; default the base robot's length / 32), and what a
+    search step does at a fold (:data:`~pytdcr.region.FOLD_RULES`: ``"snap"`` through it, or ``"stop"`` there,
+    about half the search's cost under a load)."""
 
     samples: Annotated[int, Field(ge=16, le=1_000_000)] = 500
     search: Annotated[int, Field(ge=0, le=100_000_000)] = 0
     reach_search: bool = False
     voxel: Annotated[float, Field(gt=1e-4, le=1.0, allow_inf_nan=False)] | None = None
+    folds: Literal[FOLD_RULES] = FOLD_RULES[0]  # type: ignore[valid-type]
 
 
 class CustomLoad(_Strict):
