@@ -198,3 +198,25 @@ def test_largest_reach_matches_the_reach_search_over_seeds():
     support = support_function(problem, T, P, fibonacci_directions(12))
     far = largest_reach(problem, T, P, support)
     assert far.reach >= ga - 1e-4
+
+
+def test_a_search_that_crossed_a_fold_keeps_the_best_equilibrium_the_definition_reaches():
+    """Where a warm search ends on another branch than the continuation from its sample reaches, the support
+    function keeps the best of the continuation's equilibria along the way and climbs from it: the tensions it
+    returns reproduce its equilibrium when continued from the sample, stable, and it is at least as high as every
+    equilibrium so reached at :data:`SEGMENT` of the way."""
+    robot, loads, bounds = paper_robot(), paper_loads(), paper_bounds()
+    problem = ReachProblem.create(robot, loads, bounds, stable_only=True).with_direction(np.array([1.0, 0.0, 0.0]))
+    anchor = solve(robot, loads.with_tensions(np.full(8, 2.0)))
+    assert anchor.converged and anchor.stable
+    strict = problem.continued_from(anchor)
+    start, far = anchor.loads.tensions.copy(), np.array([0.0, 0.0, 20.0, 0.0, 0.0, 0.0, 20.0, 0.0])
+    end = strict.solve(far, atol=1e-12)
+    t, sol, n = support_module._across_a_fold(problem, strict, start, far, end)
+    assert sol is not None and sol.converged and sol.stable and n >= len(support_module.SEGMENT) - 1
+    again = strict.solve(t, atol=1e-12)
+    assert np.linalg.norm(again.tip_position - sol.tip_position) <= SAME_TIP
+    for frac in support_module.SEGMENT:
+        other = strict.solve(start + frac * (far - start), atol=1e-12)
+        if other.converged and other.stable:
+            assert problem.value(sol.tip_position) >= problem.value(other.tip_position) - SLACK

@@ -15,8 +15,11 @@ along the loading path, and every reported tip is the cold solve of the reported
 search starts from its sample's equilibrium and solves every cost warm from the last (five times cheaper than
 cold solves under a load), and only the end is solved by the region's own definition: along the loading path,
 or continued from the sample's equilibrium along the straight segment of tensions (``parent``: the sample), so
-that the reported tip is the equilibrium the robot reaches there, replayable from rest through its parent. A
-search whose end, so solved, lies lower than the sample does not count. Either way h(d) is never below the
+that the reported tip is the equilibrium the robot reaches there, replayable from rest through its parent. Where
+the warm search's end lies on another branch than the definition reaches (it crossed a fold on the way), the best
+of the definition's equilibria at the end and at 3/4, 1/2 and 1/4 of the way to it is climbed by a short search
+(:data:`STRICT_ITER` iterations) solving every cost by the definition. A search whose end, so solved, lies lower
+than the sample does not count. Either way h(d) is never below the
 best sample's ``d . tip``. Searches run in
 parallel threads (the compiled solvers release the GIL); which searches run, and from where, does not depend
 on the number of threads, and neither do the results.
@@ -51,6 +54,13 @@ TAKE_TOL = 1e-12
 SAME_END = 1e-6
 #: two starts are distinct when they differ by more than this fraction of the bounds' span in some tension
 _DISTINCT = 0.05
+#: where a warm search ended on another branch: the fractions of the way from its start to its end at which the
+#: definition's equilibria are tried, and the iterations of the climb from the best of them (every cost solved by
+#: the definition: a continuation from the sample, several times a warm solve's cost). Measured on 60 directions
+#: under the paper's load: 8.4 to 13.9 s against 37.2 s for a full search so solved, h lower by 0.07 mm on average
+#: (at most 1.1 mm)
+SEGMENT = (1.0, 0.75, 0.5, 0.25)
+STRICT_ITER = 15
 
 
 def fibonacci_directions(n: int) -> np.ndarray:
@@ -363,14 +373,47 @@ def _polish(problem: ReachProblem, st: _Start, max_iter: int, restarts: int,
         return None
     r = polish_reach(problem, st.tensions, q0=st.q, warm=st.q is not None, max_iter=max_iter, restarts=restarts)
     end = strict.solve(r.tensions, atol=TIGHT_ATOL)
-    n = r.evaluations + 1
-    if not (end.converged and np.linalg.norm(end.tip_position - r.tip_position) <= SAME_END):
-        r = polish_reach(strict, st.tensions, max_iter=max_iter, restarts=restarts)
-        end = strict.solve(r.tensions, atol=TIGHT_ATOL)
-        n += r.evaluations + 1
-    if not end.converged or (problem.stable_only and not end.stable):
+    if end.converged and np.linalg.norm(end.tip_position - r.tip_position) <= SAME_END:
+        return _held(problem, r.tensions, end, r.evaluations + 1)
+    t, end, n = _across_a_fold(problem, strict, st.tensions, r.tensions, end)
+    return _held(problem, t, end, r.evaluations + 1 + n)
+
+
+def _held(problem: ReachProblem, t: np.ndarray, end: StaticSolution | None,
+          n: int) -> tuple[np.ndarray, np.ndarray, StaticSolution, int] | None:
+    """``_polish``'s outcome for the tensions ``t`` [N] and their equilibrium ``end`` by the definition: None
+    where it is missing, did not converge or (``problem.stable_only``) is unstable."""
+    if end is None or not end.converged or (problem.stable_only and not end.stable):
         return None
-    return r.tensions, end.tip_position, end, n
+    return t, end.tip_position, end, n
+
+
+def _across_a_fold(problem: ReachProblem, strict: ReachProblem, start: np.ndarray, warm_end: np.ndarray,
+                   end: StaticSolution) -> tuple[np.ndarray, StaticSolution | None, int]:
+    """A warm search from ``start`` ended at ``warm_end`` (tensions [N]) on another branch than ``strict`` (the
+    definition) reaches there (``end``): the best of ``strict``'s equilibria at :data:`SEGMENT` of the way, then
+    a climb of :data:`STRICT_ITER` iterations from it on ``strict``. Returns the tensions, their equilibrium by the
+    definition (None when none held) and the solves spent."""
+
+    def held(sol: StaticSolution) -> bool:
+        return sol.converged and (not problem.stable_only or bool(sol.stable))
+
+    best_t, best, n = start, None, 0
+    for frac in SEGMENT:
+        t = start + frac * (warm_end - start)
+        sol = end if frac == 1.0 else strict.solve(t, atol=TIGHT_ATOL)
+        n += frac != 1.0
+        if held(sol) and (best is None or problem.value(sol.tip_position) > problem.value(best.tip_position)):
+            best_t, best = t, sol
+    try:
+        r = polish_reach(strict, best_t, max_iter=STRICT_ITER, restarts=0)
+    except SearchFailed:
+        return best_t, best, n
+    sol = strict.solve(r.tensions, atol=TIGHT_ATOL)
+    n += r.evaluations + 1
+    if held(sol) and (best is None or problem.value(sol.tip_position) > problem.value(best.tip_position)):
+        best_t, best = r.tensions, sol
+    return best_t, best, n
 
 
 def _climb(problem: ReachProblem, starts: list[_Start], sample: tuple[_Start, np.ndarray], max_iter: int,
