@@ -275,7 +275,7 @@ def _solved(solver: _Solver, samples: RegionSamples, T: np.ndarray, parents: np.
     else:
         assert samples.q is not None
         got, report = _checked(solver, T, samples.q[parents], check, seed, 0)
-    if "at_fold" in got and np.any(got["at_fold"]):  # steps that stopped at a fold reached nothing new
+    if np.any(got["at_fold"]):  # steps that stopped at a fold reached nothing new
         keep = ~got["at_fold"]
         got, T = {k: v[keep] for k, v in got.items()}, T[keep]
         parent = None if parent is None else parent[keep]
