@@ -129,3 +129,37 @@ def test_tdcr_solve_prints_the_compliance_and_the_jacobians(capsys):
     code = main([*args, "--friction", "none", "--model", "cosserat", "--compliance"])
     err = capsys.readouterr().err
     assert code == 2 and "--compliance" in err and "exact derivatives" in err
+
+
+@pytest.mark.parametrize("model", ["pcc", "pcc2"])
+def test_the_compiled_tip_gradients_are_the_implicit_function_theorems(paper, model):
+    """The compiled derivative (PCC models) is the reference arithmetic of the Python one, row by row, whatever
+    the threads; a row without an equilibrium stays NaN."""
+    from pytdcr.statics import solve_batch, tip_gradient
+    from pytdcr.statics.registry import resolve
+    from pytdcr.statics.solver import _tip_derivative
+
+    loads = paper_loads()
+    T = np.random.default_rng(3).uniform(0.0, 20.0, (24, paper.n_tendons))
+    batch = solve_batch(paper, T, loads, model=model, threads=1)
+    ok = batch.converged
+    assert ok.sum() >= 20
+    m, opts = resolve(model, paper, loads, None)
+    eq = m.equations(paper, loads, opts)
+    ref = np.array([_tip_derivative(eq.with_tensions(t), q.reshape(-1))
+                    for t, q in zip(T[ok], batch.q[ok], strict=True)])
+    q = batch.q.copy()
+    q[~ok] = np.nan
+    one = m.tip_gradients(paper, T, loads, q, opts, threads=1)
+    two = m.tip_gradients(paper, T, loads, q, opts, threads=2)
+    assert np.array_equal(one, two, equal_nan=True)
+    assert np.all(np.isnan(one[~ok]))
+    assert np.allclose(one[ok], ref, rtol=0.0, atol=1e-12 * np.abs(ref).max())
+    row = int(np.flatnonzero(ok)[0])
+    sol = solve(paper, loads.with_tensions(T[row]), model=model)
+    tip, grad = tip_gradient(paper, loads.with_tensions(T[row]), sol, model=model)
+    assert np.array_equal(tip, sol.tip_position)
+    assert np.allclose(grad, _tip_derivative(eq.with_tensions(T[row]), sol.q.reshape(-1)), rtol=0.0,
+                       atol=1e-12 * np.abs(ref).max())
+    with pytest.raises(ValueError, match="unknowns a row"):
+        m.tip_gradients(paper, T, loads, q[:, :-1], opts)

@@ -95,3 +95,22 @@ def test_stable_only_makes_unstable_equilibria_infeasible(backbone):
     assert free.feasible.all() and st[0] == 0.0 and st[1] == 0.0  # straight: converged, unstable
     assert np.array_equal(strict.feasible, free.feasible & (st == 1.0))
     assert not strict.feasible[0] and strict.cost[0] > 100
+
+
+@pytest.mark.parametrize("model", ["pcc", "pcc2"])
+def test_a_batchs_stability_is_each_solutions_own(model):
+    """The batch's test (compiled stiffness, one stacked eigenvalue call) is the single solution's, bit for bit,
+    whatever the threads; unstable equilibria are among them under the paper's load."""
+    from pytdcr.statics import solve_batch
+    from pytdcr.statics.registry import resolve
+
+    robot, loads = paper_robot(), paper_loads()
+    T = np.random.default_rng(1).uniform(0.0, 20.0, (300, robot.n_tendons))
+    m, opts = resolve(model, robot, loads, None)
+    eq = m.equations(robot, loads, opts)
+    got = [solve_batch(robot, T, loads, model=model, threads=k) for k in (1, 2)]
+    assert got[0].stability == got[1].stability
+    ref = [m.stability_at(eq.with_tensions(t), q.reshape(-1)) if ok else None
+           for t, q, ok in zip(T, got[0].q, got[0].converged, strict=True)]
+    assert list(got[0].stability) == ref
+    assert any(s is not None and not s.stable for s in ref) and any(s is not None and s.stable for s in ref)

@@ -22,6 +22,7 @@ from ..loads import Loads
 from ..results import BatchSolution, StaticSolution
 from ..runtime import MAX_CHUNK, check_cancelled, run_in_chunks
 from .kernels import solver as SV
+from .kernels.stiffness import stiffness_range
 from .options import (
     FOLDS,
     LOAD_STEPPING,
@@ -32,7 +33,7 @@ from .options import (
     STEP_CONTINUE,
     SolverOptions,
 )
-from .stability import Stability, conjugate_stiffness, stability_of
+from .stability import Stability, conjugate_stiffness, stability_from_eigenvalues, stability_of
 from .tolerance import tolerances
 
 __all__ = ["CompiledModel", "Equations", "Evaluation", "PackedEquations", "kernel_settings"]
@@ -387,10 +388,14 @@ class CompiledModel:
             if not self.capabilities.stability:
                 return found
             rows = np.flatnonzero(ok)
+            q = np.ascontiguousarray(out.q, dtype=float)
+            T = np.ascontiguousarray(tensions, dtype=float)
 
             def chunk(start: int, stop: int) -> None:
-                for b in rows[start:stop]:
-                    found[b] = self.stability_at(eq.with_tensions(tensions[b]), out.q[b])
+                K = np.empty((stop - start, q.shape[1], q.shape[1]))
+                stiffness_range(q, eq.packed, T, rows, start, stop, K)
+                for k, ev in enumerate(np.linalg.eigvals(K)):  # one LAPACK call a row, the GIL released
+                    found[rows[start + k]] = stability_from_eigenvalues(ev)
 
             run_in_chunks(chunk, rows.size, threads)
             return found

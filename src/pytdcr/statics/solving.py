@@ -215,8 +215,9 @@ def warmup() -> float:
             solve(robot, loads.with_tensions(np.full(robot.n_tendons, 1.5)), model=name, start=sol)
             batch = solve_batch(robot, np.ones((2, robot.n_tendons)), loads, model=name, threads=1)
             solve_batch(robot, np.full((2, robot.n_tendons), 1.5), loads, model=name, threads=1, start=batch)
-        solve_batch(robot, np.ones((2, robot.n_tendons)), loads, model=name, threads=1)
+        _ = solve_batch(robot, np.ones((2, robot.n_tendons)), loads, model=name, threads=1).stability
         tip_gradient(robot, loads, sol, model=name)
+        model.tip_gradients(robot, np.ones((1, robot.n_tendons)), loads, sol.q[None], model.options_type())
         if "shear_extension" in model.options_type.__dataclass_fields__:
             solve(robot, loads, model=name, options=model.options_type(shear_extension=True))
     return time.perf_counter() - t0

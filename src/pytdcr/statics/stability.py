@@ -20,7 +20,7 @@ import numpy as np
 
 from ..results import Stability
 
-__all__ = ["Stability", "conjugate_stiffness", "stability_of"]
+__all__ = ["Stability", "conjugate_stiffness", "stability_from_eigenvalues", "stability_of"]
 
 
 def conjugate_stiffness(jacobian: np.ndarray) -> np.ndarray:
@@ -45,7 +45,13 @@ def stability_of(K: np.ndarray) -> Stability:
     conjugate pairs; a pair with an imaginary part at rounding level (a double real eigenvalue, as at the
     symmetric buckling of a straight rod) counts as two real eigenvalues.
     """
-    ev = np.linalg.eigvals(np.asarray(K, dtype=float))
+    return stability_from_eigenvalues(np.linalg.eigvals(np.asarray(K, dtype=float)))
+
+
+def stability_from_eigenvalues(ev: np.ndarray) -> Stability:
+    """The test on the eigenvalues (m,) of a tangent stiffness, as LAPACK's real routine returns them (real or
+    complex dtype): :func:`stability_of` without the eigenvalue problem (for batches solved as one stack)."""
+    ev = np.asarray(ev)
     tiny = _REAL_TOL * max(float(np.max(np.abs(ev))), 1e-300)
     is_real = np.abs(ev.imag) <= tiny
     real = ev[is_real].real
