@@ -22,7 +22,7 @@ from ..loads import Loads
 from ..results import BatchSolution, StaticSolution
 from ..runtime import MAX_CHUNK, check_cancelled, run_in_chunks
 from .kernels import solver as SV
-from .kernels.stiffness import stiffness_range
+from .kernels.stiffness import largest_residuals, stiffness_range
 from .options import (
     FOLDS,
     LOAD_STEPPING,
@@ -170,10 +170,11 @@ def _check_in_balance(eq0: Equations, start: BatchSolution, rows: np.ndarray) ->
     """Refuse a batch ``start`` whose rows ``rows`` are not equilibria of ``eq0`` (the robot and options of the
     continuation, under the start's loads) at their own tensions: solved for another robot or with other
     options. ValueError naming the first such row."""
-    q = start.q.reshape(start.q.shape[0], -1)
+    q = np.ascontiguousarray(start.q.reshape(start.q.shape[0], -1), dtype=float)
     atol = start.atol if start.atol is not None else np.zeros(start.q.shape[0])
-    for b in rows:
-        r = float(np.max(np.abs(eq0.with_tensions(start.tensions[b]).evaluate(q[b]).residual)))
+    res = np.empty(rows.size)
+    largest_residuals(q, eq0.packed, np.ascontiguousarray(start.tensions, dtype=float), rows, res)
+    for b, r in zip(rows, res, strict=True):
         if not r <= SAME_EQUILIBRIUM * max(float(start.residual[b]), float(atol[b])):
             raise ValueError(f"start: row {b} is not an equilibrium of this robot under the loads it carries (max "
                              f"|residual| {r:.3g} N m there, {start.residual[b]:.3g} N m when it was solved): "
