@@ -22,7 +22,7 @@ from ..loads import Loads
 from ..results import BatchSolution, StaticSolution
 from ..runtime import MAX_CHUNK, check_cancelled, run_in_chunks
 from .kernels import solver as SV
-from .kernels.stiffness import largest_residuals, stiffness_range
+from .kernels.stiffness import jacobian_range, largest_residuals
 from .options import (
     FOLDS,
     LOAD_STEPPING,
@@ -393,8 +393,9 @@ class CompiledModel:
             T = np.ascontiguousarray(tensions, dtype=float)
 
             def chunk(start: int, stop: int) -> None:
-                K = np.empty((stop - start, q.shape[1], q.shape[1]))
-                stiffness_range(q, eq.packed, T, rows, start, stop, K)
+                J = np.empty((stop - start, q.shape[1], q.shape[1]))
+                jacobian_range(q, eq.packed, T, rows, start, stop, J)
+                K = conjugate_stiffness(J)
                 for k, ev in enumerate(np.linalg.eigvals(K)):  # one LAPACK call a row, the GIL released
                     found[rows[start + k]] = stability_from_eigenvalues(ev)
 

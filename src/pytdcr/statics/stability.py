@@ -24,12 +24,13 @@ __all__ = ["Stability", "conjugate_stiffness", "stability_from_eigenvalues", "st
 
 
 def conjugate_stiffness(jacobian: np.ndarray) -> np.ndarray:
-    """K from the PCC residual's Jacobian (3N, 3N): rows reordered per subsegment to (r_y, -r_x, r_z)."""
+    """K from the PCC residual's Jacobian (..., 3N, 3N), one or a stack: rows reordered per subsegment to
+    (r_y, -r_x, r_z)."""
     J = np.asarray(jacobian, dtype=float)
     K = np.empty_like(J)
-    K[0::3] = J[1::3]
-    K[1::3] = -J[0::3]
-    K[2::3] = J[2::3]
+    K[..., 0::3, :] = J[..., 1::3, :]
+    K[..., 1::3, :] = -J[..., 0::3, :]
+    K[..., 2::3, :] = J[..., 2::3, :]
     return K
 
 
