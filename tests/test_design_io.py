@@ -65,7 +65,7 @@ def test_disk_radius_is_the_radius_in_use(tmp_path, paper):
 @pytest.mark.parametrize(
     ("patch", "words"),
     [
-        ({"backbone": {"youngs_modulus": -1.0}}, ["backbone.youngs_modulus", "-1.0", "(0, 2e+12] Pa", "diamond"]),
+        ({"backbone": {"youngs_modulus": -1.0}}, ["backbone.youngs_modulus", "-1.0", "[0.001, 2e+12] Pa", "diamond"]),
         ({"backbone": {"poissons_ratio": 0.7}}, ["backbone.poissons_ratio", "0.7", "(-1, 0.5)"]),
         ({"backbone": {"inner_radius": 0.001}}, ["inner_radius", "smaller than outer_radius"]),
         ({"segments": [{"length": 0.2, "n_disks": 0}]}, ["segments.0.n_disks", "0", "greater than or equal to 1"]),

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .design import Robot
+from .design import MAX_TENDONS, Robot
 from .loads import check_tensions
 from .validate import as_real_array, check_count
 
@@ -45,7 +45,7 @@ class TensionBounds:
     @classmethod
     def uniform(cls, n_tendons: int, lower: float, upper: float) -> TensionBounds:
         """The same bounds [lower, upper] N for every tendon."""
-        n = check_count(n_tendons, "n_tendons", lo=1)
+        n = check_count(n_tendons, "n_tendons", lo=1, hi=MAX_TENDONS)  # no robot has more: nothing huge allocated
         lo = as_real_array(lower, "bounds: lower")
         hi = as_real_array(upper, "bounds: upper")
         return cls(np.full(n, lo, dtype=float), np.full(n, hi, dtype=float))

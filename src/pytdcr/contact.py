@@ -43,8 +43,9 @@ class Contact(NamedTuple):
 
     def describe(self, diameter: float) -> str:
         """One line for a message, e.g. ``the backbone passes through itself (...)``."""
-        return (f"the backbone passes through itself: two points {self.arc_gap * 1e3:.1f} mm apart along it are "
-                f"{self.distance * 1e3:.2f} mm apart, less than its diameter {diameter * 1e3:.2f} mm")
+        # %g: a small distance is never shown as 0 (a thin backbone's contact is a few micrometres)
+        return (f"the backbone passes through itself: two points {self.arc_gap * 1e3:.3g} mm apart along it are "
+                f"{self.distance * 1e3:.3g} mm apart, less than its diameter {diameter * 1e3:.3g} mm")
 
 
 def turning_angle(points: np.ndarray) -> float:

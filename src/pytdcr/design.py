@@ -65,8 +65,13 @@ class _Frozen(BaseModel):
         return type(self).model_validate({**self.model_dump(), **update})
 
 
+#: the softest and the stiffest modulus accepted [Pa] (a softer one leaves the bending stiffness EI of a thin
+#: backbone among the subnormal floats, whose reciprocal overflows)
+MIN_MODULUS, MAX_MODULUS = 1e-3, 2e12
+#: the thinnest wall of a hollow backbone [m]: thinner, r_o^4 - r_i^4 is lost to rounding
+MIN_WALL = 1e-6
 #: the physical ranges, each with its reason
-Modulus = ranged(0.0, 2e12, "Pa", "no material is stiffer than diamond, 1.2e12 Pa", lo_open=True)
+Modulus = ranged(MIN_MODULUS, MAX_MODULUS, "Pa", "from far softer than any gel to diamond's 1.2e12 Pa")
 Poisson = ranged(-1.0, 0.5, "", "the range of an isotropic elastic material", lo_open=True, hi_open=True)
 Radius = ranged(1e-5, 0.1, "m", "a backbone from 10 micrometres to 10 centimetres")
 Bore = ranged(0.0, 0.1, "m", "a hollow backbone's bore: 0 for a solid rod")
@@ -76,6 +81,8 @@ Piece = ranged(1e-5, 10.0, "m", "a subsegment of at least 10 micrometres")
 Mass = ranged(0.0, 10.0, "kg", "a disk of at most 10 kg")
 #: the most disks one segment may have
 MAX_DISKS_PER_SEGMENT = 10_000
+#: the most tendons and segments a robot may have
+MAX_TENDONS, MAX_SEGMENTS = 1000, 100
 DiskCount = Annotated[Count, Field(ge=1, le=MAX_DISKS_PER_SEGMENT)]
 Routing = ranged(0.0, 1.0, "m", "a routing radius up to a metre", lo_open=True)
 Angle = ranged(-360.0, 360.0, "deg", "one turn either way; larger angles repeat a routing")
@@ -113,6 +120,14 @@ class Backbone(_Frozen):
                 f"backbone.inner_radius must be smaller than outer_radius={self.outer_radius}, "
                 f"got {self.inner_radius}"
             )
+        if self.outer_radius - self.inner_radius < MIN_WALL:
+            raise ValueError(f"backbone.inner_radius = {self.inner_radius!r} m must leave a wall of at least "
+                             f"{MIN_WALL:g} m inside outer_radius = {self.outer_radius!r} m (a thinner one's "
+                             "bending stiffness is lost to rounding)")
+        if self.poissons_ratio is not None and self.shear > MAX_MODULUS:  # G = E / (2 (1 + nu)): nu near -1
+            raise ValueError(f"backbone.poissons_ratio = {self.poissons_ratio!r} gives a shear modulus "
+                             f"E / (2 (1 + nu)) = {self.shear:g} Pa, above {MAX_MODULUS:g} Pa (no material is "
+                             "that stiff)")
         return self
 
     @property
@@ -182,8 +197,8 @@ class Tendon(_Frozen):
     (1-based) and is anchored at that disk.
     """
 
-    segment: Annotated[Count, Field(ge=1)] = Field(description="1-based index of the segment whose last disk "
-                                                   "anchors it")
+    segment: Annotated[Count, Field(ge=1, le=MAX_SEGMENTS)] = Field(
+        description="1-based index of the segment whose last disk anchors it")
     radius: Routing = Field(description="routing radius [m]")
     angle_deg: Angle = Field(description="routing angle about z [deg]")
 
@@ -254,8 +269,8 @@ class Robot(_Frozen):
 
     name: Annotated[str, Field(strict=True, min_length=1, max_length=200, pattern=_NAME)] = "robot"
     backbone: Backbone
-    segments: tuple[Segment, ...] = Field(min_length=1, max_length=100)
-    tendons: tuple[Tendon, ...] = Field(min_length=0, max_length=1000)
+    segments: tuple[Segment, ...] = Field(min_length=1, max_length=MAX_SEGMENTS)
+    tendons: tuple[Tendon, ...] = Field(min_length=0, max_length=MAX_TENDONS)
     gravity: tuple[Real, Real, Real] = Field(
         default=(0.0, 0.0, -9.81), description="gravity in the base frame [m/s^2]; |g| <= 100"
     )

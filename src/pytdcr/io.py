@@ -30,6 +30,7 @@ A robot file::
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 from typing import Any
@@ -166,9 +167,30 @@ def _nesting(data: Any) -> int:
     return deepest
 
 
+#: the integers a TOML file may hold: 64-bit, as the TOML standard says (Python's reader takes any size)
+_INT64 = (-(2**63), 2**63 - 1)
+
+
+def _bad_number(data: Any) -> tuple[str, Any] | None:
+    """The first number in ``data`` (nested tables and arrays) that no pytdcr field takes: an integer beyond 64 bits
+    or a float that is not finite (TOML's ``inf``, ``nan``, or ``1e400`` read as inf); its key path and value."""
+    stack: list[tuple[str, Any]] = [("", data)]
+    while stack:
+        key, obj = stack.pop()
+        if isinstance(obj, dict):
+            stack += [(f"{key}.{k}" if key else str(k), v) for k, v in reversed(obj.items())]
+        elif isinstance(obj, list):
+            stack += [(f"{key}[{i}]", v) for i, v in reversed(list(enumerate(obj)))]
+        elif (isinstance(obj, int) and not isinstance(obj, bool) and not _INT64[0] <= obj <= _INT64[1]) or (
+                isinstance(obj, float) and not math.isfinite(obj)):
+            return key, obj
+    return None
+
+
 def read_toml(path: str | Path, what: str) -> dict[str, Any]:
     """A small TOML file as a dict; ValueError naming the file if it cannot be read, is too large, binary, not
-    TOML, or nests tables and arrays deeper than :data:`MAX_NESTING`."""
+    TOML, nests tables and arrays deeper than :data:`MAX_NESTING`, or holds a number no field takes (an integer
+    beyond 64 bits, a float that is not finite: ``inf``, ``nan``, ``1e400``), naming its key."""
     text = read_text_file(path, what)
     try:
         data = tomllib.loads(text)
@@ -176,9 +198,18 @@ def read_toml(path: str | Path, what: str) -> dict[str, Any]:
         raise ValueError(f"{what} {show_path(path)}: not valid TOML ({err})") from None
     except RecursionError:
         data = None
+    except ValueError:  # an integer of more than 4300 digits, which Python refuses to convert
+        raise ValueError(f"{what} {show_path(path)}: holds an integer of thousands of digits; an integer must fit "
+                         "in 64 bits (as TOML says)") from None
     if data is None or _nesting(data) > MAX_NESTING:
         raise ValueError(f"{what} {show_path(path)}: tables and arrays nest deeper than {MAX_NESTING} levels; no "
                          "pytdcr file needs more than 4")
+    bad = _bad_number(data)
+    if bad is not None:
+        key, value = bad
+        rule = ("an integer must fit in 64 bits (as TOML says)" if isinstance(value, int) else
+                "numbers must be finite (1e400 reads as inf)")
+        raise ValueError(f"{what} {show_path(path)}: {show(key, 80)[1:-1]} = {show(value)}: {rule}")
     return data
 
 

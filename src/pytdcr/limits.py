@@ -22,6 +22,8 @@ __all__ = ["MEMORY_ENV", "ResourceLimitError", "Resources", "check_memory", "hum
 MEMORY_ENV = "PYTDCR_MEMORY_GB"
 #: the default budget's cap [bytes]
 DEFAULT_CAP = 8e9
+#: the largest budget that may be set [GB]
+MAX_BUDGET_GB = 1e6
 
 
 class ResourceLimitError(ValueError):
@@ -61,8 +63,9 @@ def memory_budget() -> float:
             gb = float(parse_numbers(text, MEMORY_ENV, count=1)[0])
         except ValueError:
             gb = math.nan
-        if not gb > 0:
-            raise ValueError(f"{MEMORY_ENV}={show(text, 40)}: must be a positive number of gigabytes, e.g. 4 or 0.5")
+        if not 0 < gb <= MAX_BUDGET_GB:
+            raise ValueError(f"{MEMORY_ENV}={show(text, 40)}: must be a positive number of gigabytes up to "
+                             f"{MAX_BUDGET_GB:g} (a petabyte), e.g. 4 or 0.5")
         return gb * 1e9
     ram = _physical_memory()
     return min(DEFAULT_CAP, 0.5 * ram) if ram else DEFAULT_CAP

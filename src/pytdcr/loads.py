@@ -7,27 +7,28 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .validate import as_real_array, show, show_number
+from .design import MAX_DISKS_PER_SEGMENT, MAX_SEGMENTS
+from .validate import MAX_FORCE_N, as_real_array, check_real, check_real_vector, is_integer, show, show_number
 
 __all__ = ["MAX_TENSION", "Loads", "PointLoad", "check_tensions", "check_vector"]
 
 #: the largest actuator tension accepted [N]
 MAX_TENSION = 1e4
+#: the most disks any robot has (a point load's disk is at most this)
+MAX_DISKS = MAX_SEGMENTS * MAX_DISKS_PER_SEGMENT
 
 
-def check_vector(value: ArrayLike, name: str, size: int = 3, limit: float = 1e6) -> np.ndarray:
-    """``value`` as a finite float64 array of shape (size,) with entries within +/- ``limit``.
+def check_vector(value: ArrayLike, name: str, size: int = 3, limit: float = MAX_FORCE_N,
+                 unit: str | None = None) -> np.ndarray:
+    """``value`` as a finite float64 array of shape (size,) with entries within +/- ``limit`` (``-0.0`` as 0.0):
+    the safe-range rule of :func:`pytdcr.validate.check_real_vector` for a force [N] or, when ``name`` says
+    so (or ``unit`` is ``"N m"``), a moment [N m].
 
     Raises TypeError for booleans, complex numbers or strings, ValueError for a wrong shape or value.
     """
-    arr = as_real_array(value, name)
-    if arr.shape != (size,):
-        raise ValueError(f"{name} must have shape ({size},), got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite, got {show(arr.tolist())}")
-    if np.any(np.abs(arr) > limit):
-        raise ValueError(f"{name} must be within +/-{limit:g} in each component, got {show(arr.tolist())}")
-    return arr
+    if unit is None:
+        unit = "N m" if "moment" in name else "N"
+    return check_real_vector(value, name, size, limit, unit, "far beyond any load on a tendon-driven robot")
 
 
 def check_tensions(value: ArrayLike, n_tendons: int | None = None, name: str = "tensions") -> np.ndarray:
@@ -67,7 +68,7 @@ def check_tensions(value: ArrayLike, n_tendons: int | None = None, name: str = "
             where = ", ".join(str(i) for i in idx)
             which = f"tendon {idx[-1] + 1}" if arr.ndim == 1 else f"case {idx[0] + 1}, tendon {idx[1] + 1}"
             raise ValueError(f"{name}[{where}] ({which}) {rule}, got {show_number(arr[idx], 0.0, MAX_TENSION)}")
-    return arr
+    return arr + 0.0  # -0.0 as 0.0
 
 
 def _frozen(arr: np.ndarray) -> np.ndarray:
@@ -95,8 +96,10 @@ class PointLoad:
     moment: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def __post_init__(self) -> None:
-        if isinstance(self.disk, bool) or not isinstance(self.disk, (int, np.integer)) or self.disk < 1:
-            raise ValueError(f"point load disk must be an integer >= 1, got {self.disk!r}")
+        if not is_integer(self.disk) or not 1 <= self.disk <= MAX_DISKS:
+            raise ValueError(f"point load disk must be an integer >= 1 and <= {MAX_DISKS:,} (no robot has more "
+                             f"disks), got {show(self.disk)}")
+        object.__setattr__(self, "disk", int(self.disk))
         object.__setattr__(self, "force", _frozen(check_vector(self.force, "point load force")))
         object.__setattr__(self, "moment", _frozen(check_vector(self.moment, "point load moment")))
 
@@ -143,13 +146,12 @@ class Loads:
                 raise TypeError(f"point_loads must hold PointLoad objects, got {type(p).__name__}")
 
     def scaled(self, factor: float) -> Loads:
-        """Every load here (tensions, tip wrench, point wrenches) times ``factor`` >= 0: a point of the loading path.
+        """Every load here (tensions, tip wrench, point wrenches) times ``factor`` in [0, 1]: a point of the
+        loading path.
 
         Gravity belongs to the robot (:meth:`pytdcr.Robot.with_gravity`).
         """
-        f = float(factor)
-        if not (np.isfinite(f) and f >= 0):
-            raise ValueError(f"factor must be finite and >= 0, got {factor!r}")
+        f = check_real(factor, "factor", 0.0, 1.0, "", "a point of the loading path: from no load to the full one")
         points = tuple(PointLoad(p.disk, p.force * f, p.moment * f) for p in self.point_loads)
         return Loads(self.tensions * f, self.tip_force * f, self.tip_moment * f, points, self.release)
 

@@ -20,14 +20,25 @@ import numpy as np
 from numpy.typing import ArrayLike
 from pydantic import AfterValidator, BeforeValidator, Strict
 
-__all__ = ["MAX_SEED", "MAX_TEXT_FILE_BYTES", "Count", "Real", "SettingsError", "as_real_array", "check_count",
-           "escape_controls", "field_ref", "in_range", "is_integer", "parse_numbers", "read_text_file", "show",
-           "show_number", "show_path"]
+__all__ = ["MAX_FORCE_N", "MAX_MOMENT_NM", "MAX_POSITION_M", "MAX_SEED", "MAX_TEXT_FILE_BYTES", "MIN_DIRECTION",
+           "Count", "Real", "SettingsError", "as_real_array", "check_count", "check_positions", "check_real",
+           "check_real_vector", "escape_controls", "field_ref", "in_range", "is_integer", "parse_numbers",
+           "read_text_file", "show", "show_number", "show_numbers", "show_path", "unit_vector", "unit_vectors"]
 
 #: the largest robot, bounds, loads or cases file read [bytes]
 MAX_TEXT_FILE_BYTES = 1_000_000
 #: the largest random seed accepted (what ``--seed`` takes)
 MAX_SEED = 2**32 - 1
+#: the farthest from the base a position (a target, a point) may lie [m]: no robot is longer (at most 100
+#: segments of at most 10 m)
+MAX_POSITION_M = 1e3
+#: the largest component of a force [N]: far beyond what any tendon-driven robot carries
+MAX_FORCE_N = 1e6
+#: the largest component of a moment [N m]
+MAX_MOMENT_NM = 1e6
+#: the smallest largest |component| of a direction: below it (the subnormal floats) a vector's components carry
+#: too few bits for its direction to be the one written
+MIN_DIRECTION = float(np.finfo(float).tiny)
 
 #: what is never sent raw to a terminal: C0 and C1 controls, line and paragraph separators, bidirectional
 #: overrides and isolates (they reorder what a message shows)
@@ -205,7 +216,8 @@ def as_real_array(value: ArrayLike, name: str) -> np.ndarray:
         try:
             arr = arr.astype(float)
         except OverflowError:
-            raise ValueError(f"{name}: a number too large for a float in {show(value)}") from None
+            raise ValueError(f"{name}: a number too large for a float (at most about 1.8e308) in "
+                             f"{show(value)}") from None
     if arr.dtype.kind not in "iuf":
         kind = {"b": "booleans", "c": "complex numbers", "U": "strings", "S": "strings"}.get(arr.dtype.kind,
                                                                                             arr.dtype.name)
@@ -231,6 +243,136 @@ def parse_numbers(text: str, name: str, count: int | None = None) -> np.ndarray:
     if not np.all(np.isfinite(vals)):  # e.g. 1e999
         raise ValueError(f"{name}: values must be finite, got {show(text)}")
     return vals
+
+
+def show_numbers(value: Any, limit: int = 8) -> str:
+    """Numbers for a message: ``[0, 1e+200, -0.5]`` (``%g``, at most ``limit`` of them; not an array's repr);
+    anything else as :func:`show` shows it."""
+    try:
+        arr = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError, OverflowError):
+        return show(value)
+    more = ", ..." if arr.size > limit else ""
+    return "[" + ", ".join(f"{x:g}" for x in arr[:limit]) + more + "]"
+
+
+def _named_error(name: str, text: str) -> ValueError:
+    """A :class:`SettingsError` for the field ``name`` (a ValueError naming it when it is no identifier)."""
+    if name.replace(".", "_").isidentifier():
+        return SettingsError(name, text)
+    return ValueError(f"{name}{text}")
+
+
+def check_real(value: Any, name: str, lo: float | None, hi: float | None, unit: str, reason: str = "", *,
+               lo_open: bool = False, hi_open: bool = False) -> float:
+    """The safe-range rule for a scalar: ``value`` (a real number, not a bool or a string) as a finite float in
+    the interval (:func:`in_range`'s words, with ``unit`` and the ``reason`` of the range), ``-0.0`` as ``0.0``.
+
+    Raises TypeError for a non-number, :class:`SettingsError` (a ValueError) naming ``name``, the value and the
+    allowed range otherwise (also for an integer too large for a float).
+    """
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a real number, got {show(value)} ({type(value).__name__})")
+    check = in_range(lo, hi, unit, reason, lo_open=lo_open, hi_open=hi_open)
+    try:
+        x = float(value)
+    except OverflowError:  # an int beyond 1.8e308
+        x = math.inf if value > 0 else -math.inf
+    try:
+        check(x)
+    except ValueError as err:
+        shown = show(value) if is_integer(value) else show_number(x, *(b for b in (lo, hi) if b is not None))
+        raise _named_error(name, f" = {shown}: {err}") from None
+    return x + 0.0
+
+
+def check_real_vector(value: ArrayLike, name: str, size: int = 3, limit: float = MAX_FORCE_N, unit: str = "",
+                      reason: str = "") -> np.ndarray:
+    """The safe-range rule for a vector: ``value`` as a finite float64 array of shape (size,), each component
+    within +/- ``limit`` (in ``unit``, for ``reason``), ``-0.0`` as ``0.0``.
+
+    Raises TypeError for booleans, complex numbers or strings, ValueError (beginning with ``name``) for a wrong
+    shape or value.
+    """
+    arr = as_real_array(value, name)
+    if arr.shape != (size,):
+        raise ValueError(f"{name} must have shape ({size},), got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite, got {show_numbers(value)}")
+    if np.any(np.abs(arr) > limit):
+        raise ValueError(f"{name} must be within +/-{limit:g}{f' {unit}' if unit else ''} in each component"
+                         f"{f' ({reason})' if reason else ''}, got {show_numbers(arr)}")
+    return arr + 0.0
+
+
+def check_positions(value: ArrayLike, name: str, *, single: bool = False) -> np.ndarray:
+    """The safe-range rule for positions: ``value`` as K >= 1 rows of 3 coordinates [m] (base frame), shape
+    (K, 3), or one position, shape (3,), when ``single``; each coordinate finite and within
+    +/- :data:`MAX_POSITION_M` (no robot reaches farther), ``-0.0`` as ``0.0``.
+
+    Raises TypeError for booleans, complex numbers, strings; :class:`SettingsError` naming ``name`` otherwise.
+    """
+    try:
+        arr = as_real_array(value, name)
+    except ValueError:  # an integer too large for a float
+        arr = np.full((1, 3), np.inf)
+    if single:
+        arr = arr.reshape(-1)
+        if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+            raise _named_error(name, f": give 3 finite numbers [m], got {show_numbers(value)}")
+    elif arr.ndim != 2 or arr.shape[1] != 3 or arr.shape[0] == 0 or not np.all(np.isfinite(arr)):
+        raise _named_error(name, f": give K >= 1 rows of 3 finite numbers [m], got shape {np.shape(value)}")
+    if np.any(np.abs(arr) > MAX_POSITION_M):
+        bad = np.argwhere(np.abs(arr) > MAX_POSITION_M)[0]
+        where = "" if single else f" (row {bad[0] + 1})"
+        raise _named_error(name, f"{where}: each coordinate must be within +/-{MAX_POSITION_M:g} m (no robot "
+                           f"reaches farther: at most 100 segments of at most 10 m), got "
+                           f"{show_numbers(arr if single else arr[bad[0]])}")
+    return arr + 0.0
+
+
+def _unit_rows(arr: np.ndarray) -> np.ndarray:
+    """Each row of the finite ``arr`` (K, n) (every row's largest |component| at least :data:`MIN_DIRECTION`)
+    divided by its length, computed without overflow or underflow: scaled by its largest |component| first."""
+    scaled = arr / np.max(np.abs(arr), axis=1, keepdims=True)
+    return scaled / np.sqrt(np.sum(scaled * scaled, axis=1, keepdims=True)) + 0.0
+
+
+def unit_vectors(value: ArrayLike, name: str, size: int = 3) -> np.ndarray:
+    """The one rule for directions: each row of ``value`` (K, size), K >= 1, as a unit vector.
+
+    A direction's scale is free: ``(1e200, 1e200, 0)`` is ``(1, 1, 0) / sqrt(2)`` (each row is scaled by its
+    largest |component| before it is normalised, so no length overflows or underflows). Refused, with one line
+    naming ``name``: a row that is zero or not finite, and a row whose components are all subnormal (below
+    :data:`MIN_DIRECTION`: there too few bits are left for the direction to be the one written).
+
+    Raises
+    ------
+    TypeError
+        Booleans, complex numbers, strings.
+    SettingsError
+        A ValueError naming ``name``, the row and what is allowed.
+    """
+    arr = as_real_array(value, name)
+    if arr.ndim != 2 or arr.shape[1] != size or arr.shape[0] == 0:
+        raise _named_error(name, f": give rows of {size} numbers, got shape {arr.shape}")
+    for k, row in enumerate(arr):
+        where = f" (row {k + 1})" if arr.shape[0] > 1 else ""
+        if not (np.all(np.isfinite(row)) and np.any(row)):
+            raise _named_error(name, f"{where}: give {size} finite numbers, not all zero, got {show_numbers(row)}")
+        if float(np.max(np.abs(row))) < MIN_DIRECTION:
+            raise _named_error(name, f"{where}: give {size} finite numbers, not all zero nor all below "
+                               f"{MIN_DIRECTION:.3g} in magnitude (there rounding loses the direction; its scale "
+                               f"is free: write it larger), got {show_numbers(row)}")
+    return _unit_rows(arr)
+
+
+def unit_vector(value: ArrayLike, name: str, size: int = 3) -> np.ndarray:
+    """``value`` (size numbers) as a unit vector, shape (size,), by :func:`unit_vectors`' rule."""
+    arr = as_real_array(value, name).reshape(-1)
+    if arr.shape != (size,):
+        raise _named_error(name, f": give {size} finite numbers, not all zero, got {show_numbers(value)}")
+    return unit_vectors(arr[None], name, size)[0]
 
 
 def read_text_file(path: str | Path, what: str, limit: int = MAX_TEXT_FILE_BYTES) -> str:

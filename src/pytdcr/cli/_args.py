@@ -171,7 +171,8 @@ def load_spec(args: argparse.Namespace) -> LoadSpec:
 def _disk_wrench(text: str, option: str) -> tuple[int, tuple[float, ...]]:
     """``K:X,Y,Z``: a disk number (an integer >= 1) and three finite numbers (CliError naming ``option``)."""
     disk, sep, vector = text.partition(":")
-    if not sep or not disk.strip().isdigit() or int(disk) < 1:
+    # ASCII digits only (str.isdigit takes '²', which int() refuses), and few of them (no disk number has more)
+    if not sep or not re.fullmatch(r"[0-9]{1,9}", disk.strip()) or int(disk) < 1:
         raise CliError(f"{option} {text!r}: give K:X,Y,Z with K a disk number from 1 (e.g. 10:0,0,-0.05)")
     return int(disk), tuple(float(x) for x in parse_floats(vector, option, 3))
 

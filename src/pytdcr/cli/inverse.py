@@ -129,7 +129,7 @@ def _print_one(robot: Any, model: str, r: Any) -> None:
     """One answer in a few lines."""
     turn = "" if r.axis_error_rad is None else f", its axis {np.degrees(r.axis_error_rad):.3g} deg off"
     where = (f"REACHED ({r.path}), {r.distance_m:.2e} m away{turn}" if r.reachable else
-             f"NOT reachable: the nearest point found is {r.distance_m:.6f} m away{turn} ({r.path})")
+             f"NOT reachable: the nearest point found is {r.distance_m:.3g} m away{turn} ({r.path})")
     print(f"robot {robot.name}, {model} model, {r.objective}: target {_vec(r.target)} m {where}")
     unit = "N^2" if r.objective == "least-squares" else "N"
     print(f"  tensions {_vec(r.tensions, 4)} N ({r.objective} {r.objective_value:.4g} {unit})")

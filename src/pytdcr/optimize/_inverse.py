@@ -37,10 +37,10 @@ import numpy as np
 
 from ..bounds import TensionBounds
 from ..design import Robot
-from ..loads import Loads
+from ..loads import Loads, check_tensions
 from ..results import StaticSolution
 from ..statics import Model, resolve, solve
-from ..validate import SettingsError, as_real_array, check_count, show
+from ..validate import MAX_SEED, SettingsError, as_real_array, check_count, check_positions, unit_vector
 from ._inverse_search import (
     NEAREST,
     Point,
@@ -60,14 +60,6 @@ __all__ = ["NEAREST", "OBJECTIVES", "InverseResult", "InverseSearch", "TipTarget
 OBJECTIVES = ("least-squares", "least-max", "least-total")
 
 
-def _numbers(value: Any) -> str:
-    """A value given as numbers, for a message: ``[0, 0, 0]`` (not an array's repr)."""
-    try:
-        return "[" + ", ".join(f"{x:g}" for x in np.asarray(value, dtype=float).reshape(-1)) + "]"
-    except (TypeError, ValueError):
-        return show(value)
-
-
 @dataclass(frozen=True)
 class TipTarget:
     """Where the tip should be: a position and, optionally, the direction of its axis.
@@ -75,27 +67,21 @@ class TipTarget:
     Parameters
     ----------
     position : array-like, shape (3,)
-        [m], base frame.
+        [m], base frame; each coordinate within +/- :data:`~pytdcr.validate.MAX_POSITION_M` (no robot reaches
+        farther).
     direction : array-like, shape (3,), optional
-        The tip axis wanted (the last disk's normal), normalised here; its miss counts ``robot.length`` times
-        the difference of the unit vectors, so that one tolerance [m] holds both.
+        The tip axis wanted (the last disk's normal), normalised here (:func:`pytdcr.validate.unit_vector`: its
+        scale is free); its miss counts ``robot.length`` times the difference of the unit vectors, so that one
+        tolerance [m] holds both.
     """
 
     position: Any
     direction: Any = None
 
     def __post_init__(self) -> None:
-        p = as_real_array(self.position, "target").reshape(-1)
-        if p.shape != (3,) or not np.all(np.isfinite(p)):
-            raise SettingsError("target", f": give 3 finite numbers [m], got {_numbers(self.position)}")
-        object.__setattr__(self, "position", p)
+        object.__setattr__(self, "position", check_positions(self.position, "target", single=True))
         if self.direction is not None:
-            d = as_real_array(self.direction, "direction").reshape(-1)
-            norm = float(np.linalg.norm(d)) if d.shape == (3,) and np.all(np.isfinite(d)) else 0.0
-            if norm == 0.0:
-                raise SettingsError("direction",
-                                    f": give 3 finite numbers, not all zero, got {_numbers(self.direction)}")
-            object.__setattr__(self, "direction", d / norm)
+            object.__setattr__(self, "direction", unit_vector(self.direction, "direction"))
 
     @classmethod
     def of(cls, target: Any) -> TipTarget:
@@ -136,17 +122,21 @@ class InverseSearch:
         if not (np.isfinite(tol) and 0.0 < tol <= 0.01):
             raise SettingsError("tol", f": must be in (0, 0.01] m, got {self.tol!r}")
         object.__setattr__(self, "tol", tol)
-        for name, lo, hi in (("starts", 1, 100), ("max_solves", 10, None), ("seed", 0, None)):
+        for name, lo, hi in (("starts", 1, 100), ("max_solves", 10, None), ("seed", 0, MAX_SEED)):
             try:
                 object.__setattr__(self, name, check_count(getattr(self, name), name, lo=lo, hi=hi))
             except ValueError as err:
                 raise SettingsError.about(name, err) from None
         if self.pool is not None:
-            t, p = (np.asarray(a, dtype=float) for a in self.pool)
+            try:
+                t, p = (as_real_array(a, "pool") for a in self.pool)
+            except (TypeError, ValueError):
+                t = p = np.zeros((0, 0))
             if t.ndim != 2 or p.shape != (t.shape[0], 3) or t.shape[0] == 0 or not (
                     np.all(np.isfinite(t)) and np.all(np.isfinite(p))):
                 raise ValueError("pool: give finite tensions (K, n_tendons) [N] and tips (K, 3) [m], K >= 1")
-            object.__setattr__(self, "pool", (t, p))
+            object.__setattr__(self, "pool", (check_tensions(t, name="pool: tensions"),
+                                              check_positions(p, "pool: tips")))
 
 
 @dataclass(frozen=True, eq=False)
@@ -362,9 +352,7 @@ def inverse_path(robot: Robot, loads: Loads, targets: Any, *, bounds: TensionBou
     Along a smooth path the tensions follow one optimum smoothly. ``direction`` (3,): the tip axis wanted at
     every target. One :class:`InverseResult` per target, ``evaluations`` and ``seconds`` its own."""
     search = InverseSearch() if search is None else search
-    pts = as_real_array(targets, "targets")
-    if pts.ndim != 2 or pts.shape[1] != 3 or pts.shape[0] == 0 or not np.all(np.isfinite(pts)):
-        raise SettingsError("targets", f": give K >= 1 rows of 3 finite numbers [m], got shape {pts.shape}")
+    pts = check_positions(targets, "targets")
     out = [inverse_statics(robot, loads, TipTarget(pts[0], direction), bounds=bounds, model=model,
                            objective=objective, search=search)]
     tg = _setup(robot, loads, TipTarget(pts[0], direction), bounds, model, objective, search)

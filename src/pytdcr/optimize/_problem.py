@@ -12,6 +12,7 @@ from ..design import Robot
 from ..loads import Loads
 from ..results import BatchSolution, StaticSolution
 from ..statics import TIGHT_ATOL, Model, configure, resolve
+from ..validate import SettingsError, unit_vector
 
 __all__ = ["INFEASIBLE_COST", "Evaluated", "ReachProblem"]
 
@@ -67,7 +68,8 @@ class ReachProblem:
     @classmethod
     def create(cls, robot: Robot, loads: Loads, bounds: TensionBounds, *, model: str | Model = "pcc",
                options: Any = None, direction: np.ndarray | None = None, stable_only: bool = False) -> ReachProblem:
-        """Check the inputs and resolve the model; ``direction`` is normalised (ValueError if zero)."""
+        """Check the inputs and resolve the model; ``direction`` is normalised (:func:`pytdcr.validate.unit_vector`;
+        ValueError if zero, not finite or subnormal)."""
         if not isinstance(bounds, TensionBounds):
             raise TypeError(f"bounds must be a pytdcr.TensionBounds, got {type(bounds).__name__}")
         m, opts = resolve(model, robot, loads, options, gradient=True, stability=stable_only)
@@ -76,11 +78,10 @@ class ReachProblem:
             raise ValueError("bounds: every tension is fixed (lower == upper); nothing to optimise")
         d = None
         if direction is not None:
-            d = np.asarray(direction, dtype=float).reshape(-1)
-            norm = float(np.linalg.norm(d)) if d.shape == (3,) and np.all(np.isfinite(d)) else 0.0
-            if norm == 0.0:
-                raise ValueError(f"direction must be 3 finite numbers, not all zero, got {direction!r}")
-            d = d / norm
+            try:  # the one rule for directions: scale-free, so (1e200, 1e200, 0) is (1, 1, 0) / sqrt(2)
+                d = unit_vector(direction, "direction")
+            except SettingsError as err:
+                raise ValueError(f"direction must be {err.text.removeprefix(': give ')}") from None
         return cls(robot=robot, loads=loads.with_tensions(np.zeros(robot.n_tendons)), bounds=bounds, model=m,
                    options=opts, direction=d, stable_only=bool(stable_only))
 

@@ -15,7 +15,7 @@ from typing import Literal
 
 import numpy as np
 
-from ..validate import show_number
+from ..validate import check_count, check_real, show_number
 
 __all__ = ["DEFAULT_ATOL", "FOLDS", "FOLD_ARCLENGTH", "FOLD_RELAX", "FOLD_STOP", "LOAD_STEPPING", "MAX_ATOL",
            "MIN_ATOL", "MIN_STEP_SCALE", "PATH_CONTINUED", "PATH_DIRECT", "PATH_FALLBACK", "PATH_FOLD",
@@ -71,6 +71,13 @@ MAX_ATOL = 1e-4
 MIN_ATOL = 1e-14
 #: the finest load steps, as a fraction of the default ones (SolverOptions.step_scale)
 MIN_STEP_SCALE = 1e-3
+#: the most Newton iterations per attempt or load step (SolverOptions.max_iter, step_iter): the compiled solver
+#: counts them in 64-bit integers, and more never converges what fewer did not
+MAX_ITERATIONS = 100_000
+#: the most shooting integrations of one root solve (CosseratOptions.max_eval)
+MAX_EVALUATIONS = 1_000_000
+#: the smallest bend of a subsegment one load step may aim at [rad] (SolverOptions.max_dtheta)
+MIN_DTHETA = 1e-4
 
 
 def check_common_options(atol: float, load_stepping: str) -> None:
@@ -124,12 +131,11 @@ class SolverOptions:
 
     def __post_init__(self) -> None:
         check_common_options(self.atol, self.load_stepping)
-        if isinstance(self.max_iter, bool) or int(self.max_iter) != self.max_iter or self.max_iter < 1:
-            raise ValueError(f"max_iter must be an integer >= 1, got {self.max_iter!r}")
-        if not (np.isfinite(self.max_dtheta) and self.max_dtheta > 0):
-            raise ValueError(f"max_dtheta must be finite and > 0, got {self.max_dtheta}")
-        if isinstance(self.step_iter, bool) or int(self.step_iter) != self.step_iter or self.step_iter < 1:
-            raise ValueError(f"step_iter must be an integer >= 1, got {self.step_iter!r}")
+        object.__setattr__(self, "max_iter", check_count(self.max_iter, "max_iter", 1, MAX_ITERATIONS))
+        object.__setattr__(self, "max_dtheta", check_real(self.max_dtheta, "max_dtheta", MIN_DTHETA, np.pi, "rad",
+                                                          "at most half a turn; finer, the loading path takes "
+                                                          "millions of steps"))
+        object.__setattr__(self, "step_iter", check_count(self.step_iter, "step_iter", 1, MAX_ITERATIONS))
         if self.fold not in FOLDS:
             raise ValueError(f"fold must be one of {sorted(FOLDS)}, got {self.fold!r}")
         if isinstance(self.step_scale, bool) or not isinstance(self.step_scale, (int, float, np.floating)):
@@ -162,9 +168,8 @@ class SSCROptions(SolverOptions):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        n = self.steps_per_subsegment
-        if isinstance(n, bool) or int(n) != n or not 1 <= n <= 1000:
-            raise ValueError(f"steps_per_subsegment must be an integer in [1, 1000], got {n!r}")
+        object.__setattr__(self, "steps_per_subsegment",
+                           check_count(self.steps_per_subsegment, "steps_per_subsegment", 1, 1000))
 
 
 @dataclass(frozen=True)
@@ -194,7 +199,6 @@ class CosseratOptions:
 
     def __post_init__(self) -> None:
         check_common_options(self.atol, self.load_stepping)
-        if self.max_eval < 4:
-            raise ValueError(f"max_eval must be >= 4, got {self.max_eval}")
-        if not 1 <= self.steps_per_subsegment <= 1000:
-            raise ValueError(f"steps_per_subsegment must be in [1, 1000], got {self.steps_per_subsegment}")
+        object.__setattr__(self, "max_eval", check_count(self.max_eval, "max_eval", 4, MAX_EVALUATIONS))
+        object.__setattr__(self, "steps_per_subsegment",
+                           check_count(self.steps_per_subsegment, "steps_per_subsegment", 1, 1000))

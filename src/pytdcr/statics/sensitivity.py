@@ -10,6 +10,7 @@ is fixed), so ``dr/dT`` and ``dr/dw`` are differences of residuals, exact. Every
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -90,14 +91,19 @@ class TipCompliance:
         inverse of the largest and smallest singular values of ``matrix[:3, :3]`` (a unit force along the
         softest direction moves the tip farthest, 1/softest m)."""
         _, sv, vt = np.linalg.svd(self.matrix[:3, :3])
-        return 1.0 / float(sv[0]), 1.0 / float(sv[-1]), vt[0], vt[-1]
+        soft, stiff = (1.0 / float(s) if s > 0.0 else math.inf for s in (sv[0], sv[-1]))  # a rigid direction: inf
+        return soft, stiff, vt[0], vt[-1]
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready form: the compliance, its position block's stiffness, and the softest and stiffest
-        directions (:meth:`stiffness_range`)."""
+        """JSON-ready form: the compliance, its position block's stiffness (None where the tip cannot move in some
+        direction: infinitely stiff there), and the softest and stiffest directions (:meth:`stiffness_range`;
+        an infinite stiffness written as null)."""
         lo, hi, soft, stiff = self.stiffness_range()
-        return {"compliance": self.matrix.tolist(),
-                "translational_stiffness_N_per_m": self.translational_stiffness.tolist(),
+        try:
+            k = self.translational_stiffness.tolist()
+        except np.linalg.LinAlgError:  # a direction the tip cannot move in (a straight inextensible backbone,
+            k = None                   # along its axis): infinitely stiff there, no finite matrix
+        return {"compliance": self.matrix.tolist(), "translational_stiffness_N_per_m": k,
                 "translational_stiffness_range_N_per_m": [lo, hi], "softest_direction": soft.tolist(),
                 "stiffest_direction": stiff.tolist()}
 
