@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -10,14 +11,20 @@ import numpy as np
 from ..bounds import TensionBounds
 from ..design import Robot
 from ..loads import Loads
+from ..runtime import RunDoc, RunFolder
 from ..statics import MODELS, solve
 from ..study import read_workspace_inputs
-from ..validate import SettingsError, show_path
+from ..validate import show
 
-__all__ = ["MAX_FACES", "REACH_AGREES_M", "ReachPose", "WorkspaceView", "read_workspace"]
+__all__ = ["MAX_COORDINATE_M", "MAX_FACES", "MAX_MESH_BYTES", "REACH_AGREES_M", "ReachPose", "WorkspaceView",
+           "read_workspace"]
 
 #: the most boundary faces drawn (every k-th face beyond: a drawing aid, not geometry)
 MAX_FACES = 100_000
+#: the largest boundary mesh file read [bytes]
+MAX_MESH_BYTES = 512 * 2**20
+#: the largest coordinate of a mesh vertex or a recorded tip [m] (a robot is never a kilometre long)
+MAX_COORDINATE_M = 1e3
 #: the loading path's tip and the recorded largest-reach tip agree within this [m]
 REACH_AGREES_M = 1e-6
 
@@ -55,41 +62,58 @@ class WorkspaceView:
 
 def read_workspace(folder: str | Path) -> WorkspaceView:
     """The workspace run in ``folder`` (``workspace.json``, ``samples.npz`` and its boundary mesh, e.g.
-    ``fsw.ply``); :class:`~pytdcr.validate.SettingsError` naming ``workspace`` when it is not one finished run."""
+    ``fsw.ply``), every field read strictly (:class:`~pytdcr.runtime.RunDoc`): the meshes it names must be files
+    inside the folder of at most :data:`MAX_MESH_BYTES` bytes, with finite vertices and faces that index them;
+    :class:`~pytdcr.validate.SettingsError` naming ``workspace``, the file and the field when it is not one
+    finished run."""
     d = Path(folder)
     robot, loads, bounds, model, summary = read_workspace_inputs(d)
+    run = RunFolder(d, "workspace")
+    doc = RunDoc(run, "workspace.json", summary)
     vertices = faces = None
     total = 0
-    if summary.get("mesh"):
-        vertices, faces, total = _mesh(d / str(summary["mesh"]))
-    real = (summary.get("realisable") or {}).get("mesh")
-    realisable = _mesh(d / str(real))[:2] if real else None
+    if doc.has("mesh"):
+        vertices, faces, total = _mesh(run, doc.read_path("mesh"))
+    realisable = None
+    if doc.has("realisable") and doc.read_dict("realisable").get("mesh") is not None:
+        realisable = _mesh(run, doc.read_path("realisable.mesh"))[:2]
     return WorkspaceView(d, robot, loads, bounds, model, vertices, faces, total,
-                         _reach(robot, loads, model, summary.get("largest_reach")), realisable)
+                         _reach(doc, robot, loads, bounds, model), realisable)
 
 
-def _mesh(path: Path) -> tuple[np.ndarray, np.ndarray, int]:
-    """Vertices (V, 3) [m], at most :data:`MAX_FACES` faces and the number of faces of the mesh at ``path``."""
+def _mesh(run: RunFolder, name: str) -> tuple[np.ndarray, np.ndarray, int]:
+    """Vertices (V, 3) [m], at most :data:`MAX_FACES` faces and the number of faces of the mesh ``name`` in the
+    run's folder (a PLY file, read from its bytes: never a file it names)."""
     import trimesh
 
+    data = run.read_bytes(name, MAX_MESH_BYTES)
     try:
-        mesh = trimesh.load(path, force="mesh")
-    except (OSError, ValueError) as err:
-        raise SettingsError("workspace", f" {show_path(path)}: cannot read the boundary mesh ({err})") from None
-    f = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
+        mesh = trimesh.load(io.BytesIO(data), file_type=Path(name).suffix.lstrip(".").lower() or "ply",
+                            force="mesh", process=False)  # as written: a NaN vertex is refused, not dropped
+        v = np.asarray(mesh.vertices, dtype=float).reshape(-1, 3)
+        f = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
+    except Exception as err:  # a loader fails in its own ways on a file it cannot parse
+        raise run.refuse(f"{name}: cannot read the boundary mesh ({type(err).__name__}: "
+                         f"{show(str(err), 100)[1:-1]})") from None
+    if not np.all(np.isfinite(v)) or np.any(np.abs(v) > MAX_COORDINATE_M):
+        raise run.refuse(f"{name}: its vertices must be finite and within +/-{MAX_COORDINATE_M:g} m")
+    if f.size and (int(f.min()) < 0 or int(f.max()) >= v.shape[0]):
+        raise run.refuse(f"{name}: its faces must index its {v.shape[0]} vertices")
     step = max(1, int(np.ceil(f.shape[0] / MAX_FACES)))
-    return np.asarray(mesh.vertices, dtype=float).reshape(-1, 3), f[::step], int(f.shape[0])
+    return v, f[::step], int(f.shape[0])
 
 
-def _reach(robot: Robot, loads: Loads, model: str, record: dict | None) -> ReachPose | None:
-    """The largest-reach pose of ``record`` (``workspace.json``'s ``largest_reach``), solved along the loading
-    path from rest under the run's robot, loads and model; None when the run recorded none."""
-    if not record or record.get("tensions") is None:
+def _reach(doc: RunDoc, robot: Robot, loads: Loads, bounds: TensionBounds, model: str) -> ReachPose | None:
+    """The largest-reach pose ``workspace.json``'s ``largest_reach`` records (its tensions inside the run's
+    bounds, its tip finite), solved along the loading path from rest under the run's robot, loads and model; None
+    when the run recorded none."""
+    if not doc.has("largest_reach") or not doc.has("largest_reach.tensions"):
         return None
-    t = np.asarray(record["tensions"], dtype=float)
-    tip = np.asarray(record["tip"], dtype=float)
-    if t.shape != (robot.n_tendons,) or tip.shape != (3,):
-        return None
+    t = doc.read_vector("largest_reach.tensions", robot.n_tendons)
+    tip = doc.read_vector("largest_reach.tip", 3, MAX_COORDINATE_M)
+    slack = 1e-9 * np.maximum(bounds.upper, 1.0)
+    if np.any(t < bounds.lower - slack) or np.any(t > bounds.upper + slack):
+        raise doc.refuse("largest_reach.tensions", "must lie inside the run's bounds (inputs.bounds)", t.tolist())
     sol = solve(robot, loads.with_tensions(t), model=MODELS[model])
     if not sol.converged:
         return ReachPose(t, tip, None, None, "the loading path from rest did not converge at its tensions: "

@@ -6,8 +6,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
-import zipfile
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -22,7 +20,7 @@ from ..design import Robot
 from ..io import robot_to_dict
 from ..loads import Loads
 from ..results import StaticSolution
-from ..runtime import atomic_write
+from ..runtime import cache_dir, read_arrays, write_arrays
 from ..statics import Model, equilibrium_jacobians, solve, solve_batch
 
 __all__ = ["NEAREST", "POOL_SAMPLES", "Point", "Pool", "Search", "Target", "cache_dir", "choose_step", "is_optimal",
@@ -283,48 +281,29 @@ class Search:
         return p, hessian, rad
 
 
-def cache_dir() -> Path | None:
-    """Where start pools are kept between runs: ``PYTDCR_CACHE_DIR``, else ``$XDG_CACHE_HOME/pytdcr`` or
-    ``~/.cache/pytdcr``; None (no cache on disk) when ``PYTDCR_CACHE_DIR`` is set empty."""
-    env = os.environ.get("PYTDCR_CACHE_DIR")
-    if env is not None:
-        return Path(env) if env.strip() else None
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "pytdcr"
-
-
 def _read_pool(path: Path, n_tendons: int) -> Pool | None:
-    """A pool kept on disk, or None where there is none or it is not whole (it is made again)."""
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            pool = Pool(z["tensions"], z["tips"], z["jacobians"])
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
-        return None
-    k = pool.tensions.shape[0]
-    if pool.tensions.shape != (k, n_tendons) or pool.tips.shape != (k, 3) or pool.jacobians is None or \
-            pool.jacobians.shape != (k, 3, n_tendons):
-        return None
-    return pool
+    """The pool kept as the cache entry ``path`` (:func:`pytdcr.runtime.read_arrays`: a regular file of this
+    user's, whole, of the shapes of at most :data:`POOL_SAMPLES` equilibria of ``n_tendons`` tendons, every value
+    finite), or None where there is none to trust (it is made again)."""
+    arrays = read_arrays(path.name, {"tensions": ("K", n_tendons), "tips": ("K", 3),
+                                     "jacobians": ("K", 3, n_tendons)},
+                         folder=path.parent, dims={"K": POOL_SAMPLES})
+    return None if arrays is None else Pool(arrays["tensions"], arrays["tips"], arrays["jacobians"])
 
 
 def _keep_pool(path: Path, pool: Pool) -> None:
-    """Keep ``pool`` on disk (whole or not at all); a cache that cannot be written is only not kept."""
-    def write(tmp: Path) -> None:
-        with open(tmp, "wb") as f:
-            np.savez(f, tensions=pool.tensions, tips=pool.tips, jacobians=pool.jacobians)
-
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write(path, write)
-    except OSError:
-        pass
+    """Keep ``pool`` as the cache entry ``path`` (:func:`pytdcr.runtime.write_arrays`: whole or not at all, never
+    through a link; a cache that cannot be written is only not kept)."""
+    write_arrays(path.name, {"tensions": pool.tensions, "tips": pool.tips, "jacobians": pool.jacobians},
+                 folder=path.parent)
 
 
 def sample_pool(tg: Target, bounds: TensionBounds, *, seed: int = 0) -> Pool:
-    """The converged, stable equilibria of :data:`POOL_SAMPLES` scrambled Sobol tension vectors in the bounds,
-    without their co-contraction, solved from rest, with their tips' Jacobians: once per robot, external loads,
-    bounds, model, options, seed and pytdcr version (the last few kept in the process, and every one in
-    :func:`cache_dir`)."""
+    """The equilibria of :data:`POOL_SAMPLES` scrambled Sobol tension vectors in the bounds, without their
+    co-contraction, solved from rest, that converged and were not found unstable (for a model without a stability
+    test they are untested, and kept), with their tips' Jacobians: once per robot, external loads, bounds, model,
+    options, seed and pytdcr version (the last few kept in the process, and the newest of them in
+    :func:`cache_dir`, :func:`pytdcr.runtime.write_arrays`)."""
     robot, loads = tg.robot, tg.loads.with_tensions(np.zeros(tg.robot.n_tendons))
     what = {"pytdcr": __version__, "robot": robot_to_dict(robot), "tip_force": loads.tip_force.tolist(),
             "tip_moment": loads.tip_moment.tolist(), "release": loads.release,
@@ -341,7 +320,7 @@ def sample_pool(tg: Target, bounds: TensionBounds, *, seed: int = 0) -> Pool:
         u = qmc.Sobol(robot.n_tendons, scramble=True, seed=seed).random(POOL_SAMPLES)
         t = _relaxed(robot, bounds, bounds.lower + u * (bounds.upper - bounds.lower))
         b = solve_batch(robot, t, loads, model=tg.m, options=tg.opts)
-        ok = b.converged & (b.stable != 0.0)
+        ok = b.converged & (b.stable != 0.0)  # stable (1) or untested (NaN): only those found unstable go
         pool = Pool(t[ok], b.tip_position[ok], tg.m.tip_gradients(robot, t[ok], loads, b.q[ok], tg.opts))
         if path is not None:
             _keep_pool(path, pool)

@@ -7,10 +7,18 @@ output-folder rule.
 - **Threads** (:func:`run_in_chunks`, :func:`worker_pool`, :func:`default_threads`): batches of independent
   solves on all cores, with BLAS kept on one thread meanwhile; results do not depend on the thread count.
 - **Files** (:func:`atomic_write`, :func:`write_json`, :func:`write_csv`): every file whole or absent.
+- **Cache** (:func:`cache_dir`, :func:`read_arrays`, :func:`write_arrays`): entries kept between runs, read only
+  when they are this user's whole regular files and written never through a link; a cache that cannot be read
+  or written is rebuilt or not kept, never an error.
+- **Another run's folder** (:class:`RunFolder`): every file and field read back from a folder another run wrote
+  is checked strictly (its type, its range, paths inside the folder), refused with one line naming the field.
+- **Worker processes** (:func:`process_pool`, :func:`hold_lifeline`): every process pytdcr starts ends with the
+  process that started it, even one killed outright.
 - **Output folders** (:func:`output_folder`, :func:`resumable_folder`): one rule for every run's folder: a
   manifest, a lock, staging beside it, a previous run replaced as a whole, foreign files refused.
 """
 
+from ._cache import MAX_ENTRY_BYTES, cache_dir, read_arrays, read_entry, write_arrays, write_entry
 from ._cancel import Cancelled, CancelScope, cancellable, check_cancelled, current_scope, mark_saving, saving
 from ._files import (
     FileRefused,
@@ -34,22 +42,30 @@ from ._folders import (
     output_folder,
     resumable_folder,
 )
+from ._lifeline import LIFELINE_POLL_S, PARENT_GONE_EXIT, hold_lifeline, process_pool
+from ._readback import RunDoc, RunFolder
 from ._stages import duration, end_stage
 from ._threads import MAX_CHUNK, default_threads, run_in_chunks, single_threaded_blas, submit_in_context, worker_pool
 
 __all__ = [
+    "LIFELINE_POLL_S",
     "MANIFEST",
     "MAX_CHUNK",
+    "MAX_ENTRY_BYTES",
+    "PARENT_GONE_EXIT",
     "RESULT_LIBRARIES",
     "CancelScope",
     "Cancelled",
     "FileRefused",
     "FolderError",
     "OutputRun",
+    "RunDoc",
+    "RunFolder",
     "RunInterrupted",
     "StudyChanged",
     "atomic_write",
     "atomic_write_text",
+    "cache_dir",
     "cancellable",
     "check_cancelled",
     "check_output_folder",
@@ -58,9 +74,13 @@ __all__ = [
     "dump_json",
     "duration",
     "end_stage",
+    "hold_lifeline",
     "library_versions",
     "mark_saving",
     "output_folder",
+    "process_pool",
+    "read_arrays",
+    "read_entry",
     "resumable_folder",
     "run_in_chunks",
     "saving",
@@ -69,6 +89,8 @@ __all__ = [
     "to_jsonable",
     "worker_pool",
     "writable_file",
+    "write_arrays",
     "write_csv",
+    "write_entry",
     "write_json",
 ]

@@ -47,6 +47,7 @@ from .._version import __version__
 from ..validate import escape_controls, show, show_path
 from ._cancel import mark_saving
 from ._files import atomic_write_text, to_jsonable
+from ._readback import MAX_JSON_BYTES, regular_file_bytes
 
 __all__ = [
     "MANIFEST",
@@ -112,7 +113,7 @@ def _clean_after(path: Path, pid: int) -> None:
         return
     shutil.rmtree(_staging_path(path, pid), ignore_errors=True)
     aside = _aside_path(path, pid)
-    if aside.is_dir():
+    if aside.is_dir() and not aside.is_symlink():  # only a folder a run moved aside comes back, never a link
         if path.exists():
             shutil.rmtree(aside, ignore_errors=True)
         else:
@@ -142,8 +143,9 @@ def _holder(fd: int) -> dict[str, Any]:
 
 def _in_use(path: Path, rec: dict[str, Any]) -> FolderError:
     who = show(str(rec.get("command", "another run")))[1:-1]
-    pid = rec.get("pid", "?")
-    return FolderError(f"{show_path(path)}: in use by process {pid} (tdcr {who}, started {rec.get('started', '?')}); "
+    pid = rec["pid"] if isinstance(rec.get("pid"), int) else "?"  # the record is read back: shown, never trusted
+    started = show(str(rec.get("started", "?")), 40)[1:-1]
+    return FolderError(f"{show_path(path)}: in use by process {pid} (tdcr {who}, started {started}); "
                        "wait for it or choose another --out")
 
 
@@ -159,6 +161,26 @@ def _flock_retrying(fd: int, tries: int = 10) -> bool:
     return False
 
 
+#: how a lock file is opened: never through a link (its target would be truncated), never waiting on a FIFO
+_LOCK_FLAGS = os.O_CREAT | os.O_RDWR | os.O_NONBLOCK | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
+_PEEK_FLAGS = os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
+
+
+def _open_lock(lock: Path, path: Path) -> int:
+    """The lock file ``lock`` of ``path``, opened (made when missing) for this run: refused when it is a link or
+    anything but a regular file (the lock is written: it is never written through a link)."""
+    try:
+        fd = os.open(lock, _LOCK_FLAGS, 0o644)
+    except OSError as err:
+        raise FolderError(f"{show_path(path)}: cannot use its lock {show_path(lock)} ({err.strerror or err}; a "
+                          "link there is never followed): remove it or choose another --out") from None
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise FolderError(f"{show_path(path)}: its lock {show_path(lock)} is not a regular file: remove it or "
+                          "choose another --out")
+    return fd
+
+
 def _take_lock(path: Path, command: str) -> _Lock:
     """Lock ``path`` for this run (an exclusive ``flock`` on ``.<name>.lock`` beside it).
 
@@ -167,7 +189,7 @@ def _take_lock(path: Path, command: str) -> _Lock:
     """
     lock = _lock_path(path)
     for _ in range(10):
-        fd = os.open(lock, os.O_CREAT | os.O_RDWR, 0o644)
+        fd = _open_lock(lock, path)
         if not _flock_retrying(fd):
             rec = _holder(fd)
             os.close(fd)
@@ -202,7 +224,7 @@ def check_output_folder(path: str | Path) -> None:
     _check_target(path)
     lock = _lock_path(path)
     try:
-        fd = os.open(lock, os.O_RDONLY)
+        fd = os.open(lock, _PEEK_FLAGS)
     except OSError:
         return
     try:
@@ -214,15 +236,25 @@ def check_output_folder(path: str | Path) -> None:
 
 
 def _read_manifest(path: Path) -> dict[str, Any] | None:
-    """The folder's manifest if it is a tdcr run's (the keys every run writes), else None."""
+    """The folder's manifest if it is a tdcr run's, else None: a regular file (never a link, a FIFO or a
+    device; at most :data:`~pytdcr.runtime._readback.MAX_JSON_BYTES`) holding a JSON object whose ``command``,
+    ``status`` and ``pytdcr`` are strings, whose ``files`` (and ``owned``, when there) are lists of relative
+    paths, and whose ``digest`` (when there) is a string or null."""
     try:
-        data = json.loads((path / MANIFEST).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        data = json.loads(regular_file_bytes(path / MANIFEST, MAX_JSON_BYTES, follow=False).decode("utf-8"))
+    except (OSError, ValueError, RecursionError):
         return None
-    if not (isinstance(data, dict) and {"command", "status", "pytdcr", "files"} <= set(data)
-            and isinstance(data["files"], list)):
+    if not (isinstance(data, dict) and all(isinstance(data.get(k), str) for k in ("command", "status", "pytdcr"))
+            and _names(data.get("files")) and _names(data.get("owned", []))
+            and isinstance(data.get("digest"), (str, type(None)))):
         return None
     return data
+
+
+def _names(value: Any) -> bool:
+    """``value`` is a list of relative paths (strings, no absolute path, no ``..``)."""
+    return isinstance(value, list) and all(
+        isinstance(f, str) and f and not f.startswith("/") and ".." not in f.split("/") for f in value)
 
 
 def _walk(path: Path) -> list[tuple[str, Path]]:
@@ -267,7 +299,7 @@ def _foreign(path: Path) -> list[str]:
 def _live_lock(folder: Path) -> dict[str, Any] | None:
     """The lock record of the live run writing ``folder``, or None (no lock, or its process is gone)."""
     try:
-        fd = os.open(_lock_path(folder), os.O_RDONLY)
+        fd = os.open(_lock_path(folder), _PEEK_FLAGS)
     except OSError:
         return None
     try:

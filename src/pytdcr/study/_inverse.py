@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -13,7 +12,8 @@ from ..bounds import TensionBounds
 from ..design import Robot
 from ..io import robot_from_dict
 from ..loads import Loads, PointLoad
-from ..validate import SettingsError, show_path
+from ..runtime import RunDoc, RunFolder
+from ..validate import SettingsError
 
 __all__ = ["WorkspaceInputs", "WorkspacePool", "inverse_columns", "inverse_rows", "read_workspace_inputs",
            "read_workspace_pool"]
@@ -34,8 +34,9 @@ def inverse_rows(results: list[Any]) -> list[list[Any]]:
 
 @dataclass(frozen=True, eq=False)
 class WorkspacePool:
-    """A finished ``tdcr workspace`` run read as starts: its robot, external loads, bounds and model, and its
-    converged, stable samples' tensions (K, n_tendons) [N] and tips (K, 3) [m]."""
+    """A finished ``tdcr workspace`` run read as starts: its robot, external loads, bounds and model, and the
+    tensions (K, n_tendons) [N] and tips (K, 3) [m] of its converged samples not found unstable (stable, or
+    untested under a model without the test: the samples its FSW holds)."""
 
     robot: Robot
     loads: Loads
@@ -56,46 +57,88 @@ class WorkspaceInputs(NamedTuple):
     summary: dict[str, Any]
 
 
+#: the most point loads read back from a run (one per disk at most, as the command line gives them)
+MAX_POINT_LOADS = 10_000
+
+
+def _finished_run(folder: str | Path) -> RunFolder:
+    """``folder`` as a :class:`~pytdcr.runtime.RunFolder` named by ``workspace``, refused unless it holds
+    ``workspace.json`` and ``samples.npz``."""
+    run = RunFolder(folder, "workspace")
+    if not (run.root / "workspace.json").is_file() or not (run.root / "samples.npz").is_file():
+        raise run.refuse("give the folder of one finished `tdcr workspace` run (with workspace.json and "
+                         "samples.npz; of a comparison, one case's folder)")
+    return run
+
+
+def _loads(doc: RunDoc, robot: Robot) -> Loads:
+    """The external loads of ``workspace.json``'s ``inputs.loads``, each field strictly of its type."""
+    base = "inputs.loads"
+    points = []
+    for k in range(len(doc.read_list(f"{base}.point_loads", MAX_POINT_LOADS))):
+        at = f"{base}.point_loads[{k}]"
+        points.append(PointLoad(doc.read_int(f"{at}.disk", 1, robot.n_disks), doc.read_vector(f"{at}.force", 3),
+                                doc.read_vector(f"{at}.moment", 3)))
+    try:
+        return Loads(tip_force=doc.read_vector(f"{base}.tip_force", 3),
+                     tip_moment=doc.read_vector(f"{base}.tip_moment", 3), release=doc.read_bool(f"{base}.release"),
+                     point_loads=tuple(points))
+    except (ValueError, TypeError) as err:
+        if isinstance(err, SettingsError):
+            raise
+        raise doc.refuse(base, str(err)) from None
+
+
 def read_workspace_inputs(folder: str | Path) -> WorkspaceInputs:
-    """The inputs of the workspace run in ``folder`` (``workspace.json``, beside ``samples.npz``);
-    SettingsError naming ``workspace`` when the folder is not one finished run."""
+    """The inputs of the workspace run in ``folder`` (``workspace.json``, beside ``samples.npz``), every field
+    read strictly into its type (:class:`~pytdcr.runtime.RunDoc`); SettingsError naming ``workspace``, the file
+    and the field when the folder is not one finished run or a field is not what that run writes."""
     from ..statics import MODELS
 
-    d = Path(folder)
-    where = show_path(d)
-    if not (d / "workspace.json").is_file() or not (d / "samples.npz").is_file():
-        raise SettingsError("workspace", f" {where}: give the folder of one finished `tdcr workspace` run (with "
-                            "workspace.json and samples.npz; of a comparison, one case's folder)")
+    run = _finished_run(folder)
+    doc = run.read_json("workspace.json")
     try:
-        summary = json.loads((d / "workspace.json").read_text(encoding="utf-8"))
-        inputs = summary["inputs"]
-        robot = robot_from_dict(inputs["robot"], f"{where}: robot")
-        ld = inputs["loads"]
-        loads = Loads(tip_force=np.asarray(ld["tip_force"], dtype=float),
-                      tip_moment=np.asarray(ld["tip_moment"], dtype=float), release=bool(ld["release"]),
-                      point_loads=tuple(PointLoad(int(p["disk"]), np.asarray(p["force"], dtype=float),
-                                                  np.asarray(p["moment"], dtype=float)) for p in ld["point_loads"]))
-        bounds = TensionBounds(inputs["bounds"]["lower"], inputs["bounds"]["upper"])
-        model = str(inputs["solver"]["model"])
-        if model not in MODELS:
-            raise ValueError(f"its model {model!r} is not registered")
-    except (OSError, ValueError, KeyError, TypeError) as err:
-        raise SettingsError("workspace", f" {where}: cannot read the run ({type(err).__name__}: {err})") from None
-    return WorkspaceInputs(robot, loads, bounds, model, summary)
+        robot = robot_from_dict(doc.read_dict("inputs.robot"), "workspace.json: inputs.robot")
+    except (ValueError, TypeError) as err:
+        if isinstance(err, SettingsError):
+            raise
+        raise run.refuse(str(err)) from None
+    loads = _loads(doc, robot)
+    n = robot.n_tendons
+    lower, upper = doc.read_vector("inputs.bounds.lower", n), doc.read_vector("inputs.bounds.upper", n)
+    try:
+        bounds = TensionBounds(lower, upper)
+    except (ValueError, TypeError) as err:
+        raise doc.refuse("inputs.bounds", str(err)) from None
+    model = doc.read_str("inputs.solver.model", MODELS)
+    return WorkspaceInputs(robot, loads, bounds, model, doc.data)
 
 
 def read_workspace_pool(folder: str | Path) -> WorkspacePool:
     """The workspace run in ``folder`` (its ``workspace.json`` inputs and ``samples.npz``) as a
-    :class:`WorkspacePool`; SettingsError naming ``workspace`` when the folder is not one finished run."""
-    run = read_workspace_inputs(folder)
-    d = Path(folder)
-    try:
-        with np.load(d / "samples.npz", allow_pickle=False) as z:
-            keep = z["converged"] & (z["stable"] == 1.0)
-            tensions, tips = z["tensions"][keep], z["tip"][keep]
-    except (OSError, ValueError, KeyError, TypeError) as err:
-        raise SettingsError("workspace", f" {show_path(d)}: cannot read the run ({type(err).__name__}: {err})"
-                            ) from None
-    if tensions.shape[0] == 0 or tensions.shape[1] != run.robot.n_tendons:
-        raise SettingsError("workspace", f" {show_path(d)}: no converged, stable sample of robot '{run.robot.name}'")
-    return WorkspacePool(run.robot, run.loads, run.bounds, run.model, tensions, tips)
+    :class:`WorkspacePool`; SettingsError naming ``workspace``, the file and the field when the folder is not one
+    finished run: ``samples.npz``'s arrays must be of their kinds (no pickles) and shapes, one row per sample,
+    the tensions finite and inside the run's bounds, ``stable`` 1, 0 or NaN (untested), the converged tips
+    finite."""
+    inputs = read_workspace_inputs(folder)
+    run = _finished_run(folder)
+    z = run.read_npz("samples.npz", {"tensions": "f", "tip": "f", "converged": "b", "stable": "f"})
+    m = z["converged"].shape[0] if z["converged"].ndim == 1 else -1
+    n = inputs.robot.n_tendons
+    for key, shape in (("converged", (m,)), ("stable", (m,)), ("tensions", (m, n)), ("tip", (m, 3))):
+        if z[key].shape != shape:
+            raise run.refuse(f"samples.npz: {key}: shape {z[key].shape}, not {shape} (one row per sample; the run's "
+                             f"robot has {n} tendons)".replace("-1", "M"))
+    t, tip, converged, stable = z["tensions"], z["tip"], z["converged"], z["stable"]
+    slack = 1e-9 * np.maximum(inputs.bounds.upper, 1.0)
+    if not np.all(np.isfinite(t)) or np.any(t < inputs.bounds.lower - slack) or np.any(t > inputs.bounds.upper + slack):
+        raise run.refuse("samples.npz: tensions: must be finite and inside the run's bounds (workspace.json: "
+                         "inputs.bounds)")
+    if not np.all(np.isnan(stable) | (stable == 0.0) | (stable == 1.0)):
+        raise run.refuse("samples.npz: stable: must be 1 (stable), 0 (unstable) or NaN (untested)")
+    if not np.all(np.isfinite(tip[converged])):
+        raise run.refuse("samples.npz: tip: must be finite at every converged sample")
+    keep = converged & (stable != 0.0)  # the run's FSW: converged and not found unstable (untested counts)
+    if not np.any(keep):
+        raise run.refuse(f"samples.npz: no converged sample not found unstable, of robot '{inputs.robot.name}'")
+    return WorkspacePool(inputs.robot, inputs.loads, inputs.bounds, inputs.model, t[keep], tip[keep])
