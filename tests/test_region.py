@@ -355,7 +355,8 @@ def test_the_largest_reach_follows_its_rule():
     assert set(numbers) == {"volume_m3", "volume_err_m3", "dimension", "measure", "largest_reach_m", "reach_rule",
                             "points", "volume", "realisable",
                             "voxel_m", "counts", "warm_start", "boundary_sources", "boundary_search", "support",
-                            "largest_reach", "seconds_sampling", "equilibria", "multistability", "root"}
+                            "largest_reach", "seconds_sampling", "equilibria", "multistability", "root",
+                            "stability_test"}
     # each largest reach says what it is: searched only where the search gave it
     searched = {"search": "the reach search's optimum",
                 "support": "the farthest tip attaining h(d), farther than the reach search's optimum",

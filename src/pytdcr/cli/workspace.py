@@ -63,6 +63,10 @@ def add_parser(sub: Any) -> None:
                     "reaches from rest by quasi-static tension changes (each sample continued from a solved "
                     "parent), 'loading-path', each solved from rest with every load ramped together (the paper's), "
                     "or 'both' (one sub-folder each, compared) [continuation where the model can]")
+    ws.add_argument("--multistability", type=count_type, default=200,
+                    help="samples also solved along the other history, to measure how often the equilibrium "
+                    "depends on it; 0: none (a loading-path region's check continues them from the root: models "
+                    "that cannot continue a solved state need 0) [200]")
     ws.add_argument("--compare-loads", action="store_true",
                     help="compare load cases: no load, gravity only, payloads 5/10/20 g, the paper's wrench, and "
                     "--tip-force/--tip-moment when given; one sub-folder each")
@@ -76,8 +80,8 @@ def add_parser(sub: Any) -> None:
 
 def _compare_models(args: argparse.Namespace, robot: Any, loads: Any) -> dict[str, tuple[Any, ...]] | None:
     """The cases of ``--compare-models`` (name → robot, loads, no settings of its own, model, options), or None
-    without it; CliError for an unknown model, a repeated one, fewer than two, or another comparison asked."""
-    from ..region import equilibria_for
+    without it; CliError for an unknown model, a repeated one, fewer than two, or another comparison asked
+    (what each model can do is checked with every case's requirements: :func:`_check_cases`)."""
     from ..statics import MODELS
     from ..study import ModelSpec
 
@@ -90,16 +94,34 @@ def _compare_models(args: argparse.Namespace, robot: Any, loads: Any) -> dict[st
                        f"got {escape_controls(args.compare_models)!r}")
     if args.compare_loads or args.equilibria == "both":
         raise CliError("--compare-models with --compare-loads or --equilibria both: choose one comparison")
-    cases = {}
-    for name in names:
-        m, options = ModelSpec(name, shear_extension=args.shear_extension).resolve(robot, loads)
-        if args.equilibria is not None:
-            try:
-                equilibria_for(m, args.equilibria)
-            except ValueError as err:
-                raise CliError(f"--{err}") from None
-        cases[name] = (robot, loads, None, m.name, options)
-    return cases
+    return {name: (robot, loads, None, name, ModelSpec(name, shear_extension=args.shear_extension).options())
+            for name in names}
+
+
+def _check_cases(args: argparse.Namespace, cases: dict[str, tuple[Any, ...]] | None, robot: Any, loads: Any,
+                 settings: Any, model: tuple[Any, Any]) -> None:
+    """Every case's requirements against its model's capabilities, before the first solve (and before the
+    estimate, which solves a few): CliError naming the flag that made the cases, the case and what its model
+    lacks (:func:`pytdcr.study.check_workspace_cases`)."""
+    from ..region import check_workspace
+    from ..study import WorkspaceCaseSpec, check_workspace_cases
+    from ..validate import SettingsError
+
+    if cases is None:
+        try:
+            check_workspace(robot, loads, settings, model=model[0], options=model[1])
+        except ValueError as err:
+            flag = "--equilibria" if str(err).startswith("equilibria") else "--model"
+            raise CliError(f"{flag}: {err}") from None
+        return
+    flag = ("--compare-models" if args.compare_models is not None else "--compare-loads" if args.compare_loads
+            else "--equilibria both")
+    specs = {name: WorkspaceCaseSpec(*value) for name, value in cases.items()}
+    try:
+        check_workspace_cases(specs, settings.with_voxel_for(robot), model=model[0], options=model[1],
+                              field_name="cases")
+    except SettingsError as err:
+        raise CliError(err.worded({"cases": flag})) from None
 
 
 def _say_estimate(cases: dict[str, tuple[Any, ...]] | None, robot: Any, loads: Any, bounds: Any, settings: Any,
@@ -119,6 +141,7 @@ def _say_estimate(cases: dict[str, tuple[Any, ...]] | None, robot: Any, loads: A
 
 
 def _workspace_lines(name: str, s: dict[str, Any]) -> list[str]:
+    from ..region import stability_words
     from ..study import format_measure_of
 
     out = [f"  {name}:"]
@@ -129,8 +152,8 @@ def _workspace_lines(name: str, s: dict[str, Any]) -> list[str]:
     c = s["counts"]
     search = s.get("boundary_search") or {}
     how = s["equilibria"] if s["equilibria"] == "continuation" else f"{s['equilibria']} ({s['warm_start']['mode']})"
-    out.append(f"    {c['converged']} of {c['solved']} converged, {c['unstable']} unstable; equilibria: {how}; "
-               f"boundary search: {search.get('solves', 0)} solves, {search.get('stop', 'off')}")
+    out.append(f"    {c['converged']} of {c['solved']} converged, {stability_words(c, s['stability_test'])}; "
+               f"equilibria: {how}; boundary search: {search.get('solves', 0)} solves, {search.get('stop', 'off')}")
     ms = s.get("multistability")
     if ms and ms["checked"]:
         out.append(f"    multistability: {ms['distinct']} of {ms['checked']} checked samples reach another equilibrium "
@@ -151,7 +174,7 @@ def run(args: argparse.Namespace) -> int:
     try:  # the settings check their ranges (the only place they live); the message names the option
         settings = WorkspaceSettings(n=args.n, seed=args.seed, voxel=args.voxel, warm=not args.no_warm,
                                      search=not args.no_search, budget=args.budget, directions=args.directions,
-                                     folds=args.search_folds,
+                                     folds=args.search_folds, multistability=args.multistability,
                                      equilibria=None if args.equilibria == "both" else args.equilibria
                                      ).check(robot)
     except ValueError as err:
@@ -175,6 +198,7 @@ def run(args: argparse.Namespace) -> int:
         cases = {k: (robot, loads, replace(settings, equilibria=k)) for k in EQUILIBRIA_CHOICES}
     else:
         cases = None
+    _check_cases(args, cases, robot, loads, settings, (m.name, options))
     _say_estimate(cases, robot, loads, bounds, settings, (m.name, options))
     bars = Bars()
     kw = {"model": m.name, "options": options,
@@ -194,6 +218,9 @@ def run(args: argparse.Namespace) -> int:
     for case in res.cases:
         for w in case.summary["warnings"]:
             print(f"tdcr: {case.name}: {w}", file=sys.stderr)
-    if any(c.summary["points"] == 0 for c in res.cases):  # no converged, stable sample: no region at all
+    for name, why in res.failed.items():  # the others are kept, with their comparison
+        print(f"tdcr: {escape_controls(name)}: failed while running, not compared: {escape_controls(why)}",
+              file=sys.stderr)
+    if res.failed or any(c.summary["points"] == 0 for c in res.cases):  # a case failed, or one has no region
         return EXIT_NOT_CONVERGED
     return EXIT_OK

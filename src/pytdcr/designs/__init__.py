@@ -4,11 +4,21 @@ objectives and a per-design budget; every design gets a workspace study (:mod:`p
 processes or a Dask cluster, written one file per design so that a stopped study resumes. ``tdcr designs``
 runs it from the command line."""
 
-from ._evaluate import design_seed, designs_estimate, evaluate_design
+from ._evaluate import check_capabilities, design_seed, designs_estimate, evaluate_design
 from ._optimize import DesignSearch, measures_nothing, objective_matrix, pareto_front
 from ._run import DesignsRun, DesignsRunOptions, WorkersLost, format_measure, run_designs
 from ._space import PARAMETERS, apply_parameters, choose_designs, from_unit, parameter_info, read_parameter
-from ._spec import LOAD_CASE_NAMES, MEASURES, DesignStudy, Objective, Parameter, StudyError, load_study, study_from_dict
+from ._spec import (
+    LOAD_CASE_NAMES,
+    MEASURES,
+    DesignStudy,
+    Objective,
+    Parameter,
+    StudyError,
+    load_study,
+    measures_for,
+    study_from_dict,
+)
 
 __all__ = [
     "LOAD_CASE_NAMES",
@@ -23,6 +33,7 @@ __all__ = [
     "StudyError",
     "WorkersLost",
     "apply_parameters",
+    "check_capabilities",
     "choose_designs",
     "design_seed",
     "designs_estimate",
@@ -30,6 +41,7 @@ __all__ = [
     "format_measure",
     "from_unit",
     "load_study",
+    "measures_for",
     "measures_nothing",
     "objective_matrix",
     "parameter_info",

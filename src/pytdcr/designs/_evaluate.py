@@ -16,12 +16,12 @@ from typing import Any
 import numpy as np
 
 from ..bounds import TensionBounds
-from ..region import Estimate, WorkspaceSettings, workspace_estimate, workspace_study
+from ..region import Estimate, WorkspaceSettings, check_workspace, workspace_estimate, workspace_study
 from ..statics import Cancelled
 from ._space import apply_parameters
 from ._spec import MEASURES, DesignStudy
 
-__all__ = ["MEASURES", "design_seed", "designs_estimate", "evaluate_design"]
+__all__ = ["MEASURES", "check_capabilities", "design_seed", "designs_estimate", "evaluate_design"]
 
 
 def design_seed(study_seed: int, index: int) -> int:
@@ -42,6 +42,26 @@ def _workspace_settings(study: DesignStudy, base: Any, seed: int) -> WorkspaceSe
                              search=study.budget.search > 0, budget=study.budget.search, directions=directions or 0,
                              reach="farthest" if study.budget.reach_search else "support",
                              threads=1, multistability=0, folds=study.budget.folds).with_voxel_for(base)
+
+
+def check_capabilities(study: DesignStudy, robot: Any, source: str = "study") -> None:
+    """Every load case of ``study`` on its base ``robot`` against the study's model's capabilities, before any
+    design is solved (:func:`pytdcr.region.check_workspace`, with each design's settings): the parameters vary
+    geometry and stiffness only, so what the base robot can ask of the model, every design asks.
+
+    Raises
+    ------
+    StudyError
+        Naming ``model``, the load case and the capability the model lacks.
+    """
+    from ._spec import StudyError
+
+    settings = _workspace_settings(study, robot, study.seed)
+    for name, (case_robot, loads) in study.load_cases(robot).items():
+        try:
+            check_workspace(case_robot, loads, settings, model=study.model)
+        except ValueError as err:  # UnsupportedFeatureError among them
+            raise StudyError(f"{source}: model = {study.model!r}: load case '{name}': {err}") from None
 
 
 def designs_estimate(study: DesignStudy, robot: Any, designs: int, workers: int) -> Estimate:

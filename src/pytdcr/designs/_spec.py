@@ -53,10 +53,11 @@ from ..loads import Loads
 from ..paper import workspace_load_cases
 from ..region import FOLD_RULES
 from ..statics import MODELS
+from ..validate import unit_vector
 from ._space import apply_parameters, parameter_info
 
 __all__ = ["LOAD_CASE_NAMES", "MAX_DESIGNS", "MEASURES", "DesignStudy", "Objective", "Parameter", "StudyError",
-           "load_study", "study_from_dict"]
+           "load_study", "measures_for", "study_from_dict"]
 
 #: the most designs one study may hold (a grid multiplies quickly)
 MAX_DESIGNS = 100_000
@@ -76,6 +77,18 @@ MEASURES = {
     "peak_stress_pa": "largest backbone bending stress E kappa r over the converged samples [Pa]",
     "arc_length_m": "the robot's length [m]",
 }
+
+
+def measures_for(model: str) -> dict[str, str]:
+    """:data:`MEASURES` as they hold for a study solved by ``model``: the FSW's samples are its converged
+    equilibria, the unstable ones left out where the model tests stability, and said to be untested where it
+    does not (:func:`pytdcr.region.feasible_words`)."""
+    from ..region import feasible_words, stability_test
+
+    test = stability_test(model)
+    if test == "run":
+        return dict(MEASURES)
+    return {**MEASURES, "volume_m3": f"FSW volume ({feasible_words(test)} equilibria) [m^3]"}
 
 
 class StudyError(ValueError):
@@ -194,8 +207,9 @@ class Measures(_Strict):
         for name, d in v.items():
             if not name.isidentifier():
                 raise ValueError(f"direction name {name!r}: letters, digits and _ only (it names a column)")
-            if float(np.linalg.norm(d)) == 0.0:
+            if not np.any(d):
                 raise ValueError(f"direction {name!r} is zero")
+            unit_vector(d, f"direction {name!r}")  # any scale is a direction; all-subnormal has none
         return v
 
 
@@ -308,7 +322,8 @@ class DesignStudy(_Strict):
 def study_from_dict(data: dict[str, Any], source: str = "study", base_dir: Path | None = None
                     ) -> tuple[DesignStudy, Robot]:
     """Validate a study (as read from TOML) and load its base robot; every parameter's range is tried on the
-    base robot, one parameter at a time, so an impossible range is refused here, naming its key.
+    base robot, one parameter at a time, so an impossible range is refused here, naming its key, and every load
+    case against the model's capabilities (:func:`check_capabilities`), naming ``model``.
 
     Raises
     ------
@@ -335,6 +350,9 @@ def study_from_dict(data: dict[str, Any], source: str = "study", base_dir: Path 
                 apply_parameters(robot, {name: value})
             except ValueError as err:
                 raise StudyError(f"{source}: parameters.{name} = {value!r}: {err}") from None
+    from ._evaluate import check_capabilities  # it imports this module
+
+    check_capabilities(study, robot, source)
     return study, robot
 
 

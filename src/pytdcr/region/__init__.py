@@ -3,7 +3,7 @@ converge, its boundary surface and volume with an error, the support function h(
 what is physically realisable. :func:`workspace_study` does it all, from one :class:`WorkspaceSettings`
 (:func:`workspace_region` is its first stage); ``tdcr workspace`` writes it out."""
 
-from ._compute import WorkspaceRegion, planned_work, workspace_region
+from ._compute import WorkspaceRegion, check_workspace, planned_work, workspace_region
 from ._estimate import Estimate, solve_seconds, workspace_estimate
 from ._frontier import FOLD_RULES, BoundarySearch, GrowthSettings, SearchRound, SearchState, grow_region, tension_step
 from ._grid import MIN_MESH_POINTS, Region, inside, region_from_points
@@ -31,6 +31,7 @@ from ._solve import (
     solve_plan,
     solves_needed,
 )
+from ._stability import STABILITY_TESTS, feasible_words, stability_counts, stability_test, stability_words
 from ._study import Reach, WorkspaceStudy, workspace_study
 from ._support import (
     LargestReach,
@@ -53,6 +54,7 @@ __all__ = [
     "REACH_RULES",
     "ROOT",
     "SOURCES",
+    "STABILITY_TESTS",
     "VOXELS_PER_LENGTH",
     "BoundarySearch",
     "Estimate",
@@ -77,9 +79,11 @@ __all__ = [
     "WorkspaceRegion",
     "WorkspaceSettings",
     "WorkspaceStudy",
+    "check_workspace",
     "continue_plan",
     "equilibria_for",
     "estimate_volume",
+    "feasible_words",
     "fibonacci_directions",
     "grow_region",
     "inside",
@@ -96,6 +100,9 @@ __all__ = [
     "solve_plan",
     "solve_seconds",
     "solves_needed",
+    "stability_counts",
+    "stability_test",
+    "stability_words",
     "support_function",
     "tension_step",
     "workspace_estimate",

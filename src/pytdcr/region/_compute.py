@@ -11,7 +11,7 @@ from ..bounds import TensionBounds
 from ..design import Robot
 from ..loads import Loads
 from ..runtime import end_stage
-from ..statics import Model, check_resources, resolve
+from ..statics import Model, UnsupportedFeatureError, check_resources, resolve
 from ._frontier import BoundarySearch, GrowthSettings, SearchRound, SearchState, grow_region
 from ._grid import Region
 from ._history import Multistability, measure_multistability
@@ -29,7 +29,8 @@ from ._solve import (
 )
 from ._volume import VolumeEstimate, estimate_volume
 
-__all__ = ["VOXELS_PER_LENGTH", "WorkspaceRegion", "planned_work", "search_budget", "workspace_region"]
+__all__ = ["VOXELS_PER_LENGTH", "WorkspaceRegion", "check_workspace", "planned_work", "search_budget",
+           "workspace_region"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -109,14 +110,43 @@ def _sampling(m: Model, bounds: TensionBounds, s: WorkspaceSettings) -> tuple[Te
     return plan, kind, WarmStarts(seed=s.seed) if s.warm and kind == EQUILIBRIA[1] else False
 
 
+def check_workspace(robot: Robot, loads: Loads, settings: WorkspaceSettings | None = None, *,
+                    model: str | Model = "pcc", options: Any = None) -> tuple[Model, Any, WorkspaceSettings]:
+    """Every capability a workspace study of these inputs asks of ``model``, checked before any solve: the one
+    check of :func:`workspace_region` (and of every command that plans several studies, before the first).
+
+    The request itself (:func:`pytdcr.statics.resolve`: the robot's friction law, wrenches at inner disks, the
+    memory of one solve), the equilibria asked for (:func:`equilibria_for`: ``"continuation"`` needs a model
+    that continues a solved state), and the multistability check of a loading-path region, which continues its
+    samples from the root (the same capability). Returns the model, its options and the settings (checked
+    against ``robot``).
+
+    Raises
+    ------
+    UnsupportedFeatureError
+        Naming the model and the capability it lacks (and the setting that asks for it).
+    ValueError
+        For settings that do not suit ``robot``, or equilibria the model cannot hold.
+    """
+    s = (settings if settings is not None else WorkspaceSettings()).check(robot)
+    m, opts = resolve(model, robot, loads, options)
+    kind = equilibria_for(m, s.equilibria)
+    if kind == EQUILIBRIA[0]:
+        m, opts = resolve(m, robot, loads, opts, continuation=True)
+    elif s.multistability and not m.capabilities.continuation:
+        raise UnsupportedFeatureError(m.name, "continuation from a solved state, which the multistability check "
+                                      "of its loading-path region needs (its samples continued from the root)",
+                                      "set multistability 0 (--multistability 0)")
+    return m, opts, s
+
+
 def planned_work(robot: Robot, loads: Loads, bounds: TensionBounds, settings: WorkspaceSettings | None = None, *,
                  model: str | Model = "pcc", options: Any = None) -> dict[str, int]:
     """The most work a workspace study (:func:`pytdcr.region.workspace_study`) of these inputs plans, by stage,
     before it starts: ``"sampling"`` and ``"boundary search"`` (the budget; the search may converge sooner) and
     ``"multistability"`` in solves, ``"support function h(d)"`` in directions, ``"largest reach search"`` 1
     when it runs (the model must have a tip gradient for h(d) and the search). Nothing is solved."""
-    s = (settings if settings is not None else WorkspaceSettings()).check(robot)
-    m, _ = resolve(model, robot, loads, options)
+    m, _, s = check_workspace(robot, loads, settings, model=model, options=options)
     plan, _, warm = _sampling(m, bounds, s)
     rows = plan.tensions.shape[0]
     searched = m.capabilities.gradient is not None
@@ -153,9 +183,8 @@ def workspace_region(robot: Robot, loads: Loads, bounds: TensionBounds, settings
     progress, each search round and the samples solved so far after the sampling and after each stage of the
     search.
     """
-    s = (settings if settings is not None else WorkspaceSettings()).check(robot)
+    m, opts, s = check_workspace(robot, loads, settings, model=model, options=options)
     hooks = hooks if hooks is not None else WorkspaceHooks()
-    m, opts = resolve(model, robot, loads, options)
     voxel = s.voxel_for(robot)
     plan, kind, warm = _sampling(m, bounds, s)
     step = hooks.progress("sampling", solves_needed(plan, warm)) if hooks.progress else None

@@ -42,12 +42,16 @@ class Multistability:
     other_tip : ndarray, shape (K, 3)
         The tip the second history reaches [m]; NaN where it did not converge.
     other_converged, other_stable : ndarray of bool, shape (K,)
-        Whether the second history converged, and on a stable equilibrium (untested counts as stable).
+        Whether the second history converged, and on an equilibrium that is not unstable (for a model without
+        the stability test, every converged one: ``tested`` is then False).
     distinct : ndarray of bool, shape (K,)
         The second history converged on another equilibrium (tips farther apart than
         :func:`~pytdcr.region.same_tip`).
     seconds : float
         Wall time of the second solves [s].
+    tested : bool
+        The model tested the equilibria's stability; without the test ``distinct_unstable`` is None (unknown),
+        never 0.
     """
 
     equilibria: str
@@ -58,6 +62,7 @@ class Multistability:
     other_stable: np.ndarray
     distinct: np.ndarray
     seconds: float
+    tested: bool = True
 
     @property
     def checked(self) -> int:
@@ -70,11 +75,13 @@ class Multistability:
         return float(self.distinct.sum()) / self.checked if self.checked else None
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary (``checked``, ``distinct``, ``fraction``, and what the second history did)."""
+        """JSON-ready summary (``checked``, ``distinct``, ``fraction``, and what the second history did;
+        ``distinct_unstable`` is None where the model has no stability test)."""
         return {"equilibria": self.equilibria, "other": self.other, "checked": self.checked,
                 "distinct": int(self.distinct.sum()), "fraction": self.fraction,
                 "other_not_converged": int(np.sum(~self.other_converged)),
-                "distinct_unstable": int(np.sum(self.distinct & ~self.other_stable)), "seconds": self.seconds}
+                "distinct_unstable": int(np.sum(self.distinct & ~self.other_stable)) if self.tested else None,
+                "seconds": self.seconds}
 
 
 def measure_multistability(solver: _Solver, samples: RegionSamples, count: int, *, seed: int = 0) -> Multistability:
@@ -95,9 +102,10 @@ def measure_multistability(solver: _Solver, samples: RegionSamples, count: int, 
     if got is None:  # the root itself did not converge: nothing to continue from
         nan = np.full((rows.size, 3), np.nan)
         no = np.zeros(rows.size, dtype=bool)
-        return Multistability(EQUILIBRIA[1], FROM_ROOT, rows, nan, no, no, no, seconds)
+        return Multistability(EQUILIBRIA[1], FROM_ROOT, rows, nan, no, no, no, seconds, solver.stability)
     ok = np.asarray(got["converged"], dtype=bool)
     gap = np.linalg.norm(np.nan_to_num(got["tip_position"] - samples.tip_position[rows], nan=np.inf), axis=1)
     return Multistability(EQUILIBRIA[0] if continued else EQUILIBRIA[1], FROM_REST if continued else FROM_ROOT,
                           rows, got["tip_position"],
-                          ok, ok & (got["stable"] != 0.0), ok & (gap > same_tip(solver.robot)), seconds)
+                          ok, ok & (got["stable"] != 0.0), ok & (gap > same_tip(solver.robot)), seconds,
+                          solver.stability)

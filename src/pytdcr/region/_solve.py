@@ -162,8 +162,9 @@ class RegionSamples:
         sample checks).
     root : str or None
         Continued samples: the root (zero tension under the load, solved from rest): ``"stable"``,
-        ``"unstable"`` (an axial load past buckling) or ``"not converged"``; unless it is stable no sample has
-        a parent and none is solved. None for samples each solved from rest.
+        ``"unstable"`` (an axial load past buckling), ``"stability untested"`` (converged, by a model without
+        the stability test: continued from as if stable) or ``"not converged"``; when it is unstable or not
+        converged no sample has a parent and none is solved. None for samples each solved from rest.
     """
 
     tensions: np.ndarray
@@ -186,7 +187,9 @@ class RegionSamples:
 
     @property
     def feasible(self) -> np.ndarray:
-        """The paper's FSW: converged and not unstable (untested counts as stable), shape (M,) of bool."""
+        """The paper's FSW: converged and not unstable, shape (M,) of bool. For a model without the stability
+        test every converged sample (untested: :func:`pytdcr.region.feasible_words` says so wherever it is
+        reported)."""
         return self.converged & (self.stable != 0.0)
 
     @property
@@ -390,7 +393,8 @@ def _continued(solver: _Solver, T: np.ndarray,
             store[k][a + 1:b + 1] = v
         parent[a:b] = p - 1
         usable[a + 1:b + 1] = got["converged"] & (got["stable"] != 0.0)
-    state = "stable" if usable[0] else ("unstable" if root["converged"][0] else "not converged")
+    state = ("not converged" if not root["converged"][0] else "unstable" if not usable[0]
+             else "stable" if root["stable"][0] == 1.0 else "stability untested")
     return {k: v[1:] for k, v in store.items()}, parent, state
 
 

@@ -14,12 +14,13 @@ from ..design import Robot
 from ..loads import Loads
 from ..optimize import ReachProblem
 from ..runtime import end_stage
-from ..statics import Model, resolve
-from ._compute import WorkspaceRegion, workspace_region
+from ..statics import Model
+from ._compute import WorkspaceRegion, check_workspace, workspace_region
 from ._grid import Region
 from ._plan import SOURCES
 from ._settings import WorkspaceHooks, WorkspaceSettings
 from ._solve import RegionSamples
+from ._stability import stability_counts, stability_test
 from ._support import LargestReach, SampleStates, SupportFunction, largest_reach, support_function
 from ._volume import VolumeEstimate
 
@@ -49,13 +50,16 @@ class Reach:
     source: str
 
 
-def _counts(samples: RegionSamples) -> dict[str, Any]:
-    """How many samples were solved, converged, unstable, below the base, touching, realisable, by source."""
+def _counts(samples: RegionSamples, test: str) -> dict[str, Any]:
+    """How many samples were solved, converged, unstable, untested and stable (:func:`stability_counts`: None
+    for stable and unstable when the stability ``test`` is ``"untested"``), below the base, touching,
+    realisable, by source."""
     ok = samples.converged
     n_ok = max(int(ok.sum()), 1)
+    states = stability_counts(ok, samples.stable, test)
+    unstable = int(np.sum(samples.stable == 0.0)) if states["unstable"] is not None else None
     return {"solved": int(ok.size), "converged": int(ok.sum()), "not_converged": int((~ok).sum()),
-            "unstable": int(np.sum(samples.stable == 0.0)),
-            "stability_untested": int(np.sum(ok & np.isnan(samples.stable))),
+            "unstable": unstable, "stability_untested": states["untested"], "stable": states["stable"],
             "below_base": int(samples.below_base.sum()), "disks_touch": int(samples.disks_touch.sum()),
             "fraction_below_base": float(samples.below_base.sum() / n_ok),
             "fraction_disks_touch": float(samples.disks_touch.sum() / n_ok),
@@ -184,12 +188,13 @@ class WorkspaceStudy:
                                   _reach_rule(self.largest_reach.source, searched)),
                 "realisable": _region_numbers(wr.realisable, s.realisable, self.realisable_reach,
                                               _reach_rule(real, False, "realisable")),
-                "voxel_m": wr.voxel, "counts": _counts(s), "warm_start": s.warm.to_dict(),
+                "voxel_m": wr.voxel, "counts": _counts(s, stability_test(self.model)), "warm_start": s.warm.to_dict(),
                 "boundary_sources": _boundary_sources(wr.fsw_region, s, s.feasible) if np.any(s.feasible) else {},
                 "boundary_search": wr.search.to_dict() if wr.search is not None else None,
                 "support": self.support.to_dict() if self.support is not None else None,
                 "largest_reach": self.reach_search.to_dict() if self.reach_search is not None else None,
                 "seconds_sampling": s.seconds, "equilibria": wr.equilibria, "root": s.root,
+                "stability_test": stability_test(self.model),
                 "multistability": wr.multistability.to_dict() if wr.multistability is not None else None}
 
 
@@ -219,9 +224,8 @@ def workspace_study(robot: Robot, loads: Loads, bounds: TensionBounds, settings:
     largest reach is the farthest feasible sample (none when none is). ``hooks`` see the progress (the sampling,
     the search's stages and the directions of h(d)), each search round and the samples solved so far.
     """
-    s = (settings if settings is not None else WorkspaceSettings()).check(robot)
+    m, opts, s = check_workspace(robot, loads, settings, model=model, options=options)  # before any solve
     hooks = hooks if hooks is not None else WorkspaceHooks()
-    m, opts = resolve(model, robot, loads, options)
     wr = workspace_region(robot, loads, bounds, s, model=m, options=opts, hooks=hooks)
     samples = wr.samples
     far = _farthest_sample(samples, samples.feasible)

@@ -27,7 +27,7 @@ from ._inverse import (
     read_workspace_pool,
 )
 from ._output import inputs_record
-from ._reproduce import ReproduceRun, ReproduceSettings, reproduce_estimate, run_reproduce
+from ._reproduce import ReproduceRun, ReproduceSettings, check_reproduce, reproduce_estimate, run_reproduce
 from ._runs import OptimizeRun, SampleRun, run_optimize, run_sample, sample_into, write_optimize
 from ._settings import (
     AccuracySettings,
@@ -45,6 +45,7 @@ from ._workspace import (
                          WorkspaceCaseSpec,
                          WorkspaceRun,
                          WorkspaceRunOptions,
+                         check_workspace_cases,
                          format_measure_of,
                          run_workspace,
                          run_workspace_compare,
@@ -78,6 +79,8 @@ __all__ = [
     "case_rows",
     "check_csv_path",
     "check_figure_path",
+    "check_reproduce",
+    "check_workspace_cases",
     "format_measure_of",
     "inputs_record",
     "inverse_columns",

@@ -29,15 +29,16 @@ from ..runtime import (
     worker_pool,
     write_json,
 )
-from ..statics import options_record, solve
+from ..statics import options_record, resolve, solve
+from ..validate import SettingsError
 from ._output import inputs_record, load_arrows
 from ._report import reproduce_report
 from ._runs import sample_into, write_optimize
 from ._settings import SampleSettings
 from ._survival import ModelVerdict, model_verdicts, verdict_text
-from ._workspace import section_estimate, workspace_section, workspace_text
+from ._workspace import section_check, section_estimate, workspace_section, workspace_text
 
-__all__ = ["ReproduceRun", "ReproduceSettings", "reproduce_estimate", "run_reproduce"]
+__all__ = ["ReproduceRun", "ReproduceSettings", "check_reproduce", "reproduce_estimate", "run_reproduce"]
 
 #: ``progress(stage, total, unit)`` returns the stage's callback: for ``unit`` "gen" a GA's
 #: ``on_generation(gen, best, mean)``, otherwise ``step(k)`` advanced by the work done (total None: unknown)
@@ -267,6 +268,29 @@ def reproduce_estimate(robot: Robot, settings: ReproduceSettings | None = None, 
     return section_estimate(robot, paper_bounds(robot.n_tendons), settings or ReproduceSettings(), seed=seed)
 
 
+def check_reproduce(robot: Robot, settings: ReproduceSettings, *, seed: int = 0) -> None:
+    """Every model the study will ask of ``robot``, checked against its capabilities before any solve: the
+    better models' re-optimisation (a tip gradient, the robot's friction law, the paper's wrench) and each case
+    of the workspace sections (:func:`section_check`).
+
+    Raises
+    ------
+    SettingsError
+        Naming the field (``verdict_models``, ``workspace_models``, or ``robot``), the model and what it lacks.
+    """
+    loads = paper_loads(np.zeros(robot.n_tendons))
+    try:  # the study's own model (the GAs'), as the study makes its problems
+        ReachProblem.create(robot, loads, paper_bounds(robot.n_tendons))
+    except ValueError as err:
+        raise SettingsError("robot", f": {err}") from None
+    for name in settings.verdict_models:
+        try:
+            resolve(name, robot, loads, gradient=True)
+        except ValueError as err:  # UnsupportedFeatureError, or an unknown model
+            raise SettingsError("verdict_models", f": model '{name}': {err}") from None
+    section_check(robot, settings, seed=seed)
+
+
 def run_reproduce(robot: Robot, out: str | Path, *, seed: int = 0, progress: Progress | None = None,
                   settings: ReproduceSettings | None = None) -> ReproduceRun:
     """The paper's whole study (sections 3-4) on ``robot``; writes figures, data and ``report.md`` in ``out``.
@@ -277,6 +301,7 @@ def run_reproduce(robot: Robot, out: str | Path, *, seed: int = 0, progress: Pro
     converges stops before ``total``).
     """
     s = settings or ReproduceSettings()
+    check_reproduce(robot, s, seed=seed)
     with output_folder(out, "reproduce", {"seed": seed, **dataclasses.asdict(s)}) as run:
         return _reproduce(robot, run.staging, seed, progress, s)
 

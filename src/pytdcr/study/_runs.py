@@ -14,6 +14,7 @@ from ..design import Robot
 from ..loads import Loads
 from ..optimize import ReachProblem, ReachResult, maximize_reach
 from ..plotting import plot_convergence, plot_reach_samples, plot_robot, plot_robots, save_figure
+from ..region import stability_counts, stability_test
 from ..runtime import output_folder, write_csv, write_json
 from ..statics import TIGHT_ATOL, options_record, saving, solve
 from ..workspace import SamplingConfig, SamplingInterrupted, WorkspaceSamples, sample_workspace
@@ -24,9 +25,14 @@ from ._specs import RunInputs
 __all__ = ["OptimizeRun", "SampleRun", "run_optimize", "run_sample", "sample_into", "write_optimize"]
 
 
-def _sample_counts(samples: WorkspaceSamples) -> dict[str, Any]:
+def _sample_counts(samples: WorkspaceSamples, model: str) -> dict[str, Any]:
+    """Converged, not converged, unstable (None: ``model`` has no stability test, :func:`stability_counts`),
+    whether the test ran, untested, and the largest reach [m]."""
+    test = stability_test(model)
+    states = stability_counts(samples.converged, samples.stable, test)
     return {"converged": int(samples.converged.sum()), "not_converged": int((~samples.converged).sum()),
-            "unstable": int(np.sum(samples.stable == 0.0)),
+            "unstable": None if states["unstable"] is None else int(np.sum(samples.stable == 0.0)),
+            "stability_test": test, "stability_untested": states["untested"],
             "reach_max_m": float(np.nanmax(samples.reach)) if samples.converged.any() else None}
 
 
@@ -41,11 +47,14 @@ class SampleRun:
     samples : WorkspaceSamples
     files : list of str
         The files written (none without a folder).
+    model : str
+        The model that solved them (whether their stability was tested: ``stability_test`` in the summary).
     """
 
     robot: Robot
     samples: WorkspaceSamples
     files: list[str]
+    model: str = "pcc"
 
     @property
     def converged(self) -> int:
@@ -55,7 +64,7 @@ class SampleRun:
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary: counts, the largest reach [m], time [s] and files."""
         return {"robot": self.robot.name, "solved": int(self.samples.converged.size), "seed": self.samples.seed,
-                **_sample_counts(self.samples), "seconds": self.samples.seconds, "files": list(self.files)}
+                **_sample_counts(self.samples, self.model), "seconds": self.samples.seconds, "files": list(self.files)}
 
 
 def _samples_rows(samples: WorkspaceSamples) -> Iterator[list[Any]]:
@@ -74,7 +83,7 @@ def _samples_json(out: Path, robot: Robot, loads: Loads, bounds: TensionBounds, 
     done = samples.converged.size
     write_json(out / "sample_run.json", {
         "inputs": inputs_record(robot, loads, bounds=bounds.to_dict(), n=n, seed=samples.seed, solver=solver),
-        "solved": done, "complete": done == n, **_sample_counts(samples),
+        "solved": done, "complete": done == n, **_sample_counts(samples, solver["model"]),
         "seconds": samples.seconds, "files": [*files, "sample_run.json"],
     })
 
@@ -125,7 +134,7 @@ def _sample_into(out: Path, settings: SampleSettings, inputs: RunInputs,
         ax.set_title(f"{len(shapes)} sampled configurations")
         files += save_figure(ax.figure, out, "fig4_configurations")
         _samples_json(out, robot, loads, bounds, samples, n, solver, files)
-    return SampleRun(robot, samples, [*files, "sample_run.json"])
+    return SampleRun(robot, samples, [*files, "sample_run.json"], m.name)
 
 
 def run_sample(settings: SampleSettings, out: str | Path | None, *, robot: Robot | None = None,
@@ -143,7 +152,8 @@ def run_sample(settings: SampleSettings, out: str | Path | None, *, robot: Robot
         return SampleRun(inputs.robot, sample_workspace(inputs.robot, inputs.loads, inputs.bounds, settings.n,
                                                         seed=settings.seed, model=inputs.model,
                                                         options=inputs.options,
-                                                        config=SamplingConfig(progress=progress)), [])
+                                                        config=SamplingConfig(progress=progress)), [],
+                         inputs.model.name)
     n = settings.n
     with output_folder(out, "sample", {"n": n, "seed": settings.seed, "bounds": inputs.bounds.to_dict()}) as run:
         try:

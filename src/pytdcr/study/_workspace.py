@@ -3,8 +3,9 @@ and realisability, for one load or a comparison of loads."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, replace
+import shutil
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -34,12 +35,16 @@ from ..region import (
     WorkspaceRegion,
     WorkspaceSettings,
     WorkspaceStudy,
+    check_workspace,
+    feasible_words,
     region_overlap,
+    stability_words,
     workspace_estimate,
     workspace_study,
 )
 from ..runtime import atomic_write, atomic_write_text, output_folder, write_csv, write_json
 from ..statics import Model, options_record, saving, solve
+from ..validate import SettingsError
 from ._output import inputs_record
 
 __all__ = [
@@ -47,6 +52,7 @@ __all__ = [
     "WorkspaceCaseSpec",
     "WorkspaceRun",
     "WorkspaceRunOptions",
+    "check_workspace_cases",
     "format_measure_of",
     "run_workspace",
     "run_workspace_compare",
@@ -114,11 +120,13 @@ class WorkspaceCase:
 
 @dataclass(frozen=True, eq=False)
 class WorkspaceRun:
-    """What :func:`run_workspace` or :func:`run_workspace_compare` produced: the cases and the files."""
+    """What :func:`run_workspace` or :func:`run_workspace_compare` produced: the cases finished and the files,
+    and the cases that failed while running (name → the error, one line; their finished neighbours are kept)."""
 
     cases: list[WorkspaceCase]
     summary: dict[str, Any]
     files: list[str]
+    failed: dict[str, str] = field(default_factory=dict)
 
     @property
     def case(self) -> WorkspaceCase:
@@ -187,7 +195,7 @@ def _warnings(summary: dict[str, Any]) -> list[str]:
     boundary search ran out of budget before the region converged (the volume is then a lower bound)."""
     out = []
     root = summary.get("root")
-    if root is not None and root != "stable":
+    if root is not None and root not in ("stable", "stability untested"):
         why = ("is not stable at zero tension under this load (an axial load past buckling?)" if root == "unstable"
                else "did not converge at zero tension under this load")
         out.append(f"the robot {why}: the root every continued sample is reached from is missing, no sample has a "
@@ -207,7 +215,8 @@ def _warnings(summary: dict[str, Any]) -> list[str]:
                        f"{format_measure_of(d)}; {name} is not written")
         elif d["mesh"] is None:
             plural = "s" * (d["points"] != 1)
-            out.append(f"the {label} holds {d['points']} converged, stable sample{plural}, fewer than "
+            out.append(f"the {label} holds {d['points']} feasible sample{plural} "
+                       f"({feasible_words(summary['stability_test'])}), fewer than "
                        f"the {MIN_MESH_POINTS} a boundary needs: {name} is not written and its volume is that of "
                        f"the occupied voxels alone")
     return out
@@ -324,7 +333,7 @@ def run_workspace(robot: Robot, loads: Loads, bounds: TensionBounds, settings: W
     them).
     """
     how = run_options if run_options is not None else WorkspaceRunOptions()
-    settings.check(robot)
+    check_workspace(robot, loads, settings, model=model, options=options)  # every capability, before any solve
     with output_folder(out, "workspace", {"n": settings.n, "seed": settings.seed, "bounds": bounds.to_dict()}) as run:
         hooks = WorkspaceHooks(how.progress, how.on_round, _checkpoint(run.staging, run))
         case = _case("as given", robot, loads, bounds, settings, model, options, hooks)
@@ -343,11 +352,12 @@ def _report(summary: dict[str, Any], command: str) -> str:
              f"Made by `{command}`.", "", *[f"**Warning:** {w}." for w in summary.get("warnings", [])],
              *([""] if summary.get("warnings") else []),
              "| region | volume [cm³] | error [cm³] | largest reach [m] | points |", "|---|---|---|---|---|",
-             f"| FSW (converged, stable) | {f['volume_m3'] * 1e6:.0f} | {f['volume_err_m3'] * 1e6:.0f}{pct(f)} | "
+             f"| FSW ({feasible_words(summary['stability_test'])}) | {f['volume_m3'] * 1e6:.0f} | "
+             f"{f['volume_err_m3'] * 1e6:.0f}{pct(f)} | "
              f"{_cell(f['largest_reach_m'])} | {f['points']} |",
              f"| realisable (no disk below the base, no disks touching) | {r['volume_m3'] * 1e6:.0f} | "
              f"{r['volume_err_m3'] * 1e6:.0f}{pct(r)} | {_cell(r['largest_reach_m'])} | {r['points']} |", "",
-             _reach_note(f, r), "",
+             _reach_note(f, r), "", *_untested_note(summary),
              "Convergence with the base samples (FSW): "
              + ", ".join(f"n = {s['n_base']}: {s['estimate_m3'] * 1e6:.0f} cm³" for s in f["volume"]["scales"])
              + ".", ""]
@@ -369,8 +379,9 @@ def _report(summary: dict[str, Any], command: str) -> str:
         lines += [f"| {x['stage']} | {x['round']} | {x['faces']} | {x['steps']} | {x['voxels']} | "
                   f"{x['voxels_realisable']} |" for x in search["rounds"]]
         lines.append("")
-    lines += [f"Samples: {c['solved']} solved ({c['by_source']}), {c['converged']} converged, {c['unstable']} "
-              f"unstable; of the converged, {c['fraction_below_base']:.1%} have a disk below the base plane, "
+    lines += [f"Samples: {c['solved']} solved ({c['by_source']}), {c['converged']} converged, "
+              f"{stability_words(c, summary['stability_test'])}; of the converged, "
+              f"{c['fraction_below_base']:.1%} have a disk below the base plane, "
               f"{c['fraction_disks_touch']:.1%} two disks touching; {c['fraction_realisable']:.1%} are realisable.",
               "", _equilibria_note(summary), "",
               "Boundary voxels holding a sample, by source: "
@@ -381,6 +392,16 @@ def _report(summary: dict[str, Any], command: str) -> str:
         lines += [f"Support function over {h.size} directions: h(d) from {h.min() * 1e3:.1f} to {h.max() * 1e3:.1f} mm "
                   "(support.csv, support_map.png).", ""]
     return "\n".join(lines)
+
+
+def _untested_note(summary: dict[str, Any]) -> list[str]:
+    """For a run whose model has no static stability test, what its regions then hold (no line otherwise)."""
+    if summary["stability_test"] != "untested":
+        return []
+    model = summary["inputs"]["solver"]["model"]
+    root = " (its root too)" if summary.get("root") == "stability untested" else ""
+    return [f"Stability untested: model '{model}' has no static stability test, so both regions hold every "
+            f"converged sample{root} and none is known stable or unstable.", ""]
 
 
 def _equilibria_note(summary: dict[str, Any]) -> str:
@@ -431,6 +452,8 @@ def _pairs(cases: list[WorkspaceCase]) -> list[dict[str, Any]]:
 
 def _comparison(cases: list[WorkspaceCase]) -> list[dict[str, Any]]:
     """Per case: volumes, largest reach, and how far the region shrank and shifted from the first case."""
+    if not cases:
+        return []
     ref = cases[0]
     v0, c0 = ref.summary["volume_m3"], _centroid(ref.region.fsw_region)
     rows = []
@@ -438,6 +461,7 @@ def _comparison(cases: list[WorkspaceCase]) -> list[dict[str, Any]]:
         s = c.summary
         shift = _centroid(c.region.fsw_region) - c0
         rows.append({"case": c.name, "model": c.study.model.name, "equilibria": s["equilibria"],
+                     "stability_test": s["stability_test"],
                      "volume_m3": s["volume_m3"], "volume_err_m3": s["volume_err_m3"],
                      "realisable_m3": s["realisable"]["volume_m3"],
                      "realisable_err_m3": s["realisable"]["volume_err_m3"],
@@ -476,6 +500,11 @@ def _compare_report(rows: list[dict[str, Any]], cases: list[WorkspaceCase], comm
                      + ("—" if not np.all(np.isfinite(sh)) else f"({sh[0]:.0f}, {sh[1]:.0f}, {sh[2]:.0f})") + " |")
     lines += ["", "Models and equilibria: " + "; ".join(f"{r['case']}: {r['model']}, {r['equilibria']}"
                                                        for r in rows) + "."]
+    untested = [r["case"] for r in rows if r["stability_test"] == "untested"]
+    if untested:
+        lines += ["", f"Stability untested under {', '.join(untested)}: their models have no static stability "
+                  f"test, so their FSWs hold every converged sample ({feasible_words('untested')}); the others' "
+                  f"hold the converged samples not found unstable ({feasible_words('run')})."]
     lines += _pairs_lines(pairs)
     rules = dict.fromkeys(r["reach_rule"] for r in rows)
     lines += ["", "Largest reach: the FSW's, " + ("; ".join(f"{r['case']}: {r['reach_rule']}" for r in rows)
@@ -494,6 +523,49 @@ def _compare_report(rows: list[dict[str, Any]], cases: list[WorkspaceCase], comm
     return "\n".join([*lines, ""])
 
 
+def _case_settings(spec: WorkspaceCaseSpec, settings: WorkspaceSettings) -> WorkspaceSettings:
+    """A case's settings: its own with the run's voxel (one grid; its own when the run has none), or the run's."""
+    if spec.settings is None:
+        return settings
+    voxel = settings.voxel if settings.voxel is not None else spec.settings.voxel
+    return replace(spec.settings, voxel=voxel).check(spec.robot)
+
+
+def check_workspace_cases(specs: Mapping[str, WorkspaceCaseSpec], settings: WorkspaceSettings, *,
+                          model: str | Model = "pcc", options: Any = None, field_name: str = "cases") -> None:
+    """Every planned case's requirements against its model's capabilities, before the first solve: the check
+    each case's study makes first (:func:`pytdcr.region.check_workspace`), for all of them at once.
+
+    ``specs`` name → :class:`WorkspaceCaseSpec` (a case without a model of its own is solved by ``model`` with
+    ``options``); ``settings`` the run's, with its voxel fixed (:meth:`WorkspaceSettings.with_voxel_for`).
+
+    Raises
+    ------
+    SettingsError
+        Naming ``field_name``, the first case that cannot run and the capability its model lacks (or the setting
+        that does not suit it).
+    """
+    for name, spec in specs.items():
+        m, opts = (model, options) if spec.model is None else (spec.model, spec.options)
+        try:
+            check_workspace(spec.robot, spec.loads, _case_settings(spec, settings), model=m, options=opts)
+        except ValueError as err:  # UnsupportedFeatureError among them
+            raise SettingsError(field_name, f": case '{name}': {err}") from None
+
+
+def _failed_case(sub: Path, err: Exception) -> str:
+    """One line for a case that failed while running; its folder keeps only the samples it had saved (its
+    checkpoint, written whole), or goes."""
+    for p in sub.iterdir() if sub.is_dir() else ():
+        if p.name != "samples.npz":
+            shutil.rmtree(p) if p.is_dir() and not p.is_symlink() else p.unlink()
+    kept = (sub / "samples.npz").is_file()
+    if not kept:
+        shutil.rmtree(sub, ignore_errors=True)
+    text = " ".join(f"{type(err).__name__}: {err}".split())[:300]
+    return text + (f" (the samples it had solved are in {sub.name}/samples.npz, no region)" if kept else "")
+
+
 def run_workspace_compare(robot: Robot, cases: dict[str, tuple[Any, ...]], bounds: TensionBounds,
                           settings: WorkspaceSettings, out: str | Path, *, model: str | Model = "pcc",
                           options: Any = None, run_options: WorkspaceRunOptions | None = None) -> WorkspaceRun:
@@ -505,11 +577,18 @@ def run_workspace_compare(robot: Robot, cases: dict[str, tuple[Any, ...]], bound
     boundaries (PNG, PDF) and ``comparison.html``. Every case has ``robot``'s voxel
     (:meth:`~pytdcr.region.WorkspaceSettings.voxel_for`: one grid). A case with settings of its own (``tdcr
     workspace --equilibria both``) keeps the run's voxel; one with a model of its own (``--compare-models``)
-    is solved by it, the others by ``model``."""
+    is solved by it, the others by ``model``.
+
+    Every case is checked against its model's capabilities before the first solve
+    (:func:`check_workspace_cases`: SettingsError naming ``cases``). A case that fails while running (a
+    solver's error) is reported (:attr:`WorkspaceRun.failed`, ``comparison.json``'s ``failed``, the report)
+    and the others go on: the finished cases' files and their comparison are kept."""
     how = run_options if run_options is not None else WorkspaceRunOptions()
     settings = settings.check(robot).with_voxel_for(robot)
     specs = {name: WorkspaceCaseSpec(*value) for name, value in cases.items()}
+    check_workspace_cases(specs, settings, model=model, options=options)
     done: list[WorkspaceCase] = []
+    failed: dict[str, str] = {}
     with output_folder(out, "workspace --compare", {"n": settings.n, "seed": settings.seed,
                                                     "bounds": bounds.to_dict(), "cases": list(cases)}) as run:
         files = []
@@ -519,18 +598,24 @@ def run_workspace_compare(robot: Robot, cases: dict[str, tuple[Any, ...]], bound
             whole = f"saved {len(done)} of {len(cases)} cases whole; "
             hooks = WorkspaceHooks(_named(how.progress, name), how.on_round,
                                    _checkpoint(sub, run, whole, f"{sub.name}/"))
-            s = replace(spec.settings, voxel=settings.voxel).check(spec.robot) if spec.settings else settings
             m, opts = (model, options) if spec.model is None else (spec.model, spec.options)
-            case = _case(name, spec.robot, spec.loads, bounds, s, m, opts, hooks)
-            with saving():
-                _write_case(sub, case, spec.robot, how.command)
+            try:
+                case = _case(name, spec.robot, spec.loads, bounds, _case_settings(spec, settings), m, opts, hooks)
+                with saving():
+                    _write_case(sub, case, spec.robot, how.command)
+            except Exception as err:  # found only while running: reported, and the finished cases are kept
+                with saving():
+                    failed[name] = _failed_case(sub, err)
+                if sub.is_dir():
+                    files.append(sub.name)
+                continue
             done.append(case)
             files.append(sub.name)
             run.interrupted_note = f"saved {len(done)} of {len(cases)} cases whole, not their comparison"
         pairs = _pairs(done)
         with saving():
-            files += _write_comparison(run.staging, done, robot, how.command, pairs)
-    return WorkspaceRun(done, {"cases": _comparison(done), "pairs": pairs}, files)
+            files += _write_comparison(run.staging, done, robot, how.command, pairs, failed)
+    return WorkspaceRun(done, {"cases": _comparison(done), "pairs": pairs, "failed": failed}, files, failed)
 
 
 def _named(progress: Any, name: str) -> Any:
@@ -541,8 +626,20 @@ def _named(progress: Any, name: str) -> Any:
 
 
 def _write_comparison(out: Path, cases: list[WorkspaceCase], robot: Robot, command: str,
-                      pairs: list[dict[str, Any]]) -> list[str]:
+                      pairs: list[dict[str, Any]], failed: dict[str, str] | None = None) -> list[str]:
+    """The comparison of the finished ``cases`` in ``out`` (figures, HTML, CSV, ``comparison.md`` and
+    ``comparison.json``) and the cases that ``failed`` (name → why); with no finished case, the report and the
+    JSON alone."""
+    failed = failed or {}
     rows = _comparison(cases)
+    record = [{"case": k, "error": v} for k, v in failed.items()]
+    if not cases:
+        text = "\n".join(["# Feasible static workspaces compared", "", f"Made by `{command}`.", "",
+                          *_failed_lines(failed), ""])
+        atomic_write_text(out / "comparison.md", text)
+        write_json(out / "comparison.json", {"cases": [], "pairs": [], "failed": record,
+                                             "files": ["comparison.md", "comparison.json"]})
+        return ["comparison.md", "comparison.json"]
     files = save_figure(plot_region_slices({c.name: c.region.fsw_region for c in cases}, robot.length,
                                            f"robot '{robot.name}': FSW of each case"), out, "slices_compare")
     meshes = {c.name: c.region.fsw_region.mesh() for c in cases if c.region.fsw.has_volume}
@@ -555,10 +652,20 @@ def _write_comparison(out: Path, cases: list[WorkspaceCase], robot: Robot, comma
         write_csv(out / "support_compare.csv", ["dx", "dy", "dz", *[f"h_{_slug(c.name)}_m" for c in cases]],
                   ([*d[k], *[c.support.h[k] for c in cases]] for k in range(d.shape[0])))
         files.append("support_compare.csv")
-    atomic_write_text(out / "comparison.md", _compare_report(rows, cases, command, pairs))
-    write_json(out / "comparison.json", {"cases": rows, "pairs": pairs,
+    atomic_write_text(out / "comparison.md", "\n".join([_compare_report(rows, cases, command, pairs),
+                                                          *_failed_lines(failed)]))
+    write_json(out / "comparison.json", {"cases": rows, "pairs": pairs, "failed": record,
                                          "files": [*files, "comparison.md", "comparison.json"]})
     return [*files, "comparison.md", "comparison.json"]
+
+
+def _failed_lines(failed: dict[str, str]) -> list[str]:
+    """The report's lines on the cases that failed while running (none: no line)."""
+    if not failed:
+        return []
+    return [f"**Failed:** {len(failed)} case{'s' * (len(failed) != 1)} failed while running and "
+            f"{'are' if len(failed) != 1 else 'is'} not compared:", "",
+            *[f"- {k}: {v}" for k, v in failed.items()], ""]
 
 
 _SectionCases = dict[str, tuple[Robot, Loads, WorkspaceSettings, str]]
@@ -580,6 +687,16 @@ def _section_cases(robot: Robot, s: Any, seed: int) -> tuple[_SectionCases, _Sec
                                  multistability=0, reach="samples", folds="stop")
     r, loads = cases["paper wrench"]
     return out, {m: (r, loads, settings, m) for m in s.workspace_models}
+
+
+def section_check(robot: Robot, s: Any, *, seed: int = 0) -> None:
+    """Every case of :func:`workspace_section` (and of its models' comparison) against its model's capabilities,
+    before any solve (:func:`check_workspace_cases`: SettingsError naming ``workspace_models`` for a model of the
+    comparison, ``robot`` for the section's own cases)."""
+    cases, models = _section_cases(robot, s, seed)
+    for field_name, group in (("robot", cases), ("workspace_models", models)):
+        specs = {name: WorkspaceCaseSpec(r, loads, st, m) for name, (r, loads, st, m) in group.items()}
+        check_workspace_cases(specs, WorkspaceSettings(), field_name=field_name)
 
 
 def section_estimate(robot: Robot, bounds: TensionBounds, s: Any, *, seed: int = 0) -> Estimate:
