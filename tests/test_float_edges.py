@@ -301,3 +301,165 @@ def test_no_runtime_warning_in_an_inverse_answer_at_the_edges(target):
         warnings.simplefilter("error")
         r = inverse_statics(ROBOT, LOADS, TipTarget(target, [1e-300, 1e-300, 0.0]), bounds=BOUNDS, search=QUICK)
     assert r.axis_error_rad == pytest.approx(_angle(r.tip_axis, [1.0, 1.0, 0.0]), rel=1e-6, abs=1e-12)
+
+
+# ---------------------------------------------------------------- members: load arrows, directions, messages
+def test_a_load_arrow_is_its_unit_vector_at_any_scale_and_none_below_it():
+    """The figures' load arrows use the one direction rule: a tip force of 5e-324 N (all components subnormal)
+    has no arrow (the old code divided by its norm, 0: a RuntimeWarning and a NaN arrow), a tip moment of 1e-200
+    N m an arrow along its axis labelled with its magnitude (the old norm underflowed to 0)."""
+    from pytdcr.study._output import load_arrows
+
+    loads = Loads(np.zeros(8), tip_force=[5e-324, 5e-324, 0.0], tip_moment=[1e-200, 0.0, -1e-200])
+    sol = SimpleNamespace(tip_position=np.array([0.0, 0.0, 0.4]))
+    arrows = load_arrows(sol, loads, ROBOT)
+    assert [a[3].split(",")[0] for a in arrows] == ["tip moment axis"]
+    origin, vector, _, label = arrows[0]
+    np.testing.assert_array_equal(origin, sol.tip_position)
+    want = np.array([1.0, 0.0, -1.0]) / math.sqrt(2.0) * (0.25 * ROBOT.length * 0.6)
+    np.testing.assert_allclose(vector, want, rtol=1e-15)
+    assert label == f"tip moment axis, {math.sqrt(2.0) * 1e-200:.3g} N m"
+
+
+def test_solve_plots_a_subnormal_tip_force_without_a_warning(tmp_path):
+    """The member's command: ``tdcr solve --tip-force 5e-324,5e-324,0 --plot x.png`` (exit 70 under
+    ``-W error::RuntimeWarning`` before) draws its figure and exits 0."""
+    from pytdcr.cli import main
+
+    png = tmp_path / "x.png"
+    code = main(["solve", "--tensions", "3,0,0,0,2,0,0,0", "--tip-force", "5e-324,5e-324,0", "--plot", str(png)])
+    assert code == 0 and png.stat().st_size > 0
+
+
+@pytest.mark.parametrize("scale", [1e200, 1e-200])
+def test_workspace_directions_of_any_scale_are_directions(scale):
+    """``WorkspaceSettings(directions=...)`` and ``support_function``'s directions: (s, s, 0) is (1, 1, 0) /
+    sqrt(2) at every scale (the old code made 1e200 a zero direction, h = 0, and refused 1e-200 as zero)."""
+    from pytdcr.region import WorkspaceSettings
+    from pytdcr.region._support import _check_directions
+
+    rows = [[scale, scale, 0.0], [0.0, -scale, 0.0], [0.0, 0.0, 2.0]]
+    want = [[2**-0.5, 2**-0.5, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0]]
+    np.testing.assert_allclose(WorkspaceSettings(directions=rows).direction_vectors(), want, rtol=1e-15)
+    np.testing.assert_allclose(_check_directions(np.array(rows)), want, rtol=1e-15)
+
+
+def test_workspace_directions_all_subnormal_are_refused_naming_directions():
+    """A row whose components are all below MIN_DIRECTION has no direction: one line naming ``directions``
+    (the old code accepted 5e-324 and divided by a norm of 0)."""
+    from pytdcr.region import WorkspaceSettings
+    from pytdcr.region._support import _check_directions
+
+    rows = [[0.0, 0.0, 1.0], [5e-324, 0.0, -5e-324]]
+    for make in (lambda: WorkspaceSettings(directions=rows), lambda: _check_directions(np.array(rows))):
+        with pytest.raises(ValueError, match=r"^directions \(row 2\): .*below 2.23e-308") as err:
+            make()
+        assert "\n" not in str(err.value)
+
+
+def test_ordinary_directions_keep_every_bit():
+    """Directions whose lengths are in range are divided by ``np.linalg.norm`` as before (the scaled rule could
+    move a last bit, and the workspace baselines pin h(d)): the Fibonacci sphere's and arbitrary ones."""
+    from pytdcr.region import WorkspaceSettings, fibonacci_directions
+    from pytdcr.region._support import _check_directions
+
+    rng = np.random.default_rng(4)
+    for d in (fibonacci_directions(200), rng.normal(size=(50, 3)) * 10.0 ** rng.uniform(-100, 100, (50, 1))):
+        plain = d / np.linalg.norm(d, axis=1)[:, None]
+        np.testing.assert_array_equal(_check_directions(d), plain)
+        np.testing.assert_array_equal(WorkspaceSettings(directions=d.tolist()).direction_vectors(), plain)
+
+
+def _design_study(direction: list[float]) -> dict:
+    return {"name": "t", "robot": "paper", "bounds": [0.0, 10.0],
+            "parameters": {"backbone_radius": {"values": [0.0007]}}, "budget": {"samples": 24},
+            "loads": {"cases": ["no load"]}, "measures": {"directions": {"up": direction}}}
+
+
+def test_a_design_study_s_direction_of_any_scale_is_its_direction():
+    """A study's measured direction (1e-200, 0, 1e-200) is accepted (the old check, ``norm == 0``, called it
+    zero) and becomes (1, 0, 1) / sqrt(2) where h(d) is computed (the settings the designs are evaluated with)."""
+    from pytdcr.designs import study_from_dict
+    from pytdcr.region import WorkspaceSettings
+
+    for scale in (1e-200, 1e300):
+        study, _ = study_from_dict(_design_study([scale, 0.0, scale]), "s.toml")
+        given = tuple(tuple(v) for v in study.measures.directions.values())
+        np.testing.assert_allclose(WorkspaceSettings(directions=given).direction_vectors(),
+                                   [[2**-0.5, 0.0, 2**-0.5]], rtol=1e-15)
+
+
+def test_a_design_study_s_subnormal_direction_is_refused_naming_it():
+    """All components subnormal: refused, one line naming the file, the key and the direction (the old check
+    accepted it, and h(d) divided by a norm of 0)."""
+    from pytdcr.designs import StudyError, study_from_dict
+
+    with pytest.raises(StudyError) as err:
+        study_from_dict(_design_study([5e-324, 0.0, 0.0]), "s.toml")
+    text = str(err.value)
+    assert text.startswith("s.toml: measures.directions") and "direction 'up'" in text, text
+    assert "below 2.23e-308" in text and "\n" not in text
+
+
+def test_optimize_never_prints_negative_zero(capsys):
+    """A rounded coordinate or tension of zero is printed 0.0, not -0.0 (``np.round(-1e-9, 6)`` is -0.0)."""
+    from pytdcr.cli.optimize import print_reach
+
+    ga = SimpleNamespace(tensions=np.array([-1e-7, 2.0]), reach=0.4, cost=2.5)
+    res = SimpleNamespace(ga=ga, generations=3, stop_reason="tolerance", evaluations=10, nonconverged=0, seconds=1.0,
+                          polished=True, reach=0.4, cost=2.5, polish_gain=0.0, tensions=np.array([-0.0, 2.0]),
+                          tip_position=np.array([-1e-9, -0.0, 0.4]), stable=True, rejected_unstable=0)
+    print_reach(res, SimpleNamespace(pop=4, seed=0))
+    out = capsys.readouterr().out
+    assert "optimum tip [0.0, 0.0, 0.4]" in out and "tensions [0.0, 2.0]" in out, out
+    assert "-0.0" not in out
+
+
+class _FakeComparison:
+    """What ``tdcr compare`` prints from: two models, the other's tip 0.3 micrometres off at most."""
+
+    reference, others, n_all_converged = "pcc", ("pcc2",), 2
+
+    def __len__(self) -> int:
+        return 2
+
+    def summaries(self) -> dict:
+        one = {"difference_median_mm": None, "difference_max_mm": None, "ms_median": 1.0, "not_converged": 0}
+        return {"pcc": SimpleNamespace(**one),
+                "pcc2": SimpleNamespace(**{**one, "difference_median_mm": 0.0, "difference_max_mm": 3e-4})}
+
+
+def test_compare_never_prints_a_small_tip_difference_as_zero(monkeypatch, tmp_path, capsys):
+    """A tip difference of 0.3 micrometres is printed 0.0003 mm, not 0.000 mm; a true zero stays 0.000."""
+    import pytdcr.study
+    from pytdcr.cli import main
+
+    fake = SimpleNamespace(comparison=_FakeComparison(), robot=ROBOT, friction_off=(), files=["compare.csv"])
+    monkeypatch.setattr(pytdcr.study, "run_compare", lambda *a, **k: fake)
+    assert main(["compare", "--models", "pcc,pcc2", "--n", "2", "--out", str(tmp_path / "c")]) == 0
+    out = capsys.readouterr().out
+    assert "median 0.000 mm, max 0.0003 mm" in out, out
+
+
+def test_accuracy_never_prints_a_small_error_as_zero_and_keeps_its_columns(monkeypatch, tmp_path, capsys):
+    """Errors under half a micrometre once printed 0.000 mm; now 3 significant digits, in the same 9 columns (the
+    'mm' after each error at the same place on every line)."""
+    import pytdcr.study
+    from pytdcr.cli import main
+
+    def row(median: float, p95: float) -> dict:
+        return {"group": "tendons only", "model": "pcc", "unsupported": False, "converged": 3,
+                "reference_converged": 3, "median_error_mm": median, "p95_error_mm": p95, "median_ms": 1.0}
+
+    rows = [row(1.25, 12.5), row(3e-4, 2e-7), row(0.0, 4.9e-4)]
+    study = SimpleNamespace(nothing_compared=lambda: None, robot=ROBOT, groups=[1], models=["pcc"], seconds=0.0,
+                            rows=lambda: rows)
+    fake = SimpleNamespace(study=study, orders=[], files=["accuracy.csv"])
+    monkeypatch.setattr(pytdcr.study, "run_accuracy", lambda *a, **k: fake)
+    assert main(["accuracy", "--n", "2", "--order-cases", "0", "--out", str(tmp_path / "a")]) == 0
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if "median" in ln]
+    assert len(lines) == 3
+    assert "median     1.250 mm, 95th pct    12.500 mm" in lines[0], lines[0]
+    assert "median    0.0003 mm, 95th pct     2e-07 mm" in lines[1], lines[1]
+    assert "median     0.000 mm, 95th pct   0.00049 mm" in lines[2], lines[2]
+    assert len({ln.index(" mm, 95th") for ln in lines}) == 1 and len({ln.index(" mm, converged") for ln in lines}) == 1

@@ -29,7 +29,7 @@ from ._args import (
 from ._progress import Bar
 from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK, CliError
 
-__all__ = ["add_accuracy_parser", "add_parser", "run", "run_accuracy_command"]
+__all__ = ["add_accuracy_parser", "add_parser", "error_mm", "run", "run_accuracy_command"]
 
 
 def add_parser(sub: Any) -> None:
@@ -75,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
             "has none)") if res.friction_off else ""
 
     def mm(v: float | None) -> str:
-        return "n/a" if v is None else f"{v:.3f}"
+        return "n/a" if v is None else error_mm(v)
 
     diffs = "; ".join(f"{n} from {cmp.reference}: median {mm(per[n].difference_median_mm)} mm, max "
                       f"{mm(per[n].difference_max_mm)} mm" for n in cmp.others)
@@ -88,6 +88,15 @@ def run(args: argparse.Namespace) -> int:
         print(f"tdcr: no case converged for every model (not converged of {len(cmp)}: {failed})", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     return EXIT_OK
+
+
+def error_mm(value: float, width: int = 0) -> str:
+    """A distance or error [mm] for a message, right-aligned in ``width`` characters: three decimals, or three
+    significant digits where three decimals would show a non-zero value as 0 (below half a micrometre)."""
+    text = f"{value:{width}.3f}"
+    if value != 0.0 and float(text) == 0.0:
+        return f"{value:{width}.3g}"
+    return text
 
 
 # ---------------------------------------------------------------- accuracy
@@ -143,8 +152,8 @@ def run_accuracy_command(args: argparse.Namespace) -> int:
         elif not r["converged"]:
             print(f"  {r['group']:>18s}  {r['model']:9s} nothing compared: converged 0/{r['reference_converged']}")
         else:
-            print(f"  {r['group']:>18s}  {r['model']:9s} median {r['median_error_mm']:9.3f} mm, 95th pct "
-                  f"{r['p95_error_mm']:9.3f} mm, converged {r['converged']}/{r['reference_converged']}, "
+            print(f"  {r['group']:>18s}  {r['model']:9s} median {error_mm(r['median_error_mm'], 9)} mm, 95th pct "
+                  f"{error_mm(r['p95_error_mm'], 9)} mm, converged {r['converged']}/{r['reference_converged']}, "
                   f"{r['median_ms']:.2f} ms")
     for st in [] if why else res.orders:
         print(f"  order ({st.group}): " + ", ".join(f"{m} {o:.2f}" if math.isfinite(o) else f"{m} -"

@@ -52,17 +52,22 @@ def add_parser(sub: Any) -> None:
     op.set_defaults(func=run)
 
 
+def _rounded(values: np.ndarray, decimals: int) -> list[float]:
+    """``values`` rounded to ``decimals`` for a message, a zero always 0.0 (never -0.0)."""
+    return (np.round(values, decimals) + 0.0).tolist()
+
+
 def print_reach(res: ReachResult, args: argparse.Namespace) -> None:
     """The GA's outcome and the polished optimum, in a few lines."""
     ga = res.ga
     print(f"GA (population {args.pop}, seed {args.seed}): {res.generations} generations"
           f"{'' if res.stop_reason == 'tolerance' else ' (generation cap)'}, {res.evaluations} solves, "
           f"{res.nonconverged} not converged, {res.seconds:.1f} s")
-    print(f"  GA best: tensions {np.round(ga.tensions, 4).tolist()} N, reach {ga.reach:.6f} m, cost {ga.cost:.6f} 1/m")
+    print(f"  GA best: tensions {_rounded(ga.tensions, 4)} N, reach {ga.reach:.6f} m, cost {ga.cost:.6f} 1/m")
     if res.polished:
         print(f"  polished: reach {res.reach:.6f} m (cost {res.cost:.6f}, gain {res.polish_gain:.2e}), "
-              f"tensions {np.round(res.tensions, 4).tolist()} N")
-    print(f"  optimum tip {np.round(res.tip_position, 6).tolist()} m; "
+              f"tensions {_rounded(res.tensions, 4)} N")
+    print(f"  optimum tip {_rounded(res.tip_position, 6)} m; "
           f"{'stable' if res.stable else 'UNSTABLE' if res.stable is False else 'stability untested'}"
           f"{f' ({res.rejected_unstable} unstable individuals refused)' if res.rejected_unstable else ''}")
 

@@ -15,7 +15,7 @@ from ..limits import ResourceLimitError, check_memory
 from ..validate import check_count, show
 from ._frontier import FOLD_RULES
 from ._solve import EQUILIBRIA
-from ._support import fibonacci_directions
+from ._support import fibonacci_directions, unit_directions
 
 if TYPE_CHECKING:
     from ..design import Robot
@@ -76,7 +76,8 @@ def _flag(value: Any, name: str) -> bool:
 
 
 def _directions(value: Any) -> int | tuple[tuple[float, float, float], ...]:
-    """A count of Fibonacci directions in [0, MAX_DIRECTIONS], or K >= 1 finite nonzero 3-vectors as tuples."""
+    """A count of Fibonacci directions in [0, MAX_DIRECTIONS], or K >= 1 finite nonzero 3-vectors as tuples
+    (of any scale, not all components subnormal: :func:`~pytdcr.region._support.unit_directions`)."""
     if isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_)):
         if not 0 <= value <= MAX_DIRECTIONS:
             raise ValueError(f"directions = {value}: must be an integer in [0, {MAX_DIRECTIONS:,}]")
@@ -86,8 +87,9 @@ def _directions(value: Any) -> int | tuple[tuple[float, float, float], ...]:
     d = np.asarray(value, dtype=float)
     if d.ndim != 2 or d.shape[1] != 3 or not 1 <= d.shape[0] <= MAX_DIRECTIONS:
         raise ValueError(f"directions must have shape (K, 3), 1 <= K <= {MAX_DIRECTIONS}, got {d.shape}")
-    if not (np.all(np.isfinite(d)) and np.all(np.linalg.norm(d, axis=1) > 0)):
+    if not (np.all(np.isfinite(d)) and np.all(np.any(d, axis=1))):
         raise ValueError("directions must be finite and nonzero")
+    unit_directions(d)  # any scale is a direction; all-subnormal rows are refused (they have none)
     return tuple((float(x), float(y), float(z)) for x, y, z in d)
 
 
@@ -230,9 +232,7 @@ class WorkspaceSettings:
         d = self.directions
         if isinstance(d, int):
             return fibonacci_directions(d) if d else None
-        D = np.array(d, dtype=float)
-        D /= np.linalg.norm(D, axis=1, keepdims=True)
-        return D
+        return unit_directions(np.array(d, dtype=float))
 
 
 @dataclass(frozen=True)

@@ -39,13 +39,16 @@ from ..optimize import ReachProblem, SearchFailed, polish_reach
 from ..results import StaticSolution
 from ..runtime import default_threads, worker_pool
 from ..statics import TIGHT_ATOL
-from ..validate import check_count
+from ..validate import check_count, unit_vectors
 
 __all__ = ["DEFAULT_DIRECTIONS", "LargestReach", "SampleStates", "SupportFunction", "SupportSettings",
            "fibonacci_directions", "largest_reach", "support_function"]
 
 #: directions of the support function by default (a Fibonacci sphere)
 DEFAULT_DIRECTIONS = 200
+#: the largest |component| of a direction divided by its length as computed plainly (:func:`unit_directions`):
+#: its squares neither overflow nor underflow there
+PLAIN_SCALE = (1e-150, 1e150)
 #: a direction is searched again from another direction's tip when that tip beats its h by more than this [m]
 EXCHANGE_TOL = 1e-7
 #: rounding allowed in ``h[k] = max_j d_k . tip_j`` [m]
@@ -328,18 +331,35 @@ def _check_samples(problem: ReachProblem, tensions: np.ndarray,
     return t, p
 
 
+def unit_directions(directions: np.ndarray) -> np.ndarray:
+    """Each row of ``directions`` (K, 3) as a unit vector, by :func:`~pytdcr.validate.unit_vectors`' rule (a
+    zero, non-finite or subnormal row is refused naming ``directions``; a direction's scale is free).
+
+    A row whose largest |component| lies in :data:`PLAIN_SCALE` is divided by its length as computed as it
+    always was (``np.linalg.norm``: no square over- or underflows there), so that the results of ordinary
+    directions, the Fibonacci sphere's included, keep every bit; only the rows outside it, whose length would
+    over- or underflow, take the scaled rule's unit vector.
+    """
+    d = np.asarray(directions, dtype=float)
+    unit = unit_vectors(d, "directions")
+    big = np.max(np.abs(d), axis=1)
+    plain = (big > PLAIN_SCALE[0]) & (big < PLAIN_SCALE[1])
+    unit[plain] = d[plain] / np.linalg.norm(d[plain], axis=1)[:, None]
+    return unit
+
+
 def _check_directions(directions: np.ndarray | None) -> np.ndarray:
-    """Unit directions (K, 3), K >= 1: the default Fibonacci sphere, or the rows given, normalised."""
+    """Unit directions (K, 3), K >= 1: the default Fibonacci sphere, or the rows given, normalised
+    (:func:`unit_directions`)."""
     if directions is None:
         return fibonacci_directions(DEFAULT_DIRECTIONS)
     d = np.asarray(directions, dtype=float)
     d = d.reshape(1, 3) if d.shape == (3,) else d
     if d.ndim != 2 or d.shape[1] != 3 or d.shape[0] == 0:
         raise ValueError(f"directions must have shape (K, 3), K >= 1, got {np.shape(directions)}")
-    norm = np.linalg.norm(d, axis=1)
-    if not (np.all(np.isfinite(d)) and np.all(norm > 0)):
+    if not (np.all(np.isfinite(d)) and np.all(np.any(d, axis=1))):
         raise ValueError("directions must be finite and nonzero")
-    return d / norm[:, None]
+    return unit_directions(d)
 
 
 def _dots(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import platform
 from typing import Any
 
@@ -13,6 +14,7 @@ from ..io import robot_to_dict
 from ..loads import Loads
 from ..results import StaticSolution
 from ..runtime import to_jsonable
+from ..validate import MIN_DIRECTION, unit_vector
 
 __all__ = ["inputs_record", "load_arrows", "markdown_table"]
 
@@ -30,15 +32,22 @@ def inputs_record(robot: Robot, loads: Loads, **extra: Any) -> dict[str, Any]:
 
 
 def load_arrows(sol: StaticSolution, loads: Loads, robot: Robot) -> list[tuple]:
-    """Arrows for the tip force (purple) and the tip moment's axis (orange), scaled to a quarter of the length."""
+    """Arrows for the tip force (purple) and the tip moment's axis (orange), scaled to a quarter of the length.
+
+    Each arrow is its load's unit vector (:func:`~pytdcr.validate.unit_vector`, safe at any scale); a load whose
+    components are all below :data:`~pytdcr.validate.MIN_DIRECTION` (zero, or too small to have a direction) has
+    no arrow. Its label gives the load's magnitude (``math.hypot``: never 0 for a non-zero load).
+    """
     arrows: list[tuple] = []
     scale = 0.25 * robot.length
-    if np.any(loads.tip_force):
-        arrows.append((sol.tip_position, loads.tip_force / np.linalg.norm(loads.tip_force) * scale, "tab:purple",
-                       f"tip force, {np.linalg.norm(loads.tip_force):.3g} N"))
-    if np.any(loads.tip_moment):  # the moment's axis, drawn from the tip in another colour
-        arrows.append((sol.tip_position, loads.tip_moment / np.linalg.norm(loads.tip_moment) * scale * 0.6,
-                       "tab:orange", f"tip moment axis, {np.linalg.norm(loads.tip_moment):.3g} N m"))
+    for load, length, colour, what, unit in ((loads.tip_force, scale, "tab:purple", "tip force", "N"),
+                                             (loads.tip_moment, scale * 0.6, "tab:orange", "tip moment axis",
+                                              "N m")):
+        v = np.asarray(load, dtype=float)
+        if float(np.max(np.abs(v))) < MIN_DIRECTION:
+            continue
+        arrows.append((sol.tip_position, unit_vector(v, what) * length, colour,
+                       f"{what}, {math.hypot(*v.tolist()):.3g} {unit}"))
     return arrows
 
 
