@@ -67,11 +67,11 @@ def test_a_tolerance_just_past_its_range_is_shown_with_its_digits(atol):
 # ---------------------------------------------------------------- the Python API
 def test_solutions_pickle_and_come_back_from_a_process_pool(paper):
     import pickle
-    from concurrent.futures import ProcessPoolExecutor
 
     import numpy as np
 
     from pytdcr import paper_loads, solve, solve_batch
+    from pytdcr.runtime import process_pool
 
     loads = paper_loads(np.array([4.0, 0, 0, 0, 2.0, 0, 0, 0]))
     sol = solve(paper, loads)
@@ -81,7 +81,7 @@ def test_solutions_pickle_and_come_back_from_a_process_pool(paper):
     batch = solve_batch(paper, np.array([[1.0] * 8, [3.0, 0, 0, 0, 2.0, 0, 0, 0]]), paper_loads())
     again = pickle.loads(pickle.dumps(batch))
     assert np.array_equal(again.stable, batch.stable) and np.array_equal(again.tip_position, batch.tip_position)
-    with ProcessPoolExecutor(1) as pool:
+    with process_pool(1) as pool:
         remote = pool.submit(_solve_elsewhere, [4.0, 0, 0, 0, 2.0, 0, 0, 0]).result()
     assert np.array_equal(remote.tip_position, sol.tip_position) and remote.stable == sol.stable
 

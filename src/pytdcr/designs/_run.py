@@ -1,9 +1,10 @@
 """Running a design study where the compute is: local processes or a Dask cluster, resumable, never mixed.
 
 Each design's result is written to ``designs/NNNNNN.json`` (atomically) as soon as it arrives; a run of the
-same study into the same folder computes only the designs that have no file. The table is made from those
-files at the end, sorted by design and load case, so it does not depend on where, in what order or how many
-at a time the designs ran.
+same study into the same folder computes only the designs that have no file it can trust (a file that is not a
+regular one, or whose record is not exactly what this study writes for that design, is computed again; a link
+is never followed). The table is made from those files at the end, sorted by design and load case, so it does
+not depend on where, in what order or how many at a time the designs ran.
 """
 
 from __future__ import annotations
@@ -11,12 +12,15 @@ from __future__ import annotations
 import gc
 import hashlib
 import json
-import multiprocessing
+import math
+import os
 import platform
+import shutil
 import signal
+import stat
 import time
 from collections.abc import Callable, Iterator
-from concurrent.futures import CancelledError, ProcessPoolExecutor
+from concurrent.futures import CancelledError
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -29,14 +33,24 @@ from .. import __version__
 from ..design import Robot
 from ..io import write_robot
 from ..region import FOLD_RULES
-from ..runtime import RunInterrupted, atomic_write, atomic_write_text, default_threads, resumable_folder, write_json
+from ..runtime import (
+    RunInterrupted,
+    atomic_write,
+    atomic_write_text,
+    default_threads,
+    dump_json,
+    process_pool,
+    resumable_folder,
+    write_json,
+)
+from ..runtime._readback import MAX_JSON_BYTES, regular_file_bytes
 from ..statics import check_cancelled, mark_saving
 from ..validate import check_count
-from ._evaluate import evaluate_design
+from ._evaluate import check_capabilities, evaluate_design
 from ._figures import write_design_figures
 from ._optimize import design_batches, measures_nothing, objective_matrix, pareto_front
 from ._space import apply_parameters, choose_designs, read_parameter
-from ._spec import MEASURES, DesignStudy, StudyError
+from ._spec import MEASURES, DesignStudy, StudyError, measures_for
 
 __all__ = ["DesignsRun", "DesignsRunOptions", "WorkersLost", "format_measure", "run_designs"]
 
@@ -103,29 +117,152 @@ def _design_file(out: Path, index: int) -> Path:
 RETRIED_FAILURES = ("ResourceLimitError", "KilledWorker")
 
 
-def _is_record(rec: Any) -> bool:
-    """A design record as :func:`pytdcr.designs.evaluate_design` writes it (a file of the study's folder that
-    holds valid JSON of another shape is none)."""
-    return (isinstance(rec, dict) and isinstance(rec.get("design"), int) and isinstance(rec.get("params"), dict)
-            and rec.get("status") in ("ok", "failed") and isinstance(rec.get("rows"), list)
-            and isinstance(rec.get("reason", ""), str)
-            and all(isinstance(r, dict) and isinstance(r.get("load_case"), str) for r in rec["rows"]))
+@dataclass(frozen=True)
+class _RecordShape:
+    """What a design record of the study holds: its load cases (in order), the measures of each row and the
+    robot's tendons (the length of a row's ``reach_tensions_n``)."""
+
+    cases: tuple[str, ...]
+    measures: tuple[str, ...]
+    n_tendons: int
+
+    @classmethod
+    def of(cls, study: DesignStudy, robot: Robot) -> _RecordShape:
+        return cls(tuple(study.load_cases(robot)), (*MEASURES, *[f"h_{k}_m" for k in study.measures.directions]),
+                   robot.n_tendons)
 
 
-def _reuse(out: Path, index: int, params: dict[str, float]) -> dict[str, Any] | None:
-    """Design ``index``'s record in the folder, if it is there for these values (else it is redone): a file that
-    is not a design record, or a failure more memory or live workers may mend (:data:`RETRIED_FAILURES`), is
-    computed again."""
+def _number(v: Any) -> bool:
+    """``v`` is a finite JSON number (not a bool, a string, NaN, 1e400, nor an integer beyond the floats)."""
+    if not isinstance(v, (int, float)) or isinstance(v, bool):
+        return False
     try:
-        rec = json.loads(_design_file(out, index).read_text(encoding="utf-8"))
-    except (OSError, ValueError, RecursionError):
+        return math.isfinite(v)
+    except OverflowError:  # an integer of 400 digits
+        return False
+
+
+def _same_params(got: Any, planned: dict[str, float]) -> bool:
+    """``got`` holds exactly the planned design's values: the same names, each the same number of the same JSON
+    type (a whole-number parameter an integer, never ``true`` or ``3.0``; any other a number)."""
+    if not isinstance(got, dict) or got.keys() != planned.keys():
+        return False
+    for name, want in planned.items():
+        v = got[name]
+        whole = isinstance(want, (int, np.integer)) and not isinstance(want, bool)
+        if not _number(v) or (whole and not isinstance(v, int)) or v != want:
+            return False
+    return True
+
+
+def _row(raw: Any, case: str, shape: _RecordShape) -> dict[str, Any] | None:
+    """A row of load case ``case`` as :func:`~pytdcr.designs.evaluate_design` writes it, its missing measures
+    (written as null) NaN; None when it is anything else (another load case, a key too many or too few, a
+    measure that is not a finite number or null, tensions that are not ``n_tendons`` finite numbers)."""
+    if not isinstance(raw, dict) or raw.keys() != {"load_case", "reach_tensions_n", *shape.measures} \
+            or raw["load_case"] != case:
         return None
-    if not _is_record(rec) or rec["design"] != index or rec["params"] != params:
+    t = raw["reach_tensions_n"]
+    if t is not None and not (isinstance(t, list) and len(t) == shape.n_tendons and all(map(_number, t))):
         return None
-    if rec["status"] == "failed" and rec.get("reason", "").startswith(RETRIED_FAILURES):
+    if not all(raw[m] is None or _number(raw[m]) for m in shape.measures):
         return None
-    rec.setdefault("reason", "")
+    return {"load_case": case, **{m: math.nan if raw[m] is None else raw[m] for m in shape.measures},
+            "reach_tensions_n": None if t is None else [float(x) for x in t]}
+
+
+def _timing(raw: Any) -> dict[str, Any] | None:
+    """A record's ``timing`` (seconds, a finite number or null for NaN; host; pid), else None."""
+    if not isinstance(raw, dict) or raw.keys() != {"seconds", "host", "pid"}:
+        return None
+    seconds, host, pid = raw["seconds"], raw["host"], raw["pid"]
+    if not (seconds is None or (_number(seconds) and seconds >= 0)) or not isinstance(host, str) or \
+            not isinstance(pid, int) or isinstance(pid, bool):
+        return None
+    return {"seconds": math.nan if seconds is None else float(seconds), "host": host, "pid": pid}
+
+
+def _record(raw: Any, index: int, params: dict[str, float], shape: _RecordShape) -> dict[str, Any] | None:
+    """Design ``index``'s record (values ``params``) as :func:`~pytdcr.designs.evaluate_design` made it and
+    :meth:`_Runner._keep` wrote it, rebuilt from its checked fields alone; None when ``raw`` is anything else: a
+    record of another design or other values, a status other than ok or failed, rows other than one per load case
+    of the study (a failed design may have none), a measure that is not a finite number or null, a key unknown."""
+    known = {"design", "params", "status", "reason", "rows", "timing", "generation", "traceback"}
+    if not isinstance(raw, dict) or not raw.keys() <= known or not {"design", "params", "status", "rows",
+                                                                    "timing"} <= raw.keys():
+        return None
+    design, status, reason, rows = raw["design"], raw["status"], raw.get("reason", ""), raw["rows"]
+    if not isinstance(design, int) or isinstance(design, bool) or design != index or status not in ("ok", "failed") \
+            or not isinstance(reason, str) or not isinstance(raw.get("traceback", ""), str) \
+            or not _same_params(raw["params"], params) or not isinstance(rows, list):
+        return None
+    generation = raw.get("generation", -1)
+    if not isinstance(generation, int) or isinstance(generation, bool):
+        return None
+    if not (len(rows) == len(shape.cases) or (status == "failed" and not rows)):
+        return None
+    checked = [_row(r, case, shape) for r, case in zip(rows, shape.cases, strict=False)]
+    timing = _timing(raw["timing"])
+    if timing is None or any(r is None for r in checked):
+        return None
+    rec = {"design": index, "params": dict(params), "status": status, "reason": reason, "rows": checked,
+           "timing": timing, "generation": generation}
+    if "traceback" in raw:
+        rec["traceback"] = raw["traceback"]
     return rec
+
+
+def _reuse(out: Path, index: int, params: dict[str, float], shape: _RecordShape) -> dict[str, Any] | None:
+    """Design ``index``'s record in the folder, if it is there for these values (else it is redone).
+
+    The file is read as input another hand may have edited or replaced (:func:`~pytdcr.runtime._readback.
+    regular_file_bytes`: a regular file, never through a link, a FIFO never waited on, of bounded size) and its
+    record checked field by field (:func:`_record`); a file that cannot be read or trusted, or a failure more
+    memory or live workers may mend (:data:`RETRIED_FAILURES`), is computed again, never an error.
+    """
+    try:
+        raw = json.loads(regular_file_bytes(_design_file(out, index), MAX_JSON_BYTES, follow=False).decode("utf-8"),
+                         parse_constant=_no_constant)
+    except (OSError, ValueError, RecursionError, UnicodeDecodeError):
+        return None
+    rec = _record(raw, index, params, shape)
+    if rec is None or (rec["status"] == "failed" and rec["reason"].startswith(RETRIED_FAILURES)):
+        return None
+    return rec
+
+
+def _no_constant(name: str) -> float:
+    """JSON's ``NaN`` and ``Infinity`` are not strict JSON, and no record this run writes holds them."""
+    raise ValueError(f"{name} is not strict JSON")
+
+
+def _clear(path: Path) -> None:
+    """Make ``path``, a name the run owns in its folder, free to be written: a link there is removed (the link,
+    never its target), and so are a FIFO, socket or device and a folder; a regular file stays, to be replaced."""
+    try:
+        mode = os.lstat(path).st_mode
+    except OSError:
+        return
+    try:
+        if stat.S_ISDIR(mode):
+            shutil.rmtree(path)  # the run's name: a folder there is not its own (links inside are not followed)
+        elif not stat.S_ISREG(mode):
+            os.unlink(path)
+    except OSError:
+        pass
+
+
+def _own_folder(path: Path) -> Path:
+    """The run's sub-folder ``path``, made a real folder: whatever else is at its name (a link to a folder
+    elsewhere, a file) is removed first, so nothing of the run is written or read through it."""
+    try:
+        mode = os.lstat(path).st_mode
+    except FileNotFoundError:
+        mode = None
+    if mode is not None and not stat.S_ISDIR(mode):
+        os.unlink(path)  # a link itself, never what it points to
+    path.mkdir(exist_ok=True)
+    return path
 
 
 @contextmanager
@@ -143,11 +280,13 @@ def _sigint_blocked() -> Iterator[None]:
 
 
 class _Local:
-    """Designs on local processes (spawned: a clean interpreter each, whatever the parent holds)."""
+    """Designs on local processes (spawned: a clean interpreter each, whatever the parent holds), which end
+    with this process however it ends (:func:`pytdcr.runtime.process_pool`: killed outright, its workers
+    notice and exit)."""
 
     def __init__(self, workers: int) -> None:
         self.name = f"{workers} local process{'es' * (workers != 1)}"
-        self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
+        self.pool = process_pool(workers)
 
     def submit(self, *args: Any) -> Any:
         # the worker processes start with SIGINT blocked (a spawned process inherits its parent thread's signal
@@ -427,10 +566,11 @@ def _write_best(out: Path, study: DesignStudy, robot: Robot, table: Any, records
     for case in dict.fromkeys(ok["load_case"]):
         if case in skip:
             continue
-        (out / "best").mkdir(exist_ok=True)
+        _own_folder(out / "best")
         sub = ok[ok["load_case"] == case]
         k = int(sub.loc[sub[measure].idxmax() if goal == "max" else sub[measure].idxmin(), "design"])
         name = f"best/design_{k:06d}.toml"
+        _clear(out / name)
         write_robot(apply_parameters(robot, records[k]["params"]).model_copy(
             update={"name": f"{study.name}-design-{k}"}), out / name)
         best.append((case, k, name))
@@ -492,6 +632,7 @@ class _Runner:
         self.reused = self.computed = self.failed = 0
         self.executor: Any = None
         self._reference = study.reference
+        self.shape = _RecordShape.of(study, robot)
 
     def saved(self) -> str:
         """How much is saved: "K of N designs" (and the base robot, when it is)."""
@@ -507,7 +648,9 @@ class _Runner:
     def _keep(self, generation: int, rec: dict[str, Any]) -> None:
         mark_saving()
         rec["generation"] = generation
-        atomic_write_text(_design_file(self.path, rec["design"]), json.dumps(rec, allow_nan=True))
+        path = _design_file(self.path, rec["design"])
+        _clear(path)  # a link, FIFO or folder put at its name: replaced, never written through
+        atomic_write_text(path, dump_json(rec))  # strict JSON: a NaN measure is null, read back as NaN
         self.records[rec["design"]] = rec
         self.computed += rec["design"] >= 0
         self.failed += rec["status"] == "failed"
@@ -520,7 +663,7 @@ class _Runner:
         self._reference = False
         todo = []
         for k, params in jobs:
-            rec = _reuse(self.path, k, params)
+            rec = _reuse(self.path, k, params, self.shape)
             if rec is None:
                 todo.append((k, params))
                 continue
@@ -555,6 +698,7 @@ def run_designs(study: DesignStudy, robot: Robot, out: str | Path, *, study_text
     (:class:`pytdcr.study.RunInterrupted` says how many).
     Returns the table (also ``designs.parquet`` and ``designs.csv``) and the summary (``summary.json``).
     """
+    check_capabilities(study, robot)  # every load case against the model, before the folder or any design
     how = options if options is not None else DesignsRunOptions()
     progress = how.progress
     t0 = time.perf_counter()
@@ -564,7 +708,10 @@ def run_designs(study: DesignStudy, robot: Robot, out: str | Path, *, study_text
     inputs = {"study": study.model_dump(mode="json"), "designs": total, "robot": robot.model_dump(mode="json")}
     digest = run_digest(study, robot)
     with resumable_folder(out, "designs", inputs, digest, how.restart, LAYOUT) as run:
-        (run.path / "designs").mkdir(exist_ok=True)
+        _own_folder(run.path / "designs")
+        for name in LAYOUT:  # the run's files: a link or anything but a file put there is replaced, never followed
+            if name not in ("designs", "best"):
+                _clear(run.path / name)
         if study_text is not None:
             atomic_write_text(run.path / "study.toml", study_text)
         runner = _Runner(study, robot, run, total, how)
@@ -592,6 +739,6 @@ def run_designs(study: DesignStudy, robot: Robot, out: str | Path, *, study_text
                    "load_cases": list(study.load_cases(robot)),
                    "executor": runner.executor.name if runner.executor is not None else "none (every design reused)",
                    "seconds": time.perf_counter() - t0, "inputs": inputs["study"], "versions": _versions(),
-                   "measures": MEASURES}
+                   "measures": measures_for(study.model)}
         table = _finish(run.path, study, robot, runner.records, generation_of, summary, how.figures)
     return DesignsRun(table, summary, run.path)
