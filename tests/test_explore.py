@@ -20,6 +20,7 @@ import sys
 import time
 import urllib.error
 import urllib.request
+import uuid
 from pathlib import Path
 
 import numpy as np
@@ -94,20 +95,21 @@ def test_the_page_callback_shows_the_tip_of_solve():
     context_value.set(AttributeDict(triggered_inputs=[{"prop_id": "tension-0.value", "value": 5.0}]))
     t = [5.0, 0, 0, 0, 0, 0, 0, 0]
     options = {"gravity": ["on"], "friction": "own", "model": "pcc"}
-    out = on_change(t, [0, 0, 0, 0, 0, 0, 0], options, [0] * 4, [None] * 3, "x")
+    sid = uuid.uuid4().hex  # a session id of the form the page issues
+    out = on_change(t, [0, 0, 0, 0, 0, 0, 0], options, [0] * 4, [None] * 3, sid)
     shown = np.array([float(v) for v in out["tip"].split()])
     assert np.allclose(shown, solve(paper_robot(), Loads(np.array(t))).tip_position, atol=1e-9, rtol=0)
-    bad = on_change([25.0, *t[1:]], [0] * 7, {**options, "gravity": []}, [0] * 4, [None] * 3, "x")
+    bad = on_change([25.0, *t[1:]], [0] * 7, {**options, "gravity": []}, [0] * 4, [None] * 3, sid)
     assert "T1" in str(bad["status"]) and "[0, 20] N" in str(bad["status"])
     # "Reach target" with a target made by the forward model: the boxes take the answer's tensions
     made = solve(paper_robot(), Loads(np.array(TARGET_TENSIONS))).tip_position
     context_value.set(AttributeDict(triggered_inputs=[{"prop_id": "reach-target.n_clicks", "value": 1}]))
-    out = on_change(t, [0] * 7, options, [0, 0, 1, 0], (made * 1e3).tolist(), "x")
+    out = on_change(t, [0] * 7, options, [0, 0, 1, 0], (made * 1e3).tolist(), sid)
     assert "target reached: tip" in _plain(out["status"]), out["status"]
     shown = np.array([float(v) for v in out["tip"].split()])
     assert np.linalg.norm(shown - made) <= 1e-4
     assert len(out["tensions"]) == 8 and all(0.0 <= v <= 20.0 for v in out["tensions"])
-    empty = on_change(t, [0] * 7, options, [0, 0, 2, 0], [1.0, None, 2.0], "x")
+    empty = on_change(t, [0] * 7, options, [0, 0, 2, 0], [1.0, None, 2.0], sid)
     assert "target: give x, y and z in mm" in str(empty["status"])
 
 

@@ -6,7 +6,9 @@ A target point is answered by inverse statics (:func:`pytdcr.inverse_statics`), 
 sample for a model without a tip gradient. A finished ``tdcr workspace`` folder adds its boundary and its
 largest-reach pose.
 
-The page is a Dash app (imported when the app is built, never with :mod:`pytdcr`), served on 127.0.0.1 only.
+The page is a Dash app (imported when the app is built, never with :mod:`pytdcr`), served on 127.0.0.1 only; it
+answers only requests addressed to 127.0.0.1 or localhost on its port, changes only from its own page, and checks
+every value a request carries (:mod:`._guard`, :mod:`._app`).
 """
 
 from __future__ import annotations
@@ -31,8 +33,13 @@ __all__ = ["HOST", "Explorer", "PortError", "WorkspaceView", "check_port", "crea
 HOST = "127.0.0.1"
 
 
-def create_app(robot: Robot | None = None, *, workspace: str | Path | None = None, model: str | None = "pcc") -> Any:
+def create_app(robot: Robot | None = None, *, workspace: str | Path | None = None, model: str | None = "pcc",
+               port: int | None = None) -> Any:
     """The explorer's Dash app (for tests and notebooks; :func:`serve` runs it).
+
+    Its server (``app.server``, a WSGI app) answers only requests that name 127.0.0.1 or localhost as their host,
+    changes only from its own page, bodies of a bounded size and callback requests of the page's own form
+    (:mod:`pytdcr.explore._guard`); every value a request carries is checked before it is used.
 
     Parameters
     ----------
@@ -42,17 +49,21 @@ def create_app(robot: Robot | None = None, *, workspace: str | Path | None = Non
         A finished ``tdcr workspace`` output folder: its FSW boundary and largest-reach pose are drawn.
     model : str or None
         The registered model selected first (:data:`pytdcr.statics.MODELS`); None: the workspace run's, else pcc.
+    port : int, optional
+        The port the page is served on: requests to another are refused. None: any port.
 
     Raises
     ------
     SettingsError
-        Naming ``workspace`` for a folder that is not a finished workspace run, ``model`` for an unknown model.
+        Naming ``workspace`` for a folder that is not a finished workspace run, ``model`` for an unknown model,
+        ``port`` for a port outside [1, 65535].
     """
     from ._app import build_app
 
+    port = None if port is None else check_port(port)
     ex = Explorer(robot, workspace=workspace, model=model)
     _warm(ex)
-    return build_app(ex)
+    return build_app(ex, port=port)
 
 
 def _warm(ex: Explorer) -> None:
@@ -112,7 +123,7 @@ def serve(robot: Robot | None = None, *, workspace: str | Path | None = None, po
             pass
 
     _check_free(check_port(port))
-    app = create_app(robot, workspace=workspace, model=model)
+    app = create_app(robot, workspace=workspace, model=model, port=port)
     try:
         server = make_server(HOST, port, app.server, threaded=True, request_handler=Quiet)
     except (OSError, SystemExit):  # werkzeug says why on stderr and exits

@@ -12,25 +12,40 @@ answers of requests a newer one has overtaken, so the page follows the last posi
 
 from __future__ import annotations
 
+import math
+import re
+import sys
+import traceback
 import uuid
 from typing import Any
 
 import numpy as np
 from dash import Dash, Input, Output, Patch, State, ctx, dcc, html, no_update
 
+from ..results import StaticSolution
+from ..statics import MODELS
 from ._figure import MM, MOVING, REST, base_figure, pose_data, rest_data, target_data
+from ._guard import MAX_BODY_BYTES, Guard
 from ._session import FRICTIONS, Action, Controls, Explorer, Outcome, same_equilibrium
 from ._target import INVERSE, SEARCH, show_distance
 
-__all__ = ["build_app"]
+__all__ = ["TARGET_SPAN", "build_app"]
 
 _WRENCH = ("force-x", "force-y", "force-z", "moment-x", "moment-y", "moment-z", "payload")
 _TARGET = ("target-x", "target-y", "target-z")
 _ACTIONS = {"reset": Action.RESET, "rest": Action.REST, "reach-target": Action.TARGET,
             "clear-target": Action.CLEAR}
+#: the range each load box takes: low, high, unit (the tip force and moment as :class:`pytdcr.Loads` takes them)
+_WRENCH_RANGE = {**dict.fromkeys(_WRENCH[:3], (-1e6, 1e6, "N")), **dict.fromkeys(_WRENCH[3:6], (-1e6, 1e6, "N m")),
+                 "payload": (0.0, 1e4, "kg")}
+#: each coordinate of a target lies within this many robot lengths of the base
+TARGET_SPAN = 10.0
+#: the form of a session id the page issues (``uuid.uuid4().hex``)
+_SID = re.compile("[0-9a-f]{32}")
 #: tensions written back into the boxes are rounded to this many decimals [N]
 _DECIMALS = 6
 _RED, _GREEN = {"color": "#c0392b", "fontWeight": "bold"}, {"color": "#1e8449", "fontWeight": "bold"}
+_AMBER = {"color": "#b9770e", "fontWeight": "bold"}
 _BOX = {"width": "86px", "marginLeft": "6px"}
 _SMALL = {"width": "70px", "marginRight": "4px"}
 # the slider and the number box of one tendon, kept equal; the one the user moved wins
@@ -169,27 +184,71 @@ def _layout(ex: Explorer) -> Any:
     return layout
 
 
-def _controls(ex: Explorer, tensions: list, wrench: list, options: dict) -> Controls | str:
-    """The controls read from the page, or what is wrong with them (naming the control)."""
+def _number(value: Any) -> float | None:
+    """``value`` as a finite float; None for anything else (a string, a list, an object, true, NaN, an integer too
+    large for a float)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    try:
+        x = float(value)
+    except OverflowError:
+        return None
+    return x if math.isfinite(x) else None
+
+
+def _controls(ex: Explorer, tensions: Any, wrench: Any, options: Any) -> Controls | str:
+    """The controls read from the page, or what is wrong with them (naming the control and what it takes).
+
+    Every value is checked for its type and range here: a request may carry anything in any field."""
     lo, hi = ex.bounds.lower, ex.bounds.upper
-    for k, v in enumerate(tensions):
-        if v is None or not lo[k] <= float(v) <= hi[k]:
+    tensions = tensions if isinstance(tensions, (list, tuple)) else []
+    wrench = wrench if isinstance(wrench, (list, tuple)) else []
+    for k in range(ex.robot.n_tendons):
+        t = _number(tensions[k]) if k < len(tensions) else None
+        if t is None or not lo[k] <= t <= hi[k]:
             return f"T{k + 1}: give a tension in [{lo[k]:g}, {hi[k]:g}] N"
-    for name, v in zip(_WRENCH, wrench, strict=True):
-        if v is None or not np.isfinite(float(v)):
-            return f"{name.replace('-', ' ')}: give a number"
-    if float(wrench[6]) < 0:
-        return "payload: give a mass >= 0 kg"
-    w = np.asarray(wrench, dtype=float)
-    return Controls(np.asarray(tensions, dtype=float), w[:3], w[3:6], float(w[6]), "on" in (options["gravity"] or []),
-                    options["friction"], options["model"])
+    if len(tensions) != ex.robot.n_tendons:
+        return f"tensions: give one per tendon ({ex.robot.n_tendons})"
+    for i, name in enumerate(_WRENCH):
+        x = _number(wrench[i]) if i < len(wrench) else None
+        low, high, unit = _WRENCH_RANGE[name]
+        if x is None or not low <= x <= high:
+            return f"{name.replace('-', ' ')}: give a number in [{low:g}, {high:g}] {unit}"
+    options = options if isinstance(options, dict) else {}
+    gravity = options.get("gravity")
+    if gravity is not None and not (isinstance(gravity, list) and all(g == "on" for g in gravity)):
+        return "gravity: give on or off"
+    if not isinstance(options.get("friction"), str) or options["friction"] not in FRICTIONS:
+        return f"friction: choose one of {', '.join(FRICTIONS)}"
+    if not isinstance(options.get("model"), str) or options["model"] not in MODELS:
+        return f"model: choose one of {', '.join(MODELS)}"
+    w = np.array([float(v) for v in wrench], dtype=float)
+    return Controls(np.array([float(v) for v in tensions], dtype=float), w[:3], w[3:6], float(w[6]),
+                    bool(gravity), options["friction"], options["model"])
 
 
-def _target_point(aim: list) -> np.ndarray | str:
-    """The target boxes [mm] as a point [m], or what is wrong with them."""
-    if any(v is None or not np.isfinite(float(v)) for v in aim):
+def _target_point(ex: Explorer, aim: Any) -> np.ndarray | str:
+    """The target boxes [mm] as a point [m], or what is wrong with them (each coordinate within
+    :data:`TARGET_SPAN` robot lengths of the base)."""
+    aim = aim if isinstance(aim, (list, tuple)) and len(aim) == 3 else [None] * 3
+    if any(v is None for v in aim):
         return "target: give x, y and z in mm"
-    return np.asarray(aim, dtype=float) / MM
+    span = TARGET_SPAN * ex.robot.length * MM
+    for axis, v in zip("xyz", aim, strict=True):
+        x = _number(v)
+        if x is None or not -span <= x <= span:
+            return f"target {axis}: give a number in [{-span:g}, {span:g}] mm ({TARGET_SPAN:g} robot lengths)"
+    return np.array([float(v) for v in aim], dtype=float) / MM
+
+
+def _session_id(sid: Any) -> str | None:
+    """``sid`` when it has the form of an id the page issues (:func:`uuid.uuid4`'s 32 hex digits), else None."""
+    return sid if isinstance(sid, str) and _SID.fullmatch(sid) else None
+
+
+def _stability(sol: StaticSolution) -> str:
+    """An equilibrium's stability as the page says it: tested stable, UNSTABLE, or untested."""
+    return {True: "stable", False: "UNSTABLE", None: "stability untested"}[sol.stable]
 
 
 def _status(out: Outcome) -> tuple[list[Any], str]:
@@ -204,35 +263,44 @@ def _status(out: Outcome) -> tuple[list[Any], str]:
         return [html.Span(f"NOT converged: {res}{why}; nothing drawn (the last equilibrium is kept for the next "
                           "change)", style=_RED), html.Br(), note], "not converged"
     tip = sol.tip_position
-    stable = {True: "stable", False: "UNSTABLE", None: "stability untested"}[sol.stable]
     text = " ".join(f"{v:.9f}" for v in tip)
     if out.answer is not None:
-        return _answer_text(out, stable), text
+        return _answer_text(out), text
     aim = "" if out.target is None else f" · target {show_distance(float(np.linalg.norm(tip - out.target)))} away"
     parts: list[Any] = [
-        html.Span("converged", style=_GREEN),
-        f" · {stable} · path {sol.path} · tip ({tip[0] * MM:.3f}, {tip[1] * MM:.3f}, {tip[2] * MM:.3f}) mm{aim} · "
+        html.Span("converged", style=_GREEN), " · ", _stability_span(sol),
+        f" · path {sol.path} · tip ({tip[0] * MM:.3f}, {tip[1] * MM:.3f}, {tip[2] * MM:.3f}) mm{aim} · "
         f"{out.seconds * 1e3:.1f} ms", html.Br(), out.note]
     if out.rest is not None:
         parts += [html.Br(), _rest_text(out)]
     return parts, text
 
 
-def _answer_text(out: Outcome, stable: str) -> list[Any]:
-    """The status line of a target answered (a converged equilibrium drawn)."""
+def _stability_span(sol: StaticSolution) -> Any:
+    """The equilibrium's stability, said in the colour of what it means (:func:`_stability`)."""
+    return html.Span(_stability(sol), style={True: {}, False: _RED, None: _AMBER}[sol.stable])
+
+
+def _answer_text(out: Outcome) -> list[Any]:
+    """The status line of a target answered (a converged equilibrium drawn); a reached target is called so
+    without a qualifier only for an equilibrium tested stable."""
     a = out.answer
-    tip = out.solution.tip_position * MM
+    sol = out.solution
+    tip = sol.tip_position * MM
     how = f"path {a.path}, {a.evaluations} solves, {out.seconds * 1e3:.0f} ms"
     if a.method == INVERSE and a.reached:
-        head = [html.Span("target reached", style=_GREEN), f": tip {show_distance(a.distance_m)} away, {how}"]
+        word, style = {True: ("target reached", _GREEN),
+                       False: ("target reached by an UNSTABLE equilibrium", _RED),
+                       None: ("target reached (stability untested)", _AMBER)}[sol.stable]
+        head = [html.Span(word, style=style), f": tip {show_distance(a.distance_m)} away, {how}"]
     elif a.method == INVERSE:
         head = [html.Span("out of reach", style=_RED), f": nearest point found {show_distance(a.distance_m)} "
                 f"away (inverse statics, tolerance {show_distance(SEARCH.tol)}), {how}"]
     else:
-        head = [html.Span("nearest workspace sample", style={"color": "#b9770e", "fontWeight": "bold"}),
+        head = [html.Span("nearest workspace sample", style=_AMBER),
                 f" (no inverse statics for this model): its tensions solved from rest put the tip "
                 f"{show_distance(a.distance_m)} from the target, {how}"]
-    return [*head, f" · {stable} · tip ({tip[0]:.3f}, {tip[1]:.3f}, {tip[2]:.3f}) mm", html.Br(),
+    return [*head, " · ", _stability_span(sol), f" · tip ({tip[0]:.3f}, {tip[1]:.3f}, {tip[2]:.3f}) mm", html.Br(),
             "the tendons are set to its tensions; the next change continues from this pose",
             *([html.Br(), a.note] if a.note else [])]
 
@@ -247,7 +315,7 @@ def _rest_text(out: Outcome) -> Any:
     t = rest.tip_position * MM
     word = "the same equilibrium" if same else "ANOTHER equilibrium"
     return html.Span(f"loading path from rest (translucent): {word}, tips {gap * MM:.4g} mm apart; its tip "
-                     f"({t[0]:.3f}, {t[1]:.3f}, {t[2]:.3f}) mm, path {rest.path}",
+                     f"({t[0]:.3f}, {t[1]:.3f}, {t[2]:.3f}) mm, path {rest.path}, {_stability(rest)}",
                      style={"color": "#b9770e" if same else "#c0392b", "fontWeight": "normal" if same else "bold"})
 
 
@@ -266,8 +334,55 @@ def _patch(out: Outcome | None) -> Any:
     return p
 
 
-def build_app(ex: Explorer) -> Dash:
-    """The Dash app of ``ex``: layout and callbacks."""
+def _refused(text: str, keep: dict[str, Any]) -> dict[str, Any]:
+    """The callback's answer to controls it cannot solve: the status says which control and what it takes."""
+    return {"figure": no_update, "status": html.Span(f"not solved: {text}", style={"color": "#c0392b"}),
+            "tip": no_update, **keep}
+
+
+def _respond(ex: Explorer, action: Action, tensions: Any, wrench: Any, options: Any, aim: Any,
+             sid: Any) -> dict[str, Any]:
+    """The page's answer to one request: the controls checked, then solved (continued from session ``sid``'s
+    last equilibrium) or the target answered, and the figure's moving traces, the status and the tip."""
+    n = ex.robot.n_tendons
+    keep = {"tensions": [no_update] * n, "wrench": [no_update] * len(_WRENCH), "gravity": no_update}
+    session = _session_id(sid)
+    if session is None:
+        return _refused("session: the page's session id is not one this explorer issued; reload the page", keep)
+    if action is Action.CLEAR:
+        ex.clear_target(session)
+        return {"figure": _patch(None), "status": html.Span("target cleared", style={"color": "#666"}),
+                "tip": no_update, **keep}
+    if action is Action.RESET:
+        d = ex.defaults
+        tensions = d.tensions.tolist()
+        wrench = [*d.tip_force.tolist(), *d.tip_moment.tolist(), d.payload_kg]
+        options = {**(options if isinstance(options, dict) else {}), "gravity": ["on"] if d.gravity else []}
+        keep = {"tensions": tensions, "wrench": wrench, "gravity": options["gravity"]}
+    c = _controls(ex, tensions, wrench, options)
+    point = _target_point(ex, aim) if action is Action.TARGET else None
+    for wrong in (c, point):
+        if isinstance(wrong, str):
+            return _refused(wrong, keep)
+    out = ex.step(session, c, action) if point is None else ex.reach(session, c, point)
+    if out.tensions is not None and out.solution is not None and out.solution.converged:
+        # the answer's tensions, into the boxes (the sliders follow in the browser)
+        keep["tensions"] = np.clip(np.round(out.tensions, _DECIMALS), ex.bounds.lower, ex.bounds.upper).tolist()
+    status, tip = _status(out)
+    return {"figure": _patch(out), "status": status, "tip": tip, **keep}
+
+
+def build_app(ex: Explorer, *, port: int | None = None) -> Dash:
+    """The Dash app of ``ex``: layout and callbacks, behind the request checks of :class:`._guard.Guard`.
+
+    Parameters
+    ----------
+    ex : Explorer
+        The robot, models and sessions.
+    port : int, optional
+        The port the page is served on: requests naming another host or port are refused. None: 127.0.0.1 and
+        localhost on any port (``app.server.wsgi_app.narrow(port)`` narrows it later).
+    """
     n = ex.robot.n_tendons
     app = Dash(__name__, title="pytdcr explore", update_title=None)
     app.layout = _layout(ex)
@@ -294,32 +409,18 @@ def build_app(ex: Explorer) -> Dash:
                 "aim": [State(i, "value") for i in _TARGET], "sid": State("session", "data")})
     def on_change(tensions: list, wrench: list, options: dict, clicks: list, aim: list, sid: str) -> dict[str, Any]:
         """Solve the controls (continued from the session's last equilibrium), or answer the target, and redraw."""
-        action = _ACTIONS.get(ctx.triggered_id, Action.CHANGE)
-        keep = {"tensions": [no_update] * n, "wrench": [no_update] * len(_WRENCH), "gravity": no_update}
-        if action is Action.CLEAR:
-            ex.clear_target(sid)
-            return {"figure": _patch(None), "status": html.Span("target cleared", style={"color": "#666"}),
-                    "tip": no_update, **keep}
-        if action is Action.RESET:
-            d = ex.defaults
-            tensions = d.tensions.tolist()
-            wrench = [*d.tip_force.tolist(), *d.tip_moment.tolist(), d.payload_kg]
-            options = {**options, "gravity": ["on"] if d.gravity else []}
-            keep = {"tensions": tensions, "wrench": wrench, "gravity": options["gravity"]}
-        c = _controls(ex, tensions, wrench, options)
-        point = _target_point(aim) if action is Action.TARGET else None
-        for wrong in (c, point):
-            if isinstance(wrong, str):
-                return {"figure": no_update, "status": html.Span(f"not solved: {wrong}", style={"color": "#c0392b"}),
-                        "tip": no_update, **keep}
+        action = _ACTIONS.get(ctx.triggered_id, Action.CHANGE) if isinstance(ctx.triggered_id, str) \
+            else Action.CHANGE
         try:
-            out = ex.step(sid, c, action) if point is None else ex.reach(sid, c, point)
-        except Exception as err:  # shown on the page, not a silent failed request (a bug: please report it)
-            out = Outcome(ex.robot, error=f"internal error: {type(err).__name__}: {err}")
-        if out.tensions is not None and out.solution is not None and out.solution.converged:
-            # the answer's tensions, into the boxes (the sliders follow in the browser)
-            keep["tensions"] = np.clip(np.round(out.tensions, _DECIMALS), ex.bounds.lower, ex.bounds.upper).tolist()
-        status, tip = _status(out)
-        return {"figure": _patch(out), "status": status, "tip": tip, **keep}
+            return _respond(ex, action, tensions, wrench, options, aim, sid)
+        except Exception as err:  # a bug: said on the page, its traceback in the server's log, never a 500
+            traceback.print_exc(file=sys.stderr)
+            return _refused(f"a bug in pytdcr ({type(err).__name__}); please report it with the server's log",
+                            {"tensions": [no_update] * n, "wrench": [no_update] * len(_WRENCH),
+                             "gravity": no_update})
 
+    server_callbacks = {k: v for k, v in app.callback_map.items() if callable(v.get("callback"))}
+    app.server.config["MAX_CONTENT_LENGTH"] = MAX_BODY_BYTES
+    app.server.wsgi_app = Guard(app.server.wsgi_app, port=port, callbacks=server_callbacks,
+                                update_path=f"{app.config.routes_pathname_prefix}_dash-update-component")
     return app

@@ -13,6 +13,7 @@ import numpy as np
 from ..design import Robot
 from ..loads import Loads
 from ..results import StaticSolution
+from ..validate import MIN_DIRECTION, unit_vector
 from ._workspace import WorkspaceView
 
 __all__ = [
@@ -30,6 +31,7 @@ __all__ = [
     "TENDONS",
     "TIP_AXES",
     "WORKSPACE_NAME",
+    "backbone_name",
     "base_figure",
     "pose_data",
     "rest_data",
@@ -129,11 +131,11 @@ def _workspace_traces(ws: WorkspaceView) -> list[dict[str, Any]]:
 
 def _arrow(origin: np.ndarray, vector: np.ndarray, length: float, heads: int = 1) -> np.ndarray:
     """An arrow from ``origin`` [m] along ``vector``, ``length`` [m] long, with ``heads`` heads of four barbs
-    each, as polylines joined by NaN rows (:func:`_broken`); no points for a zero vector."""
-    n = float(np.linalg.norm(vector))
-    if n == 0.0:
+    each, as polylines joined by NaN rows (:func:`_broken`); no points for a vector too small to have a direction
+    (:data:`~pytdcr.validate.MIN_DIRECTION`)."""
+    if not float(np.max(np.abs(vector))) >= MIN_DIRECTION:
         return np.zeros((0, 3))
-    d = vector / n
+    d = unit_vector(vector, "arrow")
     e1 = np.cross(d, [0.0, 0.0, 1.0] if abs(d[2]) < 0.9 else [1.0, 0.0, 0.0])
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(d, e1)
@@ -150,15 +152,15 @@ def pose_data(robot: Robot, sol: StaticSolution | None, loads: Loads | None) -> 
     ``loads``; with ``sol`` None (no equilibrium), every one empty, so that nothing is drawn as if it were one."""
     empty = {"x": [], "y": [], "z": []}
     if sol is None or not sol.converged:
-        return {i: dict(empty) for i in range(TARGET)}
+        return {**{i: dict(empty) for i in range(TARGET)}, BACKBONE: {**empty, "name": "backbone"}}
     p, R = sol.disk_positions, sol.disk_rotations
     t = np.linspace(0.0, 2.0 * np.pi, _RING + 1)
     ring = robot.disk_radius * np.stack([np.cos(t), np.sin(t), np.zeros_like(t)], axis=1)  # (T, 3)
     disks = np.einsum("nij,tj->nti", R, ring) + p[:, None, :]
     holes = np.einsum("nij,kj->nki", R, robot.tendon_holes) + p[:, None, :]  # (N+1, n_tendons, 3)
     tendons = [holes[: a + 1, k] for k, a in enumerate(robot.anchor_disks)]
-    out = {BACKBONE: _columns(sol.backbone_points(robot)), DISKS: _columns(_broken(list(disks))),
-           TENDONS: _columns(_broken(tendons))}
+    out = {BACKBONE: {**_columns(sol.backbone_points(robot)), "name": backbone_name(sol)},
+           DISKS: _columns(_broken(list(disks))), TENDONS: _columns(_broken(tendons))}
     tip, Rt, size = p[-1], R[-1], 0.1 * robot.length
     for k, i in enumerate(TIP_AXES):
         out[i] = _columns(np.vstack([tip, tip + size * Rt[:, k]]))
@@ -168,6 +170,12 @@ def pose_data(robot: Robot, sol: StaticSolution | None, loads: Loads | None) -> 
         out[i] = {**_columns(_arrow(tip, v, 0.2 * robot.length, heads)), "name": what.format(np.linalg.norm(v))}
     out[REST] = empty
     return out
+
+
+def backbone_name(sol: StaticSolution) -> str:
+    """The backbone trace's legend entry for the converged ``sol``: ``backbone``, with the equilibrium's
+    stability when it is not tested stable (``UNSTABLE``, ``stability untested``)."""
+    return {True: "backbone", False: "backbone (UNSTABLE)", None: "backbone (stability untested)"}[sol.stable]
 
 
 def target_data(target: np.ndarray | None, sol: StaticSolution | None) -> dict[int, dict[str, Any]]:

@@ -3,7 +3,10 @@ and each browser session's last equilibrium, continued on every change, and its 
 inverse statics, or by the nearest sample of a workspace run: :mod:`._target`).
 
 Sessions live in the server's memory, keyed by an id each page load draws (the page keeps it in a
-``dcc.Store``); each has its own lock, so two tabs solve independently and one tab's changes are solved in turn.
+``dcc.Store``; a random 128-bit id, the only key to a session's state: the page's server refuses an id of
+another form); each has its own lock, so two tabs solve independently and one tab's changes are solved in turn.
+What requests can make the server keep is bounded: at most :data:`MAX_SESSIONS` sessions (the least recently used
+forgotten), each one pose and one target, and one robot per gravity and friction choice (four at most).
 """
 
 from __future__ import annotations
