@@ -32,6 +32,7 @@ from pytdcr.design import Backbone
 from pytdcr.io import RobotFileError, read_robot, robot_to_dict
 from pytdcr.loads import PointLoad
 from pytdcr.optimize import ReachProblem
+from pytdcr.results import NotConvergedError
 from pytdcr.statics import CosseratOptions, SolverOptions, SSCROptions
 from pytdcr.validate import SettingsError, check_real, unit_vector, unit_vectors
 
@@ -463,3 +464,22 @@ def test_accuracy_never_prints_a_small_error_as_zero_and_keeps_its_columns(monke
     assert "median    0.0003 mm, 95th pct     2e-07 mm" in lines[1], lines[1]
     assert "median     0.000 mm, 95th pct   0.00049 mm" in lines[2], lines[2]
     assert len({ln.index(" mm, 95th") for ln in lines}) == 1 and len({ln.index(" mm, converged") for ln in lines}) == 1
+
+
+@pytest.mark.parametrize("model", ["pcc", "pcc2"])
+@pytest.mark.parametrize("load", [{"tip_moment": [1000.0, 0.0, 0.0]}, {"tip_moment": [0.0, 300.0, 0.0]},
+                                  {"tip_force": [1e6, 0.0, 0.0]}, {"tip_moment": [1e6, 1e6, 0.0]}])
+def test_an_extreme_tip_load_gives_an_answer_never_an_arithmetic_error(model, load):
+    """Loads inside what :class:`Loads` accepts but far past what the robot bears: the compiled solver raised
+    ZeroDivisionError (a load step below the load factor's resolution after a huge secant rate; a tendon turned
+    back on itself, whose normal direction is undefined). Now the solve ends: converged, or not converged with its
+    residual at full load, never an exception (a bug to the user: exit 70)."""
+    robot = paper_robot()
+    sol = solve(robot, Loads(np.zeros(robot.n_tendons), **{k: np.array(v) for k, v in load.items()}), model=model)
+    assert np.isfinite(sol.residual)
+    if sol.converged:
+        assert sol.residual <= sol.atol and np.all(np.isfinite(sol.tip_position))
+    else:
+        assert sol.residual > sol.atol
+        with pytest.raises(NotConvergedError, match="did not converge"):  # no shape is given for it
+            _ = sol.tip_position

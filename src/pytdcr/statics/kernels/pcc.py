@@ -108,6 +108,8 @@ def tendon_unit_load_jvp(R, d, hn, dR, dd, dh, nl, px, py, is_anchor, fric, out,
     v1y = py - by
     v1z = -bz
     n1 = np.sqrt(v1x * v1x + v1y * v1y + v1z * v1z)
+    if not n1 > 0.0:  # two holes at one point (a subsegment folded onto itself): no tendon direction, no answer
+        n1 = np.nan
     u1x = v1x / n1
     u1y = v1y / n1
     u1z = v1z / n1
@@ -136,6 +138,8 @@ def tendon_unit_load_jvp(R, d, hn, dR, dd, dh, nl, px, py, is_anchor, fric, out,
         v2y = ey - by
         v2z = ez - bz
         n2 = np.sqrt(v2x * v2x + v2y * v2y + v2z * v2z)
+        if not n2 > 0.0:
+            n2 = np.nan
         u2x = v2x / n2
         u2y = v2y / n2
         u2z = v2z / n2
@@ -174,6 +178,8 @@ def tendon_unit_load_jvp(R, d, hn, dR, dd, dh, nl, px, py, is_anchor, fric, out,
             ty = u1y - u2y
             tz = u1z - u2z
             tn = np.sqrt(tx * tx + ty * ty + tz * tz)
+            if not tn * tn > 0.0:  # the tendon turned back on itself: no normal direction, no answer
+                tn = np.nan
             w = (1.0 - rho) / tn
             fx = xx - zx * zx_ + w * tx
             fy = xy - zy * zx_ + w * ty

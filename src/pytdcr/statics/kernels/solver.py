@@ -756,6 +756,8 @@ def _flow(q, lam, m, tol, max_iter, max_dtheta, work, J0, H0, sign0):
             break
         if step > 0.2:  # too far for one step of the flow: a shorter time step
             dt *= 0.05 / step
+            if not dt > 1e-300:  # no time step short enough: the flow cannot go on
+                break
             continue
         qlow[:] = q
         for u in range(nq):
@@ -993,6 +995,9 @@ def _walk(q, m, settings, work, H, scale, cont, r_full):
     have_h = use_tan  # an inverse Jacobian from the last converged load step (or the start's, for the tangent)
     while lam < 1.0 and steps < 400:
         lt = min(1.0, lam + dlam)
+        if not lt > lam:  # a step below the load factor's resolution (a huge secant rate): the path cannot go on
+            ok = False
+            break
         # secant predictor from the last two equilibria
         if lam > lprev:
             w = (lt - lam) / (lam - lprev)
