@@ -10,9 +10,12 @@ checks that the slider drives the box too.
 
 from __future__ import annotations
 
+import ctypes
+import functools
 import io
 import json
 import os
+import signal
 import socket
 import statistics
 import subprocess
@@ -33,6 +36,24 @@ CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 ROOT = Path(__file__).resolve().parents[1]
+#: Linux's prctl option: the signal a process gets when the thread that started it dies
+PR_SET_PDEATHSIG = 1
+#: the C library, loaded before any fork (the child between fork and exec only calls into it)
+_LIBC = ctypes.CDLL(None, use_errno=True) if sys.platform.startswith("linux") else None
+
+
+def _end_with(parent: int) -> None:
+    """In a child between fork and exec: SIGKILL when pytest (``parent``, whose main thread started it) dies, and
+    at once if it already has (it may die before the call)."""
+    _LIBC.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    if os.getppid() != parent:
+        os.kill(os.getpid(), signal.SIGKILL)
+
+
+def _ends_with_pytest() -> dict:
+    """``subprocess`` arguments that make a child die with pytest even when pytest is killed outright (Linux; the
+    Popen call must be made from pytest's main thread, as fixtures and tests are)."""
+    return {"preexec_fn": functools.partial(_end_with, os.getpid())} if _LIBC is not None else {}
 
 
 # ---------------------------------------------------------------- without a browser
@@ -242,6 +263,49 @@ def _browser_missing() -> str:
     return ""
 
 
+#: a stand-in for pytest: starts a long child with :func:`_ends_with_pytest`, prints its pid and waits
+_STAND_IN = """
+import subprocess, sys, time
+sys.path.insert(0, sys.argv[1])
+from test_explore import _ends_with_pytest
+child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(120)"], **_ends_with_pytest())
+print(child.pid, flush=True)
+time.sleep(120)
+"""
+
+
+def _alive(pid: int) -> bool:
+    """True while process ``pid`` exists and is not a zombie (killed, waiting to be reaped)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat.rsplit(")", 1)[1].split()[0] != "Z"
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the parent-death signal is Linux's")
+def test_a_server_the_tests_start_dies_when_pytest_is_killed():
+    """The explorer the browser tests start must not outlive a pytest killed outright (SIGKILL): a stand-in for
+    pytest starts a child as the fixture does, is killed, and the child must be gone within seconds."""
+    parent = subprocess.Popen([sys.executable, "-c", _STAND_IN, str(Path(__file__).parent)], stdout=subprocess.PIPE,
+                              text=True)
+    child = 0
+    try:
+        child = int(parent.stdout.readline())
+        assert _alive(child)
+        parent.kill()
+        parent.wait(10)
+        deadline = time.monotonic() + 10
+        while _alive(child) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not _alive(child), "the child outlived its killed parent"
+    finally:
+        parent.kill()
+        parent.wait(10)
+        if child and _alive(child):
+            os.kill(child, signal.SIGKILL)
+
+
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -252,7 +316,8 @@ def _free_port() -> int:
 def workspace_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("explore") / "ws"
     subprocess.run([sys.executable, "-m", "pytdcr.cli", "workspace", "--n", "64", "--budget", "60",
-                    "--directions", "0", "--out", str(out), "-q"], check=True, capture_output=True)
+                    "--directions", "0", "--out", str(out), "-q"], check=True, capture_output=True,
+                   **_ends_with_pytest())
     summary = json.loads((out / "workspace.json").read_text())
     assert summary["mesh"] == "fsw.ply" and summary["realisable"]["mesh"] == "fsw_realisable.ply"
     return out
@@ -266,7 +331,8 @@ def page_url(workspace_run):
     port = _free_port()
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     proc = subprocess.Popen([sys.executable, "-m", "pytdcr.cli", "explore", "--port", str(port), "--workspace",
-                             str(workspace_run)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env)
+                             str(workspace_run)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env,
+                            **_ends_with_pytest())
     url = f"http://127.0.0.1:{port}/"
     deadline = time.monotonic() + 90
     try:

@@ -21,7 +21,7 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from .validate import Count, Real, in_range, is_integer, ranged, show
+from .validate import Count, Real, is_integer, ranged, show, show_number
 
 __all__ = [
     "Backbone",
@@ -89,8 +89,12 @@ Angle = ranged(-360.0, 360.0, "deg", "one turn either way; larger angles repeat 
 DiskRadius = ranged(1e-4, 1.0, "m", "disks from 0.1 mm to 1 m across the axis")
 Friction = ranged(0.0, 10.0, "", "a friction coefficient")
 Decay = ranged(0.0, 10.0, "1/deg", "the paper's law decays at 0.027 per degree")
-#: |g| at most 100 m/s^2: ten times the Earth's
-_GRAVITY = in_range(0.0, 100.0, "m/s^2", "ten times the Earth's gravity")
+#: the weakest gravity a robot may have [m/s^2] (else none, 0): a tenth of the residual acceleration on an orbiting
+#: station (about 1e-5 m/s^2), so every real setting fits; below it gravity's weight is lost in the solvers'
+#: tolerance, and a vector of subnormal components (5e-324) would still be taken for a direction of the payload
+MIN_GRAVITY = 1e-6
+#: the strongest gravity [m/s^2]: ten times the Earth's
+MAX_GRAVITY = 100.0
 #: a robot's name: printable (no control characters, line separators or bidirectional overrides)
 _NAME = r"^[^\x00-\x1f\x7f-\x9f\u200e\u200f\u2028\u2029\u202a-\u202e\u2066-\u2069]*$"
 #: a robot's disk radius when the file gives none: the largest routing radius times this
@@ -272,7 +276,7 @@ class Robot(_Frozen):
     segments: tuple[Segment, ...] = Field(min_length=1, max_length=MAX_SEGMENTS)
     tendons: tuple[Tendon, ...] = Field(min_length=0, max_length=MAX_TENDONS)
     gravity: tuple[Real, Real, Real] = Field(
-        default=(0.0, 0.0, -9.81), description="gravity in the base frame [m/s^2]; |g| <= 100"
+        default=(0.0, 0.0, -9.81), description="gravity in the base frame [m/s^2]; |g| 0 or in [1e-6, 100]"
     )
     friction: FrictionLaw = Field(default_factory=NoFriction)
     disk_radius_given: DiskRadius | None = Field(
@@ -282,11 +286,12 @@ class Robot(_Frozen):
 
     @model_validator(mode="after")
     def _check(self) -> Robot:
-        g = math.hypot(*self.gravity)
-        try:
-            _GRAVITY(g)
-        except ValueError as err:
-            raise ValueError(f"gravity: |g| = {g:g} m/s^2 {err}") from None
+        g = math.hypot(*self.gravity)  # no overflow nor underflow: a subnormal vector has a non-zero length
+        if not (g == 0.0 or MIN_GRAVITY <= g <= MAX_GRAVITY):  # NaN fails too
+            raise ValueError(f"gravity: |g| = {show_number(g, MIN_GRAVITY, MAX_GRAVITY)} m/s^2 must be in "
+                             f"[0, {MAX_GRAVITY:g}] m/s^2 (ten times the Earth's gravity), either 0 (no gravity) or "
+                             f"at least {MIN_GRAVITY:g} m/s^2 (a weaker one is lost in the solvers' tolerance and "
+                             "has no trustworthy direction)")
         rd = self.disk_radius
         for k, t in enumerate(self.tendons):
             if t.segment > len(self.segments):

@@ -92,11 +92,11 @@ def run(args: argparse.Namespace) -> int:
 
 def error_mm(value: float, width: int = 0) -> str:
     """A distance or error [mm] for a message, right-aligned in ``width`` characters: three decimals, or three
-    significant digits where three decimals would show a non-zero value as 0 (below half a micrometre)."""
-    text = f"{value:{width}.3f}"
-    if value != 0.0 and float(text) == 0.0:
-        return f"{value:{width}.3g}"
-    return text
+    significant digits where three decimals would show a non-zero value as 0 (below half a micrometre):
+    :func:`pytdcr.study.number_text`, the one rule."""
+    from ..study import number_text
+
+    return number_text(value, 3, width)
 
 
 # ---------------------------------------------------------------- accuracy

@@ -18,6 +18,9 @@ __all__ = ["INFEASIBLE_COST", "Evaluated", "ReachProblem"]
 
 #: cost given to tension vectors whose solve did not converge (they are also flagged infeasible)
 INFEASIBLE_COST = 1e3
+#: the paper's cost 1/reach counts every reach below this [m] as this (a nanometre, a millionth of the shortest
+#: robot's length): finite at a tip on the base (reach 0), and still never lower for a shorter reach
+MIN_COST_REACH = 1e-9
 
 
 class Evaluated(NamedTuple):
@@ -112,10 +115,14 @@ class ReachProblem:
         return t
 
     def cost(self, tip: np.ndarray) -> np.ndarray:
-        """The minimised cost of tip positions (..., 3) [m]: 1/||tip|| [1/m] or -d . tip [m]."""
+        """The minimised cost of tip positions (..., 3) [m]: 1/||tip|| [1/m] or -d . tip [m].
+
+        The paper's cost takes ``max(||tip||, MIN_COST_REACH)``: finite for a tip on the base (at most
+        1/:data:`MIN_COST_REACH`), and it never decreases as the reach shrinks.
+        """
         tip = np.asarray(tip, dtype=float)
         if self.direction is None:
-            return 1.0 / np.linalg.norm(tip, axis=-1)
+            return 1.0 / np.maximum(np.linalg.norm(tip, axis=-1), MIN_COST_REACH)
         return -(tip @ self.direction)
 
     def value(self, tip: np.ndarray) -> np.ndarray:
@@ -124,9 +131,12 @@ class ReachProblem:
         return np.linalg.norm(tip, axis=-1) if self.direction is None else tip @ self.direction
 
     def cost_gradient(self, tip: np.ndarray, dtip: np.ndarray) -> np.ndarray:
-        """d cost / d tensions (n_tendons,) from the tip (3,) and its derivative (3, n_tendons)."""
+        """d cost / d tensions (n_tendons,) from the tip (3,) and its derivative (3, n_tendons); 0 for the paper's
+        cost at a reach below :data:`MIN_COST_REACH`, where it is constant (:meth:`cost`)."""
         if self.direction is None:
             r = float(np.linalg.norm(tip))
+            if r < MIN_COST_REACH:
+                return np.zeros(np.shape(dtip)[-1])
             return -(tip @ dtip) / r**3
         return -(self.direction @ dtip)
 

@@ -10,6 +10,20 @@ import numpy as np
 __all__ = ["Optimum", "ReachResult", "SearchFailed"]
 
 
+def _unsigned_zero(value: Any) -> Any:
+    """``value`` (a float, an array, or lists and dicts of them) for JSON with every -0.0 written 0.0 (``x + 0.0``
+    is ``x`` but for the zero's sign); integers, booleans, strings and None as they are."""
+    if isinstance(value, dict):
+        return {k: _unsigned_zero(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_unsigned_zero(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _unsigned_zero(value.tolist())
+    if isinstance(value, (float, np.floating)):
+        return float(value) + 0.0
+    return value
+
+
 class SearchFailed(RuntimeError):
     """A reach search that found no converged (and, if asked, stable) tension vector to report."""
 
@@ -40,8 +54,8 @@ class Optimum:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form."""
-        return {"tensions": self.tensions.tolist(), "tip_position": self.tip_position.tolist(),
-                "reach": self.reach, "cost": self.cost, "stable": self.stable}
+        return _unsigned_zero({"tensions": self.tensions, "tip_position": self.tip_position, "reach": self.reach,
+                               "cost": self.cost, "stable": self.stable})
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,8 +144,8 @@ class ReachResult:
         return Optimum(self.tensions, self.tip_position, self.reach, self.cost, self.stable)
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary (the keys of ``tdcr optimize --json``)."""
-        return {
+        """JSON-ready summary (the keys of ``tdcr optimize --json``); no -0.0 in it."""
+        return _unsigned_zero({
             **self.optimum.to_dict(),
             "value": self.value,
             "converged": self.converged,
@@ -147,4 +161,4 @@ class ReachResult:
             "polish": {"cost_change": self.polish_gain, "evaluations": self.polish_evaluations,
                        "message": self.polish_message},
             "settings": self.settings,
-        }
+        })

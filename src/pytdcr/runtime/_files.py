@@ -115,7 +115,7 @@ def to_jsonable(obj: Any) -> Any:
     if isinstance(obj, np.ndarray):
         return to_jsonable(obj.tolist())
     if isinstance(obj, (np.floating, float)):
-        x = float(obj)
+        x = float(obj) + 0.0  # -0.0 is written 0.0
         return x if np.isfinite(x) else None
     if isinstance(obj, np.integer):
         return int(obj)

@@ -27,6 +27,7 @@ from ._inverse import (
     read_workspace_pool,
 )
 from ._output import inputs_record
+from ._report import number_text
 from ._reproduce import ReproduceRun, ReproduceSettings, check_reproduce, reproduce_estimate, run_reproduce
 from ._runs import OptimizeRun, SampleRun, run_optimize, run_sample, sample_into, write_optimize
 from ._settings import (
@@ -85,6 +86,7 @@ __all__ = [
     "inputs_record",
     "inverse_columns",
     "inverse_rows",
+    "number_text",
     "read_cases",
     "read_targets",
     "read_workspace_inputs",

@@ -25,6 +25,7 @@ from ..plotting import plot_order, save_figure
 from ..runtime import atomic_write_text, output_folder, write_csv, write_json
 from ..statics import saving
 from ._output import inputs_record
+from ._report import number_text
 from ._settings import AccuracySettings
 
 __all__ = ["AccuracyRun", "accuracy_markdown", "run_accuracy"]
@@ -61,8 +62,9 @@ class AccuracyRun:
         return {**self.summary(), "files": list(self.files)}
 
 
-def _fmt(x: float, f: str = ".3f") -> str:
-    return "-" if not np.isfinite(x) else format(x, f)
+def _fmt(x: float, decimals: int = 3) -> str:
+    """``x`` with ``decimals`` decimals, never a non-zero value as 0 (:func:`number_text`); "-" if not finite."""
+    return "-" if not np.isfinite(x) else number_text(x, decimals)
 
 
 def _per_segment(disks: int, steps: int) -> int:
@@ -98,7 +100,7 @@ def accuracy_markdown(study: AccuracyStudy, orders: Sequence[OrderStudy], source
             continue
         lines.append(f"| {r['group']} | {r['model']} | {_fmt(r['median_error_mm'])} | {_fmt(r['p95_error_mm'])} | "
                      f"{_fmt(r['max_error_mm'])} | {r['converged']}/{r['reference_converged']} | "
-                     f"{_fmt(r['median_ms'], '.2f')} |")
+                     f"{_fmt(r['median_ms'], 2)} |")
     if orders:
         disks = orders[0].disks
         lines += ["", "## Order of convergence against `sscr` of the same robot", "",
@@ -110,8 +112,8 @@ def accuracy_markdown(study: AccuracyStudy, orders: Sequence[OrderStudy], source
                   "|---|---|" + "---:|" * (len(disks) + 1)]
         for st in orders:
             for name, e in st.errors_mm.items():
-                lines.append(f"| {st.group} | {name} | " + " | ".join(_fmt(x, '.4f') for x in e)
-                             + f" | {_fmt(st.order[name], '.2f')} |")
+                lines.append(f"| {st.group} | {name} | " + " | ".join(_fmt(x, 4) for x in e)
+                             + f" | {_fmt(st.order[name], 2)} |")
     lines.append("")
     return "\n".join(lines)
 

@@ -16,6 +16,7 @@ from ..plotting import plot_model_overlay, save_figure
 from ..runtime import atomic_write_text, output_folder, write_csv, write_json
 from ..statics import get_models, options_record, resolve, saving
 from ._output import inputs_record, markdown_table
+from ._report import number_text
 from ._settings import CompareSettings
 
 __all__ = ["CompareRun", "run_compare"]
@@ -96,15 +97,19 @@ def _compare_markdown(cmp: ModelComparison, robot: Robot, loads: Loads, source: 
     per = cmp.summaries()
     ref = cmp.reference
 
-    def fmt(v: float | None, f: str) -> str:
-        return "n/a" if v is None else format(v, f)
+    def fmt(v: float | None) -> str:
+        return "n/a" if v is None else number_text(v)
 
+    rows = cmp.rows()
     cols = [("case", "case", "d")]
     for name in cmp.models:
         cols += [(f"{name}_{a}_m", f"{name} {a} [m]", ".5f") for a in "xyz"]
-    for name in cmp.others:
-        cols += [(f"{name}_difference_mm", f"{name} diff [mm]", ".3f"),
-                 (f"{name}_difference_pct_length", f"{name} diff [% L]", ".3f")]
+    for name in cmp.others:  # differences as text: 3 decimals, never a non-zero one as 0 (a NaN stays: n/c)
+        for key, head in ((f"{name}_difference_mm", f"{name} diff [mm]"),
+                          (f"{name}_difference_pct_length", f"{name} diff [% L]")):
+            for r in rows:
+                r[key] = number_text(r[key]) if np.isfinite(r[key]) else r[key]
+            cols.append((key, head, ""))
     cols += [(f"{name}_ms", f"{name} [ms]", ".2f") for name in cmp.models]
     text = [
         f"# Models compared: robot '{robot.name}'", "",
@@ -117,12 +122,12 @@ def _compare_markdown(cmp: ModelComparison, robot: Robot, loads: Loads, source: 
     ]
     for name in cmp.others:
         s = per[name]
-        text.append(f"- `{name}` from `{ref}`: median {fmt(s.difference_median_mm, '.3f')} mm "
-                    f"({fmt(s.difference_median_pct_length, '.3f')} % of the {robot.length:g} m "
-                    f"length), max {fmt(s.difference_max_mm, '.3f')} mm")
+        text.append(f"- `{name}` from `{ref}`: median {fmt(s.difference_median_mm)} mm "
+                    f"({fmt(s.difference_median_pct_length)} % of the {robot.length:g} m "
+                    f"length), max {fmt(s.difference_max_mm)} mm")
     text.append("- median solve time: " + ", ".join(f"{n} {s.ms_median:.2f} ms" for n, s in per.items()))
     text += ["", "n/c: that model did not converge on the case (its residual is in compare.csv).", "",
-             markdown_table(cmp.rows(), cols), ""]
+             markdown_table(rows, cols), ""]
     return "\n".join(text)
 
 

@@ -14,15 +14,31 @@ from ..design import Robot
 from ..optimize import ReachResult
 from ..paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT, PAYLOAD_MASS, payload_gravity, payload_loads
 from ..runtime import default_threads
+from ..validate import MIN_DIRECTION, unit_vector
 
 if TYPE_CHECKING:
     from ._reproduce import ReproduceRun, ReproduceSettings
 
-__all__ = ["reproduce_report"]
+__all__ = ["number_text", "reproduce_report"]
 
 
 #: reaches closer than this [m] are the same in the report (its tables print 6 decimals)
 SAME_REACH = 1e-6
+
+
+def number_text(value: float, decimals: int = 3, width: int = 0) -> str:
+    """``value`` for a table or a message, right-aligned in ``width`` characters: ``decimals`` decimals, or three
+    significant digits (``.3g``) where the decimals would show a non-zero value as 0 (an error of 2e-4 mm is not
+    "0.000"). Zero is written unsigned (-0.0 as 0); non-finite values as Python writes them (``nan``, ``inf``).
+
+    The one rule for small non-zero numbers in the study's texts (``compare.md``, ``accuracy.md``, this report)
+    and the command line's messages.
+    """
+    value = float(value) + 0.0  # -0.0 + 0.0 is +0.0
+    text = f"{value:{width}.{decimals}f}"
+    if value != 0.0 and float(text) == 0.0:
+        return f"{value:{width}.3g}"
+    return text
 
 
 def _bounds_trend(reach: Sequence[float], uppers: Sequence[float]) -> str:
@@ -37,7 +53,9 @@ def _bounds_trend(reach: Sequence[float], uppers: Sequence[float]) -> str:
                 "the previous one: the optimiser missed the global optimum in at least one run (a wider box is "
                 "harder to search with the same budget).")
     if all(d > SAME_REACH for d in steps):
-        per_n = [d / (h1 - h0) for d, (h0, h1) in zip(steps, itertools.pairwise(uppers), strict=True)]
+        widths = [h1 - h0 for h0, h1 in itertools.pairwise(uppers)]
+        per_n = ([d / w for d, w in zip(steps, widths, strict=True)] if all(w > 0.0 for w in widths)
+                 else [])  # an upper bound given twice: no rate per newton
         tail = (f", with diminishing returns ({', then '.join(f'{x * 1e3:.3g}' for x in per_n)} mm per N)"
                 if len(per_n) > 1 and all(b < a for a, b in itertools.pairwise(per_n)) else "")
         return (f"The reach grows with the upper bound, from {span}{tail}: more tension can cancel more of the "
@@ -176,9 +194,13 @@ def _antagonistic_pairs(robot: Robot) -> list[tuple[int, int]]:
 
 def _payload_is_axial(robot: Robot) -> bool:
     """True when the payload (:func:`~pytdcr.paper.payload_gravity`) acts along the unloaded robot's axis,
-    against the direction it points (base z, the robot pointing up)."""
+    against the direction it points (base z, the robot pointing up). Its direction is
+    :func:`~pytdcr.validate.unit_vector`'s (safe at any scale); a gravity whose components are all below
+    :data:`~pytdcr.validate.MIN_DIRECTION` has no direction, so it is not axial."""
     g = payload_gravity(robot)
-    return bool(np.allclose(g / np.linalg.norm(g), (0.0, 0.0, -1.0), rtol=0.0, atol=1e-12))
+    if float(np.max(np.abs(g))) < MIN_DIRECTION:
+        return False
+    return bool(np.allclose(unit_vector(g, "gravity"), (0.0, 0.0, -1.0), rtol=0.0, atol=1e-12))
 
 
 def _axial_text(robot: Robot) -> str:
@@ -186,15 +208,16 @@ def _axial_text(robot: Robot) -> str:
     if not _payload_is_axial(robot):
         return ""
     pairs = _antagonistic_pairs(robot)
-    weight = float(np.linalg.norm(payload_loads(robot).tip_force))
+    weight = math.hypot(*payload_loads(robot).tip_force.tolist())
     buckling = np.pi**2 * robot.backbone.bending_stiffness / (4 * robot.length**2)
     text = (" The robot points up against the payload, which it carries axially: the straight robot reaches "
             f"farthest (its reach is the length, {robot.length} m)")
     if pairs:
         text += (", and equal tensions in a pair of opposite tendons (" + ", ".join(f"{a} and {b}" for a, b in pairs)
                  + ") keep it straight, so the optimum is a whole set of tension vectors")
-    return text + (f". The payload's weight, {weight:.4f} N, is {'below' if weight < buckling else 'not below'} "
-                   f"the straight robot's buckling load without gravity (about pi^2 EI / 4L^2 = {buckling:.3f} N).")
+    return text + (f". The payload's weight, {number_text(weight, 4)} N, is "
+                   f"{'below' if weight < buckling else 'not below'} the straight robot's buckling load without "
+                   f"gravity (about pi^2 EI / 4L^2 = {number_text(buckling)} N).")
 
 
 def _payload_text(robot: Robot, pay: ReachResult) -> str:

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..bounds import TensionBounds
 from ..design import Robot
-from ..loads import Loads
+from ..loads import MAX_TENSION, Loads
 from ..optimize import MemeticGA, ReachProblem, ReachResult, Termination, maximize_reach, polish_reach
 from ..paper import DEFAULT_BOUNDS, PAYLOAD_MASS, paper_bounds, paper_loads, payload_loads
 from ..plotting import plot_robot, save_figure
@@ -30,7 +30,7 @@ from ..runtime import (
     write_json,
 )
 from ..statics import options_record, resolve, solve
-from ..validate import SettingsError
+from ..validate import SettingsError, check_real, show
 from ._output import inputs_record, load_arrows
 from ._report import reproduce_report
 from ._runs import sample_into, write_optimize
@@ -103,6 +103,17 @@ class ReproduceSettings:
     workspace_models: tuple[str, ...] = ()
     models_n: int = 1000
     models_voxels: int = 16
+
+    def __post_init__(self) -> None:
+        """The bounds study's upper bounds: one or more distinct finite tensions in (0, MAX_TENSION] N (two equal
+        bounds gave a rate of change per newton of 0/0)."""
+        if isinstance(self.bound_uppers, (str, bytes)) or not hasattr(self.bound_uppers, "__len__") or \
+                not 1 <= len(self.bound_uppers) <= 16:
+            raise SettingsError("bound_uppers", f" = {show(self.bound_uppers)}: give 1 to 16 upper tension bounds [N]")
+        ups = tuple(check_real(v, "bound_uppers", 0.0, MAX_TENSION, "N", lo_open=True) for v in self.bound_uppers)
+        if len(set(ups)) != len(ups):
+            raise SettingsError("bound_uppers", f" = {show(self.bound_uppers)}: the bounds must differ")
+        object.__setattr__(self, "bound_uppers", ups)
 
     @classmethod
     def full(cls) -> ReproduceSettings:
