@@ -34,16 +34,17 @@ from ..design import Robot
 from ..io import write_robot
 from ..region import FOLD_RULES
 from ..runtime import (
+    MAX_JSON_BYTES,
     RunInterrupted,
     atomic_write,
     atomic_write_text,
     default_threads,
     dump_json,
     process_pool,
+    regular_file_bytes,
     resumable_folder,
     write_json,
 )
-from ..runtime._readback import MAX_JSON_BYTES, regular_file_bytes
 from ..statics import check_cancelled, mark_saving
 from ..validate import check_count
 from ._evaluate import check_capabilities, evaluate_design

@@ -43,7 +43,7 @@ from ._folders import (
     resumable_folder,
 )
 from ._lifeline import LIFELINE_POLL_S, PARENT_GONE_EXIT, hold_lifeline, process_pool
-from ._readback import RunDoc, RunFolder
+from ._readback import MAX_JSON_BYTES, RunDoc, RunFolder, regular_file_bytes
 from ._stages import duration, end_stage
 from ._threads import MAX_CHUNK, default_threads, run_in_chunks, single_threaded_blas, submit_in_context, worker_pool
 
@@ -52,6 +52,7 @@ __all__ = [
     "MANIFEST",
     "MAX_CHUNK",
     "MAX_ENTRY_BYTES",
+    "MAX_JSON_BYTES",
     "PARENT_GONE_EXIT",
     "RESULT_LIBRARIES",
     "CancelScope",
@@ -81,6 +82,7 @@ __all__ = [
     "process_pool",
     "read_arrays",
     "read_entry",
+    "regular_file_bytes",
     "resumable_folder",
     "run_in_chunks",
     "saving",
