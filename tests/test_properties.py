@@ -20,6 +20,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from pytdcr import Backbone, ConstantFriction, ExponentialFriction, Loads, NoFriction, Robot, Segment, Tendon, solve
+from pytdcr.design import MIN_GRAVITY
 from pytdcr.io import RobotFileError, robot_from_dict, robot_to_dict
 from pytdcr.statics import get_model
 from pytdcr.validate import parse_numbers
@@ -45,6 +46,8 @@ def robots(draw: st.DrawFn) -> Robot:
         tendons += [Tendon(segment=s, radius=r, angle_deg=5.0 * a - 180.0) for a in angles]
     friction = draw(st.sampled_from([NoFriction(), ConstantFriction(mu=0.1), ExponentialFriction()]))
     g = draw(st.tuples(st.floats(-5, 5), st.floats(-5, 5), st.floats(-9.81, 0)))
+    if math.hypot(*g) < MIN_GRAVITY:  # a gravity is none (0) or at least MIN_GRAVITY: a weaker one has no direction
+        g = (0.0, 0.0, 0.0)
     name = draw(st.text(st.characters(blacklist_categories=("Cc", "Cs")), min_size=1, max_size=12))
     return Robot(name=name, backbone=backbone, segments=segments, tendons=tuple(tendons), gravity=g, friction=friction)
 
