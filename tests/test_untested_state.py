@@ -111,3 +111,26 @@ def test_continued_root_of_an_untested_model_is_not_called_stable(tmp_path, caps
     assert ws["equilibria"] == "continuation" and ws["root"] == "stability untested"
     assert ws["stability_test"] == "untested" and ws["counts"]["unstable"] is None
     assert not any("root" in w for w in ws["warnings"])
+
+
+def test_unstable_counts_only_the_converged_samples():
+    """The unstable count is stability_counts' (of the converged samples), in a region's counts and a sample
+    run's: a row that did not converge is never unstable, even if its stability array held 0 there (every
+    solver leaves NaN there, so the numbers of real runs, and the golden baselines, do not move)."""
+    from types import SimpleNamespace
+
+    from pytdcr.region._study import _counts
+    from pytdcr.study._runs import _sample_counts
+
+    ok = np.array([True, True, False, False])
+    st = np.array([0.0, 1.0, 0.0, np.nan])  # row 2 did not converge: its 0 is not a tested state
+    no = np.zeros(4, dtype=bool)
+    region = SimpleNamespace(converged=ok, stable=st, below_base=no, disks_touch=no, realisable=ok,
+                             source=np.zeros(4, dtype=np.int8))
+    c = _counts(region, "run")
+    assert c["unstable"] == 1 and c["stable"] == 1 and c["stable"] + c["unstable"] + c["stability_untested"] == 2
+    assert _counts(region, "untested")["unstable"] is None
+    tips = np.array([[0.1, 0.0, 0.2]] * 2 + [[np.nan] * 3] * 2)
+    sample = SimpleNamespace(converged=ok, stable=st, reach=np.linalg.norm(tips, axis=1))
+    assert _sample_counts(sample, "pcc")["unstable"] == 1
+    assert _sample_counts(sample, "cosserat")["unstable"] is None

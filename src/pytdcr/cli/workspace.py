@@ -98,11 +98,17 @@ def _compare_models(args: argparse.Namespace, robot: Any, loads: Any) -> dict[st
             for name in names}
 
 
+#: the settings a workspace's capability check names (``SettingsError.field``, ``UnsupportedFeatureError.setting``),
+#: by their flags
+_CHECKED_FLAGS = {"model": "--model", "equilibria": "--equilibria", "multistability": "--multistability"}
+
+
 def _check_cases(args: argparse.Namespace, cases: dict[str, tuple[Any, ...]] | None, robot: Any, loads: Any,
                  settings: Any, model: tuple[Any, Any]) -> None:
     """Every case's requirements against its model's capabilities, before the first solve (and before the
     estimate, which solves a few): CliError naming the flag that made the cases, the case and what its model
-    lacks (:func:`pytdcr.study.check_workspace_cases`)."""
+    lacks (:func:`pytdcr.study.check_workspace_cases`); for a single case, the flag of the setting the error
+    names (``--model``, ``--equilibria`` or ``--multistability``)."""
     from ..region import check_workspace
     from ..study import WorkspaceCaseSpec, check_workspace_cases
     from ..validate import SettingsError
@@ -111,8 +117,8 @@ def _check_cases(args: argparse.Namespace, cases: dict[str, tuple[Any, ...]] | N
         try:
             check_workspace(robot, loads, settings, model=model[0], options=model[1])
         except ValueError as err:
-            flag = "--equilibria" if str(err).startswith("equilibria") else "--model"
-            raise CliError(f"{flag}: {err}") from None
+            at_fault = getattr(err, "field", None) or getattr(err, "setting", "model")
+            raise CliError(SettingsError.about(at_fault, err).worded(_CHECKED_FLAGS)) from None
         return
     flag = ("--compare-models" if args.compare_models is not None else "--compare-loads" if args.compare_loads
             else "--equilibria both")

@@ -136,7 +136,7 @@ def check_workspace(robot: Robot, loads: Loads, settings: WorkspaceSettings | No
     elif s.multistability and not m.capabilities.continuation:
         raise UnsupportedFeatureError(m.name, "continuation from a solved state, which the multistability check "
                                       "of its loading-path region needs (its samples continued from the root)",
-                                      "set multistability 0 (--multistability 0)")
+                                      "set multistability 0 (--multistability 0)", setting="multistability")
     return m, opts, s
 
 

@@ -19,7 +19,7 @@ from ..loads import Loads
 from ..results import BatchSolution
 from ..statics import Model, check_resources, resolve, solve_batch
 from ..statics.options import PATH_FOLD, PATH_NAMES
-from ..validate import check_count
+from ..validate import SettingsError, check_count
 from ._plan import TensionPlan
 
 __all__ = [
@@ -348,9 +348,10 @@ def equilibria_for(model: Model, equilibria: str | None) -> str:
     if equilibria is None:
         return EQUILIBRIA[0] if model.capabilities.continuation else EQUILIBRIA[1]
     if equilibria not in EQUILIBRIA:
-        raise ValueError(f"equilibria must be one of {', '.join(EQUILIBRIA)}, got {equilibria!r}")
+        raise SettingsError("equilibria", f" must be one of {', '.join(EQUILIBRIA)}, got {equilibria!r}")
     if equilibria == EQUILIBRIA[0] and not model.capabilities.continuation:
-        raise ValueError(f"equilibria: model '{model.name}' cannot continue a solved state; use 'loading-path'")
+        raise SettingsError("equilibria", f": model '{model.name}' cannot continue a solved state; use "
+                            "'loading-path'")
     return equilibria
 
 

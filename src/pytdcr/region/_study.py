@@ -51,15 +51,14 @@ class Reach:
 
 
 def _counts(samples: RegionSamples, test: str) -> dict[str, Any]:
-    """How many samples were solved, converged, unstable, untested and stable (:func:`stability_counts`: None
-    for stable and unstable when the stability ``test`` is ``"untested"``), below the base, touching,
-    realisable, by source."""
+    """How many samples were solved, converged, and of the converged unstable, untested and stable
+    (:func:`stability_counts`: None for stable and unstable when the stability ``test`` is ``"untested"``),
+    below the base, touching, realisable, by source."""
     ok = samples.converged
     n_ok = max(int(ok.sum()), 1)
     states = stability_counts(ok, samples.stable, test)
-    unstable = int(np.sum(samples.stable == 0.0)) if states["unstable"] is not None else None
     return {"solved": int(ok.size), "converged": int(ok.sum()), "not_converged": int((~ok).sum()),
-            "unstable": unstable, "stability_untested": states["untested"], "stable": states["stable"],
+            "unstable": states["unstable"], "stability_untested": states["untested"], "stable": states["stable"],
             "below_base": int(samples.below_base.sum()), "disks_touch": int(samples.disks_touch.sum()),
             "fraction_below_base": float(samples.below_base.sum() / n_ok),
             "fraction_disks_touch": float(samples.disks_touch.sum() / n_ok),

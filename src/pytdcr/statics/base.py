@@ -32,11 +32,15 @@ class UnsupportedFeatureError(ValueError):
         The model's registered name.
     feature : str
         What it was asked for.
+    setting : str
+        The setting that asked for it (``"model"``: the request itself; ``"multistability"``, ...), for the
+        command line to name its option.
     """
 
-    def __init__(self, model: str, feature: str, hint: str = "") -> None:
+    def __init__(self, model: str, feature: str, hint: str = "", *, setting: str = "model") -> None:
         self.model = model
         self.feature = feature
+        self.setting = setting
         super().__init__(f"model '{model}' does not support {feature}" + (f"; {hint}" if hint else ""))
 
 

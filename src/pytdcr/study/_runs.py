@@ -26,12 +26,12 @@ __all__ = ["OptimizeRun", "SampleRun", "run_optimize", "run_sample", "sample_int
 
 
 def _sample_counts(samples: WorkspaceSamples, model: str) -> dict[str, Any]:
-    """Converged, not converged, unstable (None: ``model`` has no stability test, :func:`stability_counts`),
-    whether the test ran, untested, and the largest reach [m]."""
+    """Converged, not converged, unstable among the converged (None: ``model`` has no stability test;
+    :func:`stability_counts`), whether the test ran, untested, and the largest reach [m]."""
     test = stability_test(model)
     states = stability_counts(samples.converged, samples.stable, test)
     return {"converged": int(samples.converged.sum()), "not_converged": int((~samples.converged).sum()),
-            "unstable": None if states["unstable"] is None else int(np.sum(samples.stable == 0.0)),
+            "unstable": states["unstable"],
             "stability_test": test, "stability_untested": states["untested"],
             "reach_max_m": float(np.nanmax(samples.reach)) if samples.converged.any() else None}
 

@@ -13,7 +13,9 @@ import numpy as np
 
 from ..bounds import TensionBounds
 from ..design import Robot
+from ..limits import ResourceLimitError
 from ..loads import Loads
+from ..optimize import SearchFailed
 from ..plotting import (
     plot_multistability,
     plot_region_3d,
@@ -42,6 +44,7 @@ from ..region import (
     workspace_estimate,
     workspace_study,
 )
+from ..results import NotConvergedError
 from ..runtime import atomic_write, atomic_write_text, output_folder, write_csv, write_json
 from ..statics import Model, options_record, saving, solve
 from ..validate import SettingsError
@@ -553,6 +556,14 @@ def check_workspace_cases(specs: Mapping[str, WorkspaceCaseSpec], settings: Work
             raise SettingsError(field_name, f": case '{name}': {err}") from None
 
 
+#: what a case can meet only while running, and its user can act on: a solve that gave no shape or a search
+#: that found nothing (the project's solver errors), a numerical failure, the memory budget or the machine's
+#: memory exceeded, a file that could not be written (its checkpoint, its results). Such a case is reported
+#: and the others go on; anything else is a bug (:func:`run_workspace_compare`)
+_RUN_FAILURES: tuple[type[Exception], ...] = (NotConvergedError, SearchFailed, FloatingPointError, OverflowError,
+                                             np.linalg.LinAlgError, ResourceLimitError, MemoryError, OSError)
+
+
 def _failed_case(sub: Path, err: Exception) -> str:
     """One line for a case that failed while running; its folder keeps only the samples it had saved (its
     checkpoint, written whole), or goes."""
@@ -580,19 +591,26 @@ def run_workspace_compare(robot: Robot, cases: dict[str, tuple[Any, ...]], bound
     is solved by it, the others by ``model``.
 
     Every case is checked against its model's capabilities before the first solve
-    (:func:`check_workspace_cases`: SettingsError naming ``cases``). A case that fails while running (a
-    solver's error) is reported (:attr:`WorkspaceRun.failed`, ``comparison.json``'s ``failed``, the report)
-    and the others go on: the finished cases' files and their comparison are kept."""
+    (:func:`check_workspace_cases`: SettingsError naming ``cases``). A case that fails while running in a way
+    its user can act on (the project's solver errors, a numerical failure, memory, a file not written) is
+    reported (:attr:`WorkspaceRun.failed`, ``comparison.json``'s ``failed``, the report) and the others go on:
+    the finished cases' files and their comparison are kept. Any other exception is a bug: the cases finished
+    before it are saved the same way, the case it stopped and those not run listed as failed, and then it is
+    raised again (the command line's internal error, its traceback with ``PYTDCR_DEBUG=1``)."""
     how = run_options if run_options is not None else WorkspaceRunOptions()
     settings = settings.check(robot).with_voxel_for(robot)
     specs = {name: WorkspaceCaseSpec(*value) for name, value in cases.items()}
     check_workspace_cases(specs, settings, model=model, options=options)
     done: list[WorkspaceCase] = []
     failed: dict[str, str] = {}
+    bug: Exception | None = None
     with output_folder(out, "workspace --compare", {"n": settings.n, "seed": settings.seed,
                                                     "bounds": bounds.to_dict(), "cases": list(cases)}) as run:
         files = []
         for name, spec in specs.items():
+            if bug is not None:
+                failed[name] = "not run: an earlier case stopped the run with an internal error"
+                continue
             sub = run.staging / _slug(name)
             sub.mkdir()
             whole = f"saved {len(done)} of {len(cases)} cases whole; "
@@ -603,9 +621,12 @@ def run_workspace_compare(robot: Robot, cases: dict[str, tuple[Any, ...]], bound
                 case = _case(name, spec.robot, spec.loads, bounds, _case_settings(spec, settings), m, opts, hooks)
                 with saving():
                     _write_case(sub, case, spec.robot, how.command)
-            except Exception as err:  # found only while running: reported, and the finished cases are kept
+            except Exception as err:  # _RUN_FAILURES: reported, the others go on; a bug: the rest are not run
+                if not isinstance(err, _RUN_FAILURES):
+                    bug = err
                 with saving():
-                    failed[name] = _failed_case(sub, err)
+                    failed[name] = _failed_case(sub, err) + ("" if bug is None else " (an internal error: a bug in "
+                                                             "pytdcr; the cases after it were not run)")
                 if sub.is_dir():
                     files.append(sub.name)
                 continue
@@ -615,6 +636,8 @@ def run_workspace_compare(robot: Robot, cases: dict[str, tuple[Any, ...]], bound
         pairs = _pairs(done)
         with saving():
             files += _write_comparison(run.staging, done, robot, how.command, pairs, failed)
+    if bug is not None:  # what finished is saved (finished work is never lost); the bug goes on up, as it was
+        raise bug
     return WorkspaceRun(done, {"cases": _comparison(done), "pairs": pairs, "failed": failed}, files, failed)
 
 
