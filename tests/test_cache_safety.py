@@ -13,6 +13,7 @@ import io
 import os
 import stat
 import threading
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -168,6 +169,47 @@ def test_a_cache_folder_everyone_may_write_is_not_used(reference, solve_inverse,
     assert read_entry(name, folder=cache) is None
 
 
+@pytest.mark.parametrize("mode", [0o770, 0o730, 0o720])
+def test_a_cache_folder_its_group_may_write_is_not_used(mode, reference, solve_inverse, monkeypatch, tmp_path):
+    answer, name, kept = reference
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    cache.chmod(mode)
+    monkeypatch.setenv("PYTDCR_CACHE_DIR", str(cache))
+    _same(solve_inverse(), answer)
+    assert list(cache.iterdir()) == []
+    (cache / name).write_bytes(kept)
+    assert read_entry(name, folder=cache) is None
+    assert not write_entry("inverse-pool-x.npz", b"x", folder=cache)
+
+
+def test_the_one_npz_reader_refuses_a_huge_header_from_its_bytes(reference, tmp_path):
+    """The entry's array headers are read before any data: a shape of 2**40 items is "no entry", never a
+    MemoryError."""
+    _, name, kept = reference
+    cache = tmp_path / "cache"
+    cache.mkdir(mode=0o700)
+    (cache / name).write_bytes(_claiming(kept))
+    shapes = {"tensions": ("K", 8), "tips": ("K", 3), "jacobians": ("K", 3, 8)}
+    assert read_arrays(name, shapes, folder=cache) is None
+    (cache / name).write_bytes(kept)
+    assert read_arrays(name, shapes, folder=cache) is not None
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_arrays_reading_would_refuse_are_not_written(bad, tmp_path):
+    """A pool with a non-finite value is not kept (reading would refuse it, and every run write it again)."""
+    cache = tmp_path / "cache"
+    cache.mkdir(mode=0o700)
+    good = {"tensions": np.ones((2, 8)), "tips": np.zeros((2, 3))}
+    spoiled = {**good, "tips": np.array([[0.0, bad, 0.0], [0.0, 0.0, 0.0]])}
+    assert not write_arrays("inverse-pool-bad.npz", spoiled, folder=cache)
+    assert list(cache.iterdir()) == []
+    assert write_arrays("inverse-pool-good.npz", good, folder=cache)
+    got = read_arrays("inverse-pool-good.npz", {"tensions": ("K", 8), "tips": ("K", 3)}, folder=cache)
+    assert got is not None and all(np.array_equal(got[k], good[k]) for k in good)
+
+
 def test_a_new_cache_folder_is_private(reference, solve_inverse, monkeypatch, tmp_path):
     answer, name, _ = reference
     cache = tmp_path / "deep" / "cache"
@@ -211,8 +253,29 @@ def _pickled(kept: bytes) -> bytes:
         return _npz(tensions=np.array([object()] * 3, dtype=object), tips=z["tips"], jacobians=z["jacobians"])
 
 
+def _claiming(kept: bytes, shape: tuple[int, ...] = (2**40,)) -> bytes:
+    """The pool with its ``tensions`` member's header declaring ``shape`` (2**40 float64 items: 8 TiB) over 8
+    bytes of data."""
+    buf = io.BytesIO()
+    with np.load(io.BytesIO(kept)) as z, zipfile.ZipFile(buf, "w") as zf:
+        for key in z.files:
+            member = io.BytesIO()
+            if key == "tensions":
+                np.lib.format.write_array_header_1_0(member, {"descr": "<f8", "fortran_order": False,
+                                                              "shape": shape})
+                member.write(b"\x00" * 8)
+            else:
+                np.lib.format.write_array(member, z[key])
+            zf.writestr(f"{key}.npy", member.getvalue())
+    return buf.getvalue()
+
+
+def _claiming_more_than_held(kept: bytes) -> bytes:
+    return _claiming(kept, (SAMPLES, 8))
+
+
 @pytest.mark.parametrize("spoil", [_garbage, _truncated, _wrong_shape, _too_many_rows, _nan_filled, _integers,
-                                   _pickled])
+                                   _pickled, _claiming, _claiming_more_than_held])
 def test_an_entry_that_cannot_be_trusted_is_built_again(spoil, reference, solve_inverse, monkeypatch, tmp_path):
     answer, name, kept = reference
     cache = tmp_path / "cache"

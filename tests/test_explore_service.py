@@ -138,6 +138,35 @@ def test_a_server_on_a_port_answers_only_that_port(explorer):
     assert post(c, update_body(app), headers={**here, "Origin": "http://127.0.0.1:3000"}).status_code == 403
 
 
+def test_the_host_must_be_matched_whole(explorer, client):
+    """A Host with anything after the name and port (a trailing newline slips past a ``$`` regex) is
+    refused; every name of LOOPBACK_NAMES is answered, on the page's port only once it is known."""
+    from pytdcr.explore._guard import LOOPBACK_NAMES, Guard
+
+    guard = Guard(lambda environ, start_response: [])
+    for host in ("localhost:8080\n", "127.0.0.1\n", "localhost\n", "127.0.0.1:8050\r", "localhost:8050 "):
+        assert not guard.host_allowed(host), repr(host)
+    for name in LOOPBACK_NAMES:
+        assert guard.host_allowed(name) and guard.host_allowed(f"{name.upper()}:8080")
+    guard.narrow(8080)
+    assert guard.host_allowed("localhost:8080") and not guard.host_allowed("localhost:8080\n")
+    assert client.get("/", environ_overrides={"HTTP_HOST": "localhost:8050\n"}).status_code == 403
+
+
+def test_request_bodies_are_bounded_by_the_one_nesting_rule(client, explorer):
+    """The explorer measures a body's nesting with the rule its files use (:func:`pytdcr.io.nesting_depth`)."""
+    from pytdcr.explore._guard import MAX_DEPTH
+    from pytdcr.io import nesting_depth
+
+    assert nesting_depth([], MAX_DEPTH) == 1 and nesting_depth({"a": [1, {"b": 2}]}, MAX_DEPTH) == 3
+    assert nesting_depth([[]] * 3, MAX_DEPTH) == 2 and nesting_depth(5, MAX_DEPTH) == 0
+    deep = "[" * (MAX_DEPTH + 1) + "]" * (MAX_DEPTH + 1)
+    resp = post(client, '{"output": ' + deep + "}")
+    assert resp.status_code == 400 and f"deeper than {MAX_DEPTH}" in resp.get_data(as_text=True)
+    ok = "[" * (MAX_DEPTH - 1) + "]" * (MAX_DEPTH - 1)
+    assert post(client, '{"output": ' + ok + "}").get_data(as_text=True).startswith("refused: not a callback")
+
+
 @pytest.mark.parametrize(("headers", "code"), [
     ({"Origin": "http://evil.example"}, 403), ({"Origin": "null"}, 403),
     ({"Origin": "http://127.0.0.1.evil.example"}, 403), ({"Origin": "https://localhost"}, 403),
@@ -408,6 +437,23 @@ def test_raw_http_to_the_server(explorer, server):
         s.sendall(b"\x00\x01 garbage\r\n\r\n")
         assert b"400" in s.recv(4096)
     assert _raw_request(port, "GET", "/", here)[0] == 200
+
+
+@pytest.mark.parametrize("body", [b"zz\r\n{}\r\n0\r\n\r\n", b"2\r\n{}XX3\r\n", b"-1\r\n{}\r\n0\r\n\r\n"])
+def test_a_malformed_chunked_body_is_a_400_not_a_500(explorer, server, body):
+    """A chunked body the server cannot read ("Invalid chunk header", an OSError of its reader) is refused
+    with one plain line, never an internal error; the server answers on."""
+    port = server
+    with socket.create_connection(("127.0.0.1", port), timeout=30) as s:
+        s.sendall(f"POST {UPDATE} HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nContent-Type: application/json\r\n"
+                  "Transfer-Encoding: chunked\r\nConnection: close\r\n\r\n".encode() + body)
+        reply = b""
+        while chunk := s.recv(4096):
+            reply += chunk
+    head, _, text = reply.partition(b"\r\n\r\n")
+    assert head.startswith(b"HTTP/1.1 400"), reply[:300]
+    assert text.count(b"\n") == 1 and text.startswith(b"refused: the request body cannot be read"), text
+    assert _raw_request(port, "GET", "/", {"Host": f"127.0.0.1:{port}"})[0] == 200
 
 
 def test_concurrent_sessions_see_only_their_own_state(explorer, server):

@@ -12,6 +12,7 @@ import io
 import json
 import os
 import shutil
+import zipfile
 from collections.abc import Callable
 from pathlib import Path
 
@@ -20,7 +21,7 @@ import pytest
 
 from pytdcr.cli import main
 from pytdcr.explore import read_workspace
-from pytdcr.runtime import RunFolder, output_folder
+from pytdcr.runtime import RunDoc, RunFolder, output_folder
 from pytdcr.study import read_workspace_pool
 from pytdcr.validate import SettingsError
 
@@ -316,3 +317,128 @@ def test_a_design_study_manifest_is_read_strictly(tmp_path):
                                                    "files": [["nested"]]}))
     with pytest.raises(FolderError, match="not part of a tdcr run"), output_folder(out, "test"):
         pass
+
+
+# review of issue 44: numbers beyond a float, array headers, point loads, mesh loaders, links, the bounds rule
+
+@pytest.mark.parametrize(("field", "value"), [
+    ("inputs.loads.tip_force", [10**400, 0, 0]),
+    ("inputs.bounds.upper", [10**400] * 8),
+    ("inputs.loads.point_loads", [{"disk": 3, "force": [0, -(10**400), 0], "moment": [0, 0, 0]}]),
+])
+def test_an_integer_beyond_a_float_is_refused_naming_the_field(field, value, copy, capsys):
+    """A JSON integer of 400 digits is no float: refused by name, never an OverflowError."""
+    _edit_json(copy, _set(field, value))
+    line = _inverse_refuses(copy, capsys, "workspace.json", field)
+    assert "internal error" not in line and "Overflow" not in line
+
+
+def test_read_float_refuses_an_integer_beyond_a_float(tmp_path):
+    doc = RunDoc(RunFolder(tmp_path), "x.json", {"a": 10**400, "b": -(10**400), "c": 2, "d": True})
+    for path in ("a", "b", "d"):
+        with pytest.raises(SettingsError, match=rf"x\.json: {path} = .*must be a finite number"):
+            doc.read_float(path)
+    assert doc.read_float("c", 0.0, 3.0) == 2.0
+    with pytest.raises(SettingsError, match=r"c = 2: must be a finite number in \[0, 1\]"):
+        doc.read_float("c", 0.0, 1.0)
+
+
+@pytest.mark.parametrize(("what", "value"), [("force", [0.0, 0.0, 1e7]), ("moment", [2e6, 0.0, 0.0])])
+def test_a_point_load_beyond_the_safe_range_is_refused_naming_the_field(what, value, copy, capsys):
+    load = {"disk": 3, "force": [0.0, 0.0, 0.0], "moment": [0.0, 0.0, 0.0], what: value}
+    _edit_json(copy, _set("inputs.loads.point_loads", [load]))
+    _inverse_refuses(copy, capsys, "workspace.json", f"inputs.loads.point_loads[0].{what}", "within +/-1e+06")
+
+
+def _claiming(arrays: dict[str, np.ndarray], key: str, shape: tuple[int, ...]) -> bytes:
+    """An .npz of ``arrays`` whose member ``key`` has a float64 header declaring ``shape`` over 8 bytes of data."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as zf:
+        for k, a in arrays.items():
+            member = io.BytesIO()
+            if k == key:
+                np.lib.format.write_array_header_1_0(member, {"descr": "<f8", "fortran_order": False, "shape": shape})
+                member.write(b"\x00" * 8)
+            else:
+                np.lib.format.write_array(member, a)
+            zf.writestr(f"{k}.npy", member.getvalue())
+    return buf.getvalue()
+
+
+@pytest.mark.parametrize("shape", [(2**40,), (2**20, 2**20), (1000,), (-1,)])
+def test_an_array_header_declaring_more_than_it_holds_is_refused_unread(shape, copy, capsys):
+    """A header claiming 2**40 items (8 TiB) is refused from its few bytes, never a MemoryError."""
+    (copy / "samples.npz").write_bytes(_claiming(_samples(copy), "tensions", shape))
+    _inverse_refuses(copy, capsys, "samples.npz: tensions", "header declares")
+
+
+def test_npz_arrays_reads_what_numpy_reads(copy):
+    """The one .npz reader answers exactly as numpy.load, Fortran order and all."""
+    from pytdcr.runtime._readback import npz_arrays
+
+    s = _samples(copy)
+    s["fortran"] = np.asfortranarray(np.arange(12.0).reshape(3, 4))
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **s)
+    got = npz_arrays(buf.getvalue(), 2**30)
+    assert set(got) == set(s)
+    for k, a in s.items():
+        assert got[k].dtype == a.dtype and np.array_equal(got[k], a, equal_nan=a.dtype.kind == "f")
+        assert got[k].flags.f_contiguous == a.flags.f_contiguous
+    assert set(npz_arrays(buf.getvalue(), 2**30, ["tip", "nothing"])) == {"tip"}
+
+
+def test_the_sample_shapes_are_named_by_their_rows(copy, capsys):
+    s = _samples(copy)
+    _npz_with(copy, converged=np.stack([s["converged"]] * 2))
+    line = _inverse_refuses(copy, capsys, "samples.npz: converged", "not (M,)")
+    assert "-1" not in line
+    _npz_with(copy, converged=s["converged"], tensions=s["tensions"][:, :7])
+    _inverse_refuses(copy, capsys, "samples.npz: tensions", "not (M, 8)")
+
+
+@pytest.mark.parametrize(("field", "name"), [("mesh", "fsw.glb"), ("mesh", "fsw.obj"), ("mesh", "fsw"),
+                                             ("realisable.mesh", "fsw_realisable.dae")])
+def test_a_mesh_of_another_format_is_refused(field, name, copy):
+    """Runs write PLY only: another suffix is refused by name, no other trimesh loader reached."""
+    shutil.copy(copy / "fsw.ply", copy / name)
+    _edit_json(copy, _set(field, name))
+    _explore_refuses(copy, f"workspace.json: {field}", ".ply")
+
+
+def test_a_ply_mesh_is_read_as_ply_whatever_its_contents(copy):
+    """A .ply name holding another format is read as PLY (and refused as no PLY), never by its own loader."""
+    import trimesh
+
+    good = trimesh.load(copy / "fsw.ply", force="mesh")
+    (copy / "fsw.ply").write_bytes(good.export(file_type="obj").encode())
+    _explore_refuses(copy, "fsw.ply", "cannot read the boundary mesh")
+
+
+def test_a_link_swapped_in_after_the_check_is_not_followed(tmp_path, monkeypatch):
+    """The checked path is opened without following a link: a link put there between check and open (here: the
+    check made to answer with one) is refused, never read through."""
+    (tmp_path / "run").mkdir()
+    secret = tmp_path / "secret.txt"
+    secret.write_text("not the run's")
+    run = RunFolder(tmp_path / "run")
+    (run.root / "a.txt").symlink_to(secret)
+    monkeypatch.setattr(RunFolder, "path", lambda self, name, what: self.root / name)  # as if swapped since
+    with pytest.raises(SettingsError, match=r"a\.txt: not a regular file"):
+        run.read_bytes("a.txt", 100)
+
+
+def test_one_rule_for_tensions_inside_the_bounds():
+    from pytdcr import TensionBounds
+    from pytdcr.study._inverse import BOUNDS_SLACK, inside_bounds
+
+    bounds = TensionBounds.uniform(2, 0.0, 20.0)
+    slack = BOUNDS_SLACK * 20.0  # relative to the upper bound
+    assert inside_bounds(np.array([-0.5 * slack, 20.0 + 0.5 * slack]), bounds)
+    assert inside_bounds(np.array([[0.0, 3.0]] * 4), bounds)
+    assert not inside_bounds(np.array([0.0, 20.0 + 2 * slack]), bounds)
+    assert not inside_bounds(np.array([-2 * slack, 1.0]), bounds)
+    assert not inside_bounds(np.array([np.nan, 1.0]), bounds)
+    small = TensionBounds.uniform(2, 0.0, 0.5)  # at least 1 N times BOUNDS_SLACK
+    assert inside_bounds(np.array([0.5 + 0.5 * BOUNDS_SLACK, 0.0]), small)
+    assert not inside_bounds(np.array([0.5 + 2 * BOUNDS_SLACK, 0.0]), small)

@@ -150,8 +150,14 @@ def robot_from_dict(data: dict[str, Any], source: str = "robot") -> Robot:
 MAX_NESTING = 32
 
 
-def _nesting(data: Any) -> int:
-    """How deeply tables and arrays nest in ``data`` (0 for a scalar), counted without recursion."""
+def nesting_depth(data: Any, most: int = MAX_NESTING) -> int:
+    """How deeply dicts and lists (a file's tables and arrays, a JSON body's objects and lists) nest in ``data``
+    (0 for a scalar, 1 for ``[]``), counted without recursion, so any depth is measured; the count stops once it
+    passes ``most`` (the answer is then some depth beyond ``most``).
+
+    Used by every reader that bounds nesting (TOML files here, the explorer's request bodies); not part of the
+    public API.
+    """
     deepest, stack = 0, [(data, 0)]
     while stack:
         obj, depth = stack.pop()
@@ -162,7 +168,7 @@ def _nesting(data: Any) -> int:
         else:
             continue
         deepest = max(deepest, depth + 1)
-        if deepest > MAX_NESTING:
+        if deepest > most:
             break
     return deepest
 
@@ -201,7 +207,7 @@ def read_toml(path: str | Path, what: str) -> dict[str, Any]:
     except ValueError:  # an integer of more than 4300 digits, which Python refuses to convert
         raise ValueError(f"{what} {show_path(path)}: holds an integer of thousands of digits; an integer must fit "
                          "in 64 bits (as TOML says)") from None
-    if data is None or _nesting(data) > MAX_NESTING:
+    if data is None or nesting_depth(data) > MAX_NESTING:
         raise ValueError(f"{what} {show_path(path)}: tables and arrays nest deeper than {MAX_NESTING} levels; no "
                          "pytdcr file needs more than 4")
     bad = _bad_number(data)

@@ -25,6 +25,9 @@ import re
 from collections.abc import Callable, Iterable
 from typing import Any
 
+from ..io import nesting_depth
+from ..validate import show
+
 __all__ = ["LOOPBACK_NAMES", "MAX_BODY_BYTES", "MAX_DEPTH", "Guard", "Refused", "callback_request"]
 
 #: the largest request body read [bytes]: a real update of the page with 8 tendons sends about 3 kB, one with
@@ -34,7 +37,9 @@ MAX_BODY_BYTES = 256 * 1024
 MAX_DEPTH = 16
 #: the host names the page answers to (the server listens on 127.0.0.1 only)
 LOOPBACK_NAMES = ("127.0.0.1", "localhost")
-_HOST = re.compile(r"^(127\.0\.0\.1|localhost)(?::([0-9]{1,5}))?$", re.IGNORECASE)
+#: a ``Host`` header naming the page: one of :data:`LOOPBACK_NAMES` (any case), then a port or nothing; matched
+#: whole (``fullmatch``: no trailing newline slips past ``$``)
+_HOST = re.compile(rf"({'|'.join(map(re.escape, LOOPBACK_NAMES))})(?::([0-9]{{1,5}}))?", re.IGNORECASE)
 _METHODS = ("GET", "HEAD", "POST")
 #: on every answer: never drawn inside another site's page (whose clicks would drive it), never read by another
 #: site's page, never sniffed into another type
@@ -84,8 +89,9 @@ class Guard:
 
     # ------------------------------------------------------------------ the checks
     def host_allowed(self, host: str | None) -> bool:
-        """Whether a ``Host`` header (or an ``Origin``'s host and port) names this page."""
-        m = _HOST.match(host or "")
+        """Whether a ``Host`` header (or an ``Origin``'s host and port) names this page: one of
+        :data:`LOOPBACK_NAMES`, on its port, and nothing else (not even a trailing newline)."""
+        m = _HOST.fullmatch(host or "")
         if m is None:
             return False
         if self.port is None:
@@ -119,7 +125,8 @@ class Guard:
             raise Refused(415, "refused: a change is sent as application/json")
 
     def _body(self, environ: dict[str, Any]) -> bytes:
-        """The request's body, at most :data:`MAX_BODY_BYTES` (:class:`Refused` beyond)."""
+        """The request's body, at most :data:`MAX_BODY_BYTES` (:class:`Refused` 413 beyond; 400 when it cannot be
+        read: a malformed chunked body, a connection cut short)."""
         stream = environ.get("wsgi.input")
         length = environ.get("CONTENT_LENGTH") or ""
         if length:
@@ -128,7 +135,10 @@ class Guard:
             want = MAX_BODY_BYTES + 1
         else:  # neither a length nor chunks: no body (RFC 9112, 6.3)
             want = 0
-        data = stream.read(want) if stream is not None and want else b""
+        try:
+            data = stream.read(want) if stream is not None and want else b""
+        except (OSError, ValueError) as err:  # the server's reader: "Invalid chunk header", a closed connection
+            raise Refused(400, f"refused: the request body cannot be read ({show(str(err), 80)[1:-1]})") from None
         if len(data) > MAX_BODY_BYTES:
             raise Refused(413, f"refused: a request body is at most {MAX_BODY_BYTES} bytes")
         return data
@@ -139,7 +149,7 @@ class Guard:
             body = json.loads(data)
         except (ValueError, RecursionError):  # not UTF-8, not JSON, an integer of too many digits, too deep
             raise Refused(400, "refused: the request body is not JSON") from None
-        if _depth(body) > MAX_DEPTH:
+        if nesting_depth(body, MAX_DEPTH) > MAX_DEPTH:
             raise Refused(400, f"refused: the request body nests deeper than {MAX_DEPTH} levels")
         return json.dumps(callback_request(body, self.callbacks or {})).encode()
 
@@ -168,22 +178,6 @@ class Guard:
                                   exc_info)
 
         return self.app(environ, own_page_only)
-
-
-def _depth(value: Any) -> int:
-    """How deep lists and objects nest in a JSON value (0 for a scalar); iterative, so any depth is measured."""
-    deepest, todo = 0, [(value, 0)]
-    while todo:
-        v, d = todo.pop()
-        if isinstance(v, dict):
-            todo += [(x, d + 1) for x in v.values()]
-        elif isinstance(v, list):
-            todo += [(x, d + 1) for x in v]
-        else:
-            deepest = max(deepest, d)
-            continue
-        deepest = max(deepest, d + 1)
-    return deepest
 
 
 def _values(items: Any) -> dict[tuple[str, str], Any]:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import io
 from dataclasses import dataclass
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 import numpy as np
 
@@ -13,7 +13,7 @@ from ..design import Robot
 from ..loads import Loads
 from ..runtime import RunDoc, RunFolder
 from ..statics import MODELS, solve
-from ..study import read_workspace_inputs
+from ..study import inside_bounds, read_workspace_inputs
 from ..validate import show
 
 __all__ = ["MAX_COORDINATE_M", "MAX_FACES", "MAX_MESH_BYTES", "REACH_AGREES_M", "ReachPose", "WorkspaceView",
@@ -73,23 +73,28 @@ def read_workspace(folder: str | Path) -> WorkspaceView:
     vertices = faces = None
     total = 0
     if doc.has("mesh"):
-        vertices, faces, total = _mesh(run, doc.read_path("mesh"))
+        vertices, faces, total = _mesh(doc, "mesh")
     realisable = None
     if doc.has("realisable") and doc.read_dict("realisable").get("mesh") is not None:
-        realisable = _mesh(run, doc.read_path("realisable.mesh"))[:2]
+        realisable = _mesh(doc, "realisable.mesh")[:2]
     return WorkspaceView(d, robot, loads, bounds, model, vertices, faces, total,
                          _reach(doc, robot, loads, bounds, model), realisable)
 
 
-def _mesh(run: RunFolder, name: str) -> tuple[np.ndarray, np.ndarray, int]:
-    """Vertices (V, 3) [m], at most :data:`MAX_FACES` faces and the number of faces of the mesh ``name`` in the
-    run's folder (a PLY file, read from its bytes: never a file it names)."""
+def _mesh(doc: RunDoc, field: str) -> tuple[np.ndarray, np.ndarray, int]:
+    """Vertices (V, 3) [m], at most :data:`MAX_FACES` faces and the number of faces of the mesh the field
+    ``field`` of ``workspace.json`` names in the run's folder: a ``.ply`` file (what a run writes; any other
+    suffix is refused, so no other loader of trimesh is ever reached), read as PLY from its bytes (never a file
+    it names)."""
     import trimesh
 
+    run, name = doc.run, doc.read_path(field)
+    if PurePosixPath(name).suffix.lower() != ".ply":
+        raise doc.refuse(field, "must name a .ply file (the boundary meshes a run writes are PLY)", name)
     data = run.read_bytes(name, MAX_MESH_BYTES)
     try:
-        mesh = trimesh.load(io.BytesIO(data), file_type=Path(name).suffix.lstrip(".").lower() or "ply",
-                            force="mesh", process=False)  # as written: a NaN vertex is refused, not dropped
+        mesh = trimesh.load(io.BytesIO(data), file_type="ply", force="mesh",
+                            process=False)  # as written: a NaN vertex is refused, not dropped
         v = np.asarray(mesh.vertices, dtype=float).reshape(-1, 3)
         f = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
     except Exception as err:  # a loader fails in its own ways on a file it cannot parse
@@ -111,8 +116,7 @@ def _reach(doc: RunDoc, robot: Robot, loads: Loads, bounds: TensionBounds, model
         return None
     t = doc.read_vector("largest_reach.tensions", robot.n_tendons)
     tip = doc.read_vector("largest_reach.tip", 3, MAX_COORDINATE_M)
-    slack = 1e-9 * np.maximum(bounds.upper, 1.0)
-    if np.any(t < bounds.lower - slack) or np.any(t > bounds.upper + slack):
+    if not inside_bounds(t, bounds):
         raise doc.refuse("largest_reach.tensions", "must lie inside the run's bounds (inputs.bounds)", t.tolist())
     sol = solve(robot, loads.with_tensions(t), model=MODELS[model])
     if not sol.converged:

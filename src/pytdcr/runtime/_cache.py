@@ -4,16 +4,19 @@ A cache is a file we own in a folder others may write, so nothing found there is
 
 - **The folder** (:func:`cache_dir`): ``PYTDCR_CACHE_DIR`` (set empty: no disk cache), else
   ``$XDG_CACHE_HOME/pytdcr`` or ``~/.cache/pytdcr``. It is made with mode 0700 and used only when it is a real
-  folder (not a link to one), owned by this user and not writable by everyone; it is opened once per read or
-  write and every entry is reached through that open folder, so it cannot be swapped under us.
+  folder (not a link to one), owned by this user and writable by no one else (neither its group nor everyone);
+  it is opened once per read or write and every entry is reached through that open folder, so it cannot be
+  swapped under us.
 - **Reading an entry** (:func:`read_entry`, :func:`read_arrays`): only a regular file owned by this user, with one
   name (no hard link elsewhere), of bounded size, opened without following a link (``O_NOFOLLOW``) and without
-  blocking (a FIFO never hangs); arrays are read with ``allow_pickle=False`` and their names, shapes, dtypes and
-  finiteness checked. Anything else (a link, a FIFO, a device, a folder, another user's file, a truncated or
-  garbage file) is "no entry": the caller computes it again.
+  blocking (a FIFO never hangs); arrays are read by :func:`~pytdcr.runtime._readback.npz_arrays` (each header
+  checked before its data is read: no pickle, no shape declaring more data than the entry holds) and their
+  names, shapes, dtypes and finiteness checked. Anything else (a link, a FIFO, a device, a folder, another
+  user's file, a truncated or garbage file) is "no entry": the caller computes it again.
 - **Writing an entry** (:func:`write_entry`, :func:`write_arrays`): a new temporary file (``O_CREAT | O_EXCL |
   O_NOFOLLOW``, mode 0600) in the cache folder, renamed over the entry's name (a rename replaces a link there, it
-  never writes through it). Any failure means the entry is not kept: never an error, never a partial file.
+  never writes through it); arrays that reading would refuse (a NaN, an infinity) are not written. Any failure
+  means the entry is not kept: never an error, never a partial file.
 - **Bounding the folder** (done by :func:`write_entry`): an entry's name is ``KIND-KEY[.EXT]`` (``inverse-pool-
   <digest>.npz``: its kind is ``inverse-pool``). After an entry is kept, the entries of its kind beyond the newest
   :data:`MAX_ENTRIES_PER_KIND` (by modification time) are removed, and so are its kind's temporary files left by a
@@ -31,11 +34,12 @@ import re
 import secrets
 import stat
 import time
-import zipfile
 from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
+
+from ._readback import npz_arrays
 
 __all__ = ["MAX_ENTRIES_PER_KIND", "MAX_ENTRY_BYTES", "STALE_TEMP_S", "cache_dir", "entry_kind", "read_arrays",
            "read_entry", "write_arrays", "write_entry"]
@@ -80,7 +84,7 @@ def _ours(st: os.stat_result) -> bool:
 
 def _open_folder(folder: Path, create: bool) -> int | None:
     """A descriptor of the cache ``folder`` (made with mode 0700 when ``create``), or None when it is missing,
-    a link, not a folder, another user's, or writable by everyone."""
+    a link, not a folder, another user's, or writable by its group or by everyone."""
     if create:
         try:
             folder.parent.mkdir(parents=True, exist_ok=True)
@@ -97,7 +101,7 @@ def _open_folder(folder: Path, create: bool) -> int | None:
             _log.debug("cache folder %s not used: %s", folder, err)
         return None
     st = os.fstat(fd)
-    if not stat.S_ISDIR(st.st_mode) or not _ours(st) or st.st_mode & stat.S_IWOTH:
+    if not stat.S_ISDIR(st.st_mode) or not _ours(st) or st.st_mode & (stat.S_IWOTH | stat.S_IWGRP):
         _log.debug("cache folder %s not used: not a private folder of this user", folder)
         os.close(fd)
         return None
@@ -287,14 +291,10 @@ def read_arrays(name: str, shapes: Mapping[str, tuple[int | str, ...]], *, folde
     if data is None:
         return None
     try:
-        with zipfile.ZipFile(io.BytesIO(data)) as zf:
-            if sum(i.file_size for i in zf.infolist()) > max_bytes:  # never inflated past the bound
-                return None
-        with np.load(io.BytesIO(data), allow_pickle=False) as z:
-            if set(z.files) != set(shapes):
-                return None
-            arrays = {key: z[key] for key in shapes}
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, RuntimeError, NotImplementedError):
+        arrays = npz_arrays(data, max_bytes)
+    except ValueError:  # not a whole .npz file, too large, or an array's header refused: no entry
+        return None
+    if set(arrays) != set(shapes):
         return None
     if any(a.dtype != np.float64 or not np.all(np.isfinite(a)) for a in arrays.values()):
         return None
@@ -302,7 +302,15 @@ def read_arrays(name: str, shapes: Mapping[str, tuple[int | str, ...]], *, folde
 
 
 def write_arrays(name: str, arrays: Mapping[str, np.ndarray], *, folder: Path | None = None) -> bool:
-    """Keep ``arrays`` (float64) as the ``.npz`` cache entry ``name`` (:func:`write_entry`); True when kept."""
+    """Keep ``arrays`` (float64) as the ``.npz`` cache entry ``name`` (:func:`write_entry`); True when kept.
+
+    Arrays :func:`read_arrays` would refuse are not kept (False, a debug note): one holding a NaN or an infinity
+    would otherwise be written again by every run that found no entry it trusts."""
+    values = {key: np.asarray(a, dtype=np.float64) for key, a in arrays.items()}
+    bad = [key for key, a in values.items() if not np.all(np.isfinite(a))]
+    if bad:
+        _log.debug("cache entry %s not kept: %s not finite", name, ", ".join(bad))
+        return False
     buf = io.BytesIO()
-    np.savez(buf, **{key: np.asarray(a, dtype=np.float64) for key, a in arrays.items()})
+    np.savez(buf, **values)
     return write_entry(name, buf.getvalue(), folder=folder)

@@ -5,8 +5,10 @@ have been edited since. :class:`RunFolder` reads it:
 
 - **Files** (:meth:`RunFolder.read_bytes`, :meth:`RunFolder.read_json`, :meth:`RunFolder.read_npz`): named by a
   relative path that stays inside the folder (no absolute path, no ``..``, no link leading out of it), a regular
-  file (a FIFO never blocks) of bounded size; ``.npz`` arrays with ``allow_pickle=False`` (an object array is refused),
-  each array's data bounded before it is read.
+  file (a FIFO never blocks, a link put there after the check is not followed) of bounded size; ``.npz`` arrays
+  through :func:`npz_arrays` (the one reader of ``.npz`` bytes, the cache's too): each array's header is checked
+  before its data is read (no object dtype, so no pickle; the data its shape declares within its member and the
+  bound).
 - **Fields** (:class:`RunDoc`'s ``read_*``): only what is read through them is trusted; a JSON ``true`` or
   ``false`` for a bool (never the string ``"false"``), an integer for an int (not 2.0, not true), a finite number
   for a float (never ``NaN`` or ``1e400``), a string of the allowed ones, a vector of its length of finite
@@ -21,19 +23,21 @@ from __future__ import annotations
 
 import io
 import json
+import math
 import os
 import re
 import stat
 import zipfile
+import zlib
 from collections.abc import Iterable, Mapping
 from pathlib import Path, PurePosixPath
 from typing import Any
 
 import numpy as np
 
-from ..validate import SettingsError, is_integer, show, show_path
+from ..validate import SettingsError, check_real, is_integer, show, show_path
 
-__all__ = ["MAX_JSON_BYTES", "MAX_RUN_FILE_BYTES", "RunDoc", "RunFolder", "regular_file_bytes"]
+__all__ = ["MAX_JSON_BYTES", "MAX_RUN_FILE_BYTES", "RunDoc", "RunFolder", "npz_arrays", "regular_file_bytes"]
 
 #: the largest JSON file read back from a run's folder [bytes]
 MAX_JSON_BYTES = 64 * 2**20
@@ -74,6 +78,81 @@ def regular_file_bytes(path: str | Path, limit: int, *, follow: bool = True) -> 
     return data
 
 
+#: what reading a ``.npz`` file's bytes may raise besides ValueError: a broken zip, an encrypted or unknown
+#: compression, a broken deflate stream, a header that nests too deep
+_NPZ_ERRORS = (OSError, EOFError, KeyError, zipfile.BadZipFile, RuntimeError, NotImplementedError, zlib.error,
+               RecursionError)
+
+
+def _npy_header(member: io.BufferedIOBase) -> tuple[tuple[int, ...], np.dtype]:
+    """The shape and dtype a ``.npy`` member's header declares (the member read up to its data)."""
+    version = np.lib.format.read_magic(member)
+    if version == (1, 0):
+        shape, _, dtype = np.lib.format.read_array_header_1_0(member)
+    elif version == (2, 0):
+        shape, _, dtype = np.lib.format.read_array_header_2_0(member)
+    else:
+        raise ValueError(f"npy format version {version[0]}.{version[1]}, not one numpy.savez writes")
+    return shape, dtype
+
+
+def npz_arrays(data: bytes, limit: int, keys: Iterable[str] | None = None) -> dict[str, np.ndarray]:
+    """The arrays of the ``.npz`` file whose bytes are ``data`` (``keys`` only, when given; a key the file lacks
+    is absent from the answer), each read only after its ``.npy`` header is checked.
+
+    Nothing is unpacked before it is bounded: the members together unpack to at most ``limit`` bytes, and each
+    array's header must declare a dtype of plain numbers (no object: no pickle is ever read), of a non-zero item
+    size, and a shape whose data (``prod(shape) * itemsize``) fits in both its member's size and ``limit``; a
+    header claiming a shape of 2**40 items is refused from its few bytes, never allocated.
+
+    Parameters
+    ----------
+    data : bytes
+        The ``.npz`` file's bytes.
+    limit : int
+        The most bytes the file may unpack to, and the largest array's data [bytes].
+    keys : iterable of str, optional
+        The arrays to read (each ``KEY.npy`` member); None: every member.
+
+    Returns
+    -------
+    dict
+        Each array read, by its key, exactly as :func:`numpy.load` reads it.
+
+    Raises
+    ------
+    ValueError
+        One line saying what is wrong: not a whole ``.npz`` file, unpacking to more than ``limit`` bytes, or an
+        array whose header is refused (its key first, e.g. ``tensions: ...``).
+    """
+    wanted = None if keys is None else set(keys)
+    out: dict[str, np.ndarray] = {}
+    try:
+        with zipfile.ZipFile(io.BytesIO(data)) as zf:
+            infos = zf.infolist()
+            if sum(i.file_size for i in infos) > limit:  # never inflated past the bound
+                raise ValueError(f"unpacks to more than {limit:,} bytes; not a file this run wrote")
+            for info in infos:
+                key = info.filename.removesuffix(".npy")
+                if wanted is not None and key not in wanted:
+                    continue
+                with zf.open(info) as member:
+                    shape, dtype = _npy_header(member)
+                if dtype.hasobject or dtype.itemsize == 0:
+                    raise ValueError(f"{key}: not an array of numbers (dtype {show(str(dtype))})")
+                if any(n < 0 for n in shape):
+                    raise ValueError(f"{key}: its header declares the shape {show(shape)}")
+                need = math.prod(shape) * dtype.itemsize
+                if need > info.file_size or need > limit:
+                    raise ValueError(f"{key}: its header declares {need:,} bytes of data (shape {show(shape, 80)}), "
+                                     f"more than {'it holds' if need <= limit else f'{limit:,} bytes'}")
+                with zf.open(info) as member:  # checked: now read, as numpy.load reads it
+                    out[key] = np.lib.format.read_array(member, allow_pickle=False)
+    except _NPZ_ERRORS as err:
+        raise ValueError(f"not a whole .npz file ({type(err).__name__}: {show(str(err), 100)[1:-1]})") from None
+    return out
+
+
 class RunFolder:
     """A folder another run wrote, read as input; ``field`` is the setting that named it (its refusals name it).
 
@@ -109,11 +188,12 @@ class RunFolder:
 
     def read_bytes(self, name: str, limit: int, what: str | None = None) -> bytes:
         """The bytes of the regular file ``name`` (:meth:`path`), at most ``limit`` of them; refused when it is
-        missing, anything but a regular file, or larger."""
+        missing, anything but a regular file (a link put at the checked path since is not followed), or
+        larger."""
         what = what or name
         path = self.path(name, what)
-        try:
-            return regular_file_bytes(path, limit)
+        try:  # the resolved path opened without following a link: none swapped in since it was checked
+            return regular_file_bytes(path, limit, follow=False)
         except OSError as err:
             raise self.refuse(f"{what}: cannot read it ({err.strerror or err}); give the folder of one finished "
                               "run") from None
@@ -135,32 +215,23 @@ class RunFolder:
     def read_npz(self, name: str, kinds: Mapping[str, str], limit: int = MAX_RUN_FILE_BYTES) -> dict[str, np.ndarray]:
         """The arrays ``kinds`` names of the ``.npz`` file ``name``, each of its kind (``"f"`` real numbers, read as
         float64; ``"b"`` booleans; ``"i"`` integers), without pickles; refused when one is missing or of another
-        kind, or the file is not a whole ``.npz`` file or unpacks to more than ``limit`` bytes."""
+        kind, or the file is not a whole ``.npz`` file, unpacks to more than ``limit`` bytes or has an array whose
+        header declares more data than it holds (:func:`npz_arrays`)."""
         data = self.read_bytes(name, limit)
-        out: dict[str, np.ndarray] = {}
         try:
-            with zipfile.ZipFile(io.BytesIO(data)) as zf:
-                if sum(i.file_size for i in zf.infolist()) > limit:
-                    raise self.refuse(f"{name}: unpacks to more than {limit:,} bytes; not a file this run wrote")
-            with np.load(io.BytesIO(data), allow_pickle=False) as z:
-                for key, kind in kinds.items():
-                    if key not in z.files:
-                        raise self.refuse(f"{name}: {key}: missing")
-                    try:
-                        arr = z[key]
-                    except ValueError as err:  # an object array: it would need a pickle
-                        raise self.refuse(f"{name}: {key}: not an array of numbers ({err})") from None
-                    ok = {"f": "fiu", "b": "b", "i": "iu"}[kind]
-                    if arr.dtype.kind not in ok:
-                        raise self.refuse(f"{name}: {key}: must be an array of "
-                                          f"{ {'f': 'real numbers', 'b': 'booleans', 'i': 'integers'}[kind]}, got "
-                                          f"dtype {show(str(arr.dtype))}")
-                    out[key] = arr.astype(np.float64) if kind == "f" else arr
-        except SettingsError:
-            raise
-        except (OSError, ValueError, EOFError, zipfile.BadZipFile, RuntimeError, NotImplementedError) as err:
-            raise self.refuse(f"{name}: not a whole .npz file ({type(err).__name__}: "
-                              f"{show(str(err), 100)[1:-1]})") from None
+            arrays = npz_arrays(data, limit, kinds)
+        except ValueError as err:
+            raise self.refuse(f"{name}: {err}") from None
+        words = {"f": "real numbers", "b": "booleans", "i": "integers"}
+        out: dict[str, np.ndarray] = {}
+        for key, kind in kinds.items():
+            if key not in arrays:
+                raise self.refuse(f"{name}: {key}: missing")
+            arr = arrays[key]
+            if arr.dtype.kind not in {"f": "fiu", "b": "b", "i": "iu"}[kind]:
+                raise self.refuse(f"{name}: {key}: must be an array of {words[kind]}, got dtype "
+                                  f"{show(str(arr.dtype))}")
+            out[key] = arr.astype(np.float64) if kind == "f" else arr
         return out
 
 
@@ -214,13 +285,14 @@ class RunDoc:
         return int(v)
 
     def read_float(self, path: str, lo: float | None = None, hi: float | None = None) -> float:
-        """A finite JSON number in [lo, hi]."""
+        """A finite JSON number in [lo, hi] (:func:`~pytdcr.validate.check_real`: an integer of any size, too
+        large for a float, is refused as out of range)."""
         v = self.get(path)
-        if not isinstance(v, (int, float)) or isinstance(v, bool) or not np.isfinite(float(v)) or (
-                lo is not None and v < lo) or (hi is not None and v > hi):
+        try:
+            return check_real(v, path, lo, hi, "")
+        except (TypeError, ValueError):
             span = f"in [{'-inf' if lo is None else f'{lo:g}'}, {'inf' if hi is None else f'{hi:g}'}]"
-            raise self.refuse(path, f"must be a finite number {span}", v)
-        return float(v)
+            raise self.refuse(path, f"must be a finite number {span}", v) from None
 
     def read_str(self, path: str, choices: Iterable[str] | None = None) -> str:
         """A JSON string, one of ``choices`` when given."""
@@ -232,15 +304,20 @@ class RunDoc:
         return v
 
     def read_vector(self, path: str, n: int | None = None, limit: float | None = None) -> np.ndarray:
-        """A JSON list of ``n`` (any number when None) finite numbers, each within +/- ``limit``."""
+        """A JSON list of ``n`` (any number when None) finite numbers, each within +/- ``limit``
+        (:func:`~pytdcr.validate.check_real`: an integer too large for a float is refused, never an
+        OverflowError)."""
         v = self.get(path)
-        ok = isinstance(v, list) and (n is None or len(v) == n) and all(
-            isinstance(x, (int, float)) and not isinstance(x, bool) and np.isfinite(float(x))
-            and (limit is None or abs(x) <= limit) for x in v)
-        if not ok:
+        lo = None if limit is None else -limit
+        try:
+            if not isinstance(v, list) or (n is not None and len(v) != n):
+                raise ValueError("not a list of its length")
+            for k, x in enumerate(v):
+                check_real(x, f"{path}[{k}]", lo, limit, "")
+        except (TypeError, ValueError):
             size = "" if n is None else f"{n} "
             within = "" if limit is None else f" within +/-{limit:g}"
-            raise self.refuse(path, f"must be a list of {size}finite numbers{within}", v)
+            raise self.refuse(path, f"must be a list of {size}finite numbers{within}", v) from None
         return np.array(v, dtype=float)
 
     def read_list(self, path: str, most: int | None = None) -> list[Any]:

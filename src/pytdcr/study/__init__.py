@@ -21,6 +21,7 @@ from ._compare import CompareRun, run_compare
 from ._inverse import (
     WorkspaceInputs,
     WorkspacePool,
+    inside_bounds,
     inverse_columns,
     inverse_rows,
     read_workspace_inputs,
@@ -84,6 +85,7 @@ __all__ = [
     "check_workspace_cases",
     "format_measure_of",
     "inputs_record",
+    "inside_bounds",
     "inverse_columns",
     "inverse_rows",
     "number_text",
