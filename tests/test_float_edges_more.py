@@ -203,3 +203,30 @@ def test_the_optimiser_writes_no_negative_zero():
     assert back["history"]["evaluations"] == [12, 24] and isinstance(back["generations"], int)
     assert back["tip_position"] == [0.2, 0.0, 0.3] and back["tensions"] == [0.0, 0.0, 1.5]
     assert back["stable"] is None and back["seed"] == 1
+
+
+def _ordinary_directions() -> np.ndarray:
+    from pytdcr.region import fibonacci_directions
+
+    rng = np.random.default_rng(7)
+    return np.vstack([fibonacci_directions(200), rng.normal(size=(500, 3)), [[0.3, 0.2, 0.9], [0.0, -0.0, 1.0]],
+                      rng.normal(size=(50, 3)) * 1e-120, rng.normal(size=(50, 3)) * 1e120])
+
+
+def test_an_ordinary_direction_keeps_every_bit():
+    """The one direction rule scales by the largest component only where a length would over- or underflow:
+    every ordinary direction is ``v / norm(v)`` bit for bit, as the target's axis, the reach problem's
+    direction and the figures computed it before the rule (h(d), polishes and inverse answers read them; the
+    scaled rule moved 123 of the 200 default directions' last bits)."""
+    from pytdcr import TipTarget
+    from pytdcr.validate import unit_vector
+
+    robot = paper_robot()
+    loads = Loads(np.zeros(robot.n_tendons))
+    for v in _ordinary_directions():
+        want = v / float(np.linalg.norm(v))
+        np.testing.assert_array_equal(unit_vector(v, "d"), want)
+        np.testing.assert_array_equal(TipTarget([0.0, 0.0, 0.2], v).direction, want)
+    for v in _ordinary_directions()[:20]:
+        p = ReachProblem.create(robot, loads, paper_bounds(), direction=v)
+        np.testing.assert_array_equal(p.direction, v / float(np.linalg.norm(v)))

@@ -331,11 +331,25 @@ def check_positions(value: ArrayLike, name: str, *, single: bool = False) -> np.
     return arr + 0.0
 
 
+#: a row whose largest |component| lies strictly between these has a length whose square neither over- nor
+#: underflows: it is divided by ``np.linalg.norm`` as it always was (the same bits for every ordinary direction)
+PLAIN_SCALE = (1e-150, 1e150)
+
+
 def _unit_rows(arr: np.ndarray) -> np.ndarray:
     """Each row of the finite ``arr`` (K, n) (every row's largest |component| at least :data:`MIN_DIRECTION`)
-    divided by its length, computed without overflow or underflow: scaled by its largest |component| first."""
-    scaled = arr / np.max(np.abs(arr), axis=1, keepdims=True)
-    return scaled / np.sqrt(np.sum(scaled * scaled, axis=1, keepdims=True)) + 0.0
+    divided by its length, computed without overflow or underflow: ``row / norm(row)`` where the largest
+    |component| lies in :data:`PLAIN_SCALE` (bit for bit what callers computed before this rule), else scaled by
+    the largest |component| first (``-0.0`` written ``0.0`` there)."""
+    out = np.empty_like(arr, dtype=float)
+    for k, row in enumerate(arr):
+        big = float(np.max(np.abs(row)))
+        if PLAIN_SCALE[0] < big < PLAIN_SCALE[1]:
+            out[k] = row / float(np.linalg.norm(row))
+        else:
+            scaled = row / big
+            out[k] = scaled / np.sqrt(np.sum(scaled * scaled)) + 0.0
+    return out
 
 
 def unit_vectors(value: ArrayLike, name: str, size: int = 3) -> np.ndarray:
