@@ -483,3 +483,177 @@ def test_an_extreme_tip_load_gives_an_answer_never_an_arithmetic_error(model, lo
         assert sol.residual > sol.atol
         with pytest.raises(NotConvergedError, match="did not converge"):  # no shape is given for it
             _ = sol.tip_position
+
+
+# ---------------------------------------------------------------- the review: one rule, the old bits kept
+def _ordinary(seed: int) -> np.ndarray:
+    """Ordinary directions: the Fibonacci sphere's, random normals at scales from 1e-100 to 1e100, (0.3, 0.2,
+    0.9), and rows with a zero (also -0.0) component."""
+    from pytdcr.region import fibonacci_directions
+
+    rng = np.random.default_rng(seed)
+    return np.vstack([fibonacci_directions(200), rng.normal(size=(300, 3)),
+                      rng.normal(size=(100, 3)) * 10.0 ** rng.uniform(-100, 100, (100, 1)),
+                      [[0.3, 0.2, 0.9], [0.0, -0.0, 1.0], [-2.0, 0.0, 0.0]]])
+
+
+def test_an_ordinary_direction_is_v_over_its_norm_bit_for_bit():
+    """``unit_vector`` (the target's axis, the reach problem's direction) is ``v / np.linalg.norm(v)`` and
+    ``unit_vectors`` (the workspace's given directions) ``d / np.linalg.norm(d, axis=1)``, each bit for bit as
+    computed before the one rule (the scaled rule moved 123 of the 200 default directions; NumPy's length of one
+    vector and of a stack's rows may differ in the last bit, so each keeps its own)."""
+    D = _ordinary(11)
+    np.testing.assert_array_equal(unit_vectors(D, "directions"), D / np.linalg.norm(D, axis=1)[:, None])
+    problem = ReachProblem.create(ROBOT, LOADS, BOUNDS, direction=[0.3, 0.2, 0.9])
+    for v in D:
+        want = v / np.linalg.norm(v)
+        np.testing.assert_array_equal(unit_vector(v, "direction"), want)
+        np.testing.assert_array_equal(TipTarget([0.1, 0.0, 0.3], v).direction, want)
+        np.testing.assert_array_equal(problem.with_direction(v).direction, want)
+    v = np.array([0.3, 0.2, 0.9])
+    np.testing.assert_array_equal(ReachProblem.create(ROBOT, LOADS, BOUNDS, direction=v).direction,
+                                  v / np.linalg.norm(v))
+
+
+@pytest.mark.parametrize("scale", [1e150, 1e-150, 1e300, 1e-300, 2.5e-308])
+def test_a_direction_at_the_edges_of_the_plain_rule_is_its_unit_vector(scale):
+    """At and beyond the plain rule's interval (1e-150, 1e150) the scaled rule takes over: no overflow, no
+    underflow, the same direction to rounding, in a row of a stack or alone."""
+    row = np.array([scale, -2.0 * scale, 0.5 * scale])
+    want = np.array([1.0, -2.0, 0.5]) / math.sqrt(5.25)
+    np.testing.assert_allclose(unit_vector(row, "direction"), want, rtol=1e-15)
+    got = unit_vectors([row, [0.3, 0.2, 0.9]], "directions")
+    np.testing.assert_allclose(got[0], want, rtol=1e-15)
+    np.testing.assert_array_equal(got[1], np.array([0.3, 0.2, 0.9]) / np.linalg.norm([[0.3, 0.2, 0.9]], axis=1))
+    np.testing.assert_allclose(ReachProblem.create(ROBOT, LOADS, BOUNDS, direction=row).direction, want, rtol=1e-15)
+
+
+def test_region_directions_go_through_the_one_rule():
+    """The workspace's directions are :func:`pytdcr.validate.unit_vectors`' (no second rule in the region)."""
+    import pytdcr.region._support as support
+    from pytdcr.region import WorkspaceSettings
+    from pytdcr.region._support import _check_directions
+
+    assert not hasattr(support, "unit_directions") and not hasattr(support, "PLAIN_SCALE")
+    rows = [[1e200, 1e200, 0.0], [0.3, 0.2, 0.9]]
+    np.testing.assert_array_equal(_check_directions(np.array(rows)), unit_vectors(rows, "directions"))
+    np.testing.assert_array_equal(WorkspaceSettings(directions=rows).direction_vectors(),
+                                  unit_vectors(rows, "directions"))
+    with pytest.raises(ValueError, match="nonzero"):
+        _check_directions(np.zeros((2, 3)))
+
+
+@pytest.mark.parametrize(("value", "want"), [
+    ([0.0, 0.0, 0.0], None), ([-0.0, 0.0, 0.0], None), ([5e-324, 0.0, -5e-324], None), ([np.nan, 1.0, 0.0], None),
+    ([np.inf, 0.0, 0.0], None), ([0.0, -np.inf, 1.0], None),
+    ([1e-300, 0.0, -1e-300], [2**-0.5, 0.0, -(2**-0.5)]), ([0.0, 0.0, -9.81], [0.0, 0.0, -1.0]),
+    ([1e300, 1e300, 0.0], [2**-0.5, 2**-0.5, 0.0]),
+])
+def test_direction_or_none_is_the_unit_vector_or_none(value, want):
+    """A vector that may be too small to have a direction (a load's arrow, a gravity): its unit vector, or None
+    when every component is below MIN_DIRECTION or one is not finite; never a warning or an exception."""
+    from pytdcr.validate import direction_or_none
+
+    got = direction_or_none(value, "arrow")
+    if want is None:
+        assert got is None
+    else:
+        np.testing.assert_allclose(got, want, rtol=1e-15)
+        v = np.array(value)
+        if 1e-150 < np.max(np.abs(v)) < 1e150:
+            np.testing.assert_array_equal(got, v / np.linalg.norm(v))
+
+
+def test_direction_or_none_refuses_what_is_no_vector_naming_it():
+    from pytdcr.validate import direction_or_none
+
+    with pytest.raises(SettingsError, match=r"^arrow: give 3 finite numbers"):
+        direction_or_none([1.0, 0.0], "arrow")
+    with pytest.raises(TypeError, match="arrow"):
+        direction_or_none([True, 0.0, 0.0], "arrow")
+
+
+def test_an_explorer_arrow_of_a_load_without_a_direction_is_not_drawn():
+    """The explorer's arrows follow the same rule: nothing for a zero, subnormal or non-finite vector (an
+    infinite one was refused with an exception before), an arrow of the length asked for otherwise."""
+    from pytdcr.explore._figure import _arrow
+
+    origin = np.array([0.0, 0.0, 0.4])
+    for v in ([0.0, 0.0, 0.0], [5e-324, 0.0, 0.0], [np.inf, 0.0, 0.0], [np.nan, 0.0, 1.0]):
+        assert _arrow(origin, np.array(v), 0.1).shape == (0, 3)
+    pts = _arrow(origin, np.array([1e-200, 0.0, 0.0]), 0.1)
+    np.testing.assert_allclose(pts[1], origin + np.array([0.1, 0.0, 0.0]), rtol=1e-15)
+
+
+def test_the_optimiser_s_dicts_follow_the_json_rule():
+    """``Optimum.to_dict`` and ``ReachResult.to_dict`` are :func:`pytdcr.runtime.to_jsonable`'s (the rule of
+    every JSON file): no -0.0, and a non-finite number None (strict JSON), not NaN."""
+    from pytdcr.optimize import Optimum, ReachResult
+
+    opt = Optimum(np.array([-0.0, 1.5]), np.array([0.2, -0.0, 0.3]), math.nan, -0.0, None)
+    res = ReachResult(tensions=opt.tensions, tip_position=opt.tip_position, reach=0.36, cost=-0.0, value=-0.0,
+                      stable=None, converged=False, stop_reason="generation cap", generations=2, evaluations=24,
+                      nonconverged=24, seconds=1.0, seed=1,
+                      history={"best": [math.inf, -0.0], "mean": [math.nan, 1.0], "evaluations": [12, 24]},
+                      ga=opt, settings={"direction": np.array([-0.0, 0.0, 1.0])})
+    d = opt.to_dict()
+    assert d == {"tensions": [0.0, 1.5], "tip_position": [0.2, 0.0, 0.3], "reach": None, "cost": 0.0, "stable": None}
+    text = json.dumps(res.to_dict(), allow_nan=False)
+    assert "-0.0" not in text
+    back = json.loads(text)
+    assert back["history"]["best"] == [None, 0.0] and back["ga"]["reach"] is None
+    assert back["settings"]["direction"] == [0.0, 0.0, 1.0]
+
+
+def test_finite_real_is_check_real_s_rule_for_answers_without_an_exception():
+    """One finite-number check (:func:`pytdcr.validate.finite_real`, by :func:`check_real`): the explorer's
+    boxes and a design record's numbers use it."""
+    from pytdcr.designs._run import _number
+    from pytdcr.validate import finite_real
+
+    for bad in (True, False, np.True_, "1", None, [1.0], math.nan, math.inf, -math.inf, 10**400, -(10**400), 1j):
+        assert finite_real(bad) is None, bad
+        assert _number(bad) is False, bad
+    for good, want in ((0, 0.0), (-0.0, 0.0), (3, 3.0), (2.5, 2.5), (10**300, 1e300), (np.float32(0.5), 0.5)):
+        got = finite_real(good)
+        assert got == want and type(got) is float and not math.copysign(1.0, got) < 0
+        assert _number(good) is True
+
+
+def test_the_explorer_s_boxes_keep_their_messages_and_ranges():
+    """The explorer's load boxes take what :class:`pytdcr.Loads` takes (``MAX_FORCE_N``, ``MAX_MOMENT_NM``), and
+    a value that is no finite number (an integer beyond the floats, true, NaN) gets the box's own message."""
+    import importlib
+
+    import pytdcr.explore._app as app
+    import pytdcr.validate as validate
+
+    ex = SimpleNamespace(bounds=SimpleNamespace(lower=np.zeros(8), upper=np.full(8, 20.0)),
+                         robot=SimpleNamespace(n_tendons=8))
+    options = {"gravity": ["on"], "friction": "own", "model": "pcc"}
+    wrench = [0.0] * 7
+    assert app._controls(ex, [1.0] * 8, [10**400, *wrench[1:]], options) == \
+        "force x: give a number in [-1e+06, 1e+06] N"
+    assert app._controls(ex, [1.0] * 8, [*wrench[:4], True, 0.0, 0.0], options) == \
+        "moment y: give a number in [-1e+06, 1e+06] N m"
+    assert app._controls(ex, [True, *[1.0] * 7], wrench, options) == "T1: give a tension in [0, 20] N"
+    assert app._controls(ex, [1.0] * 8, [*wrench[:6], math.nan], options) == "payload: give a number in [0, 10000] kg"
+    assert not isinstance(app._controls(ex, [1.0] * 8, wrench, options), str)
+    with pytest.MonkeyPatch.context() as m:
+        m.setattr(validate, "MAX_FORCE_N", 7.0)
+        m.setattr(validate, "MAX_MOMENT_NM", 3.0)
+        ranges = dict(importlib.reload(app)._WRENCH_RANGE)
+    importlib.reload(app)
+    assert ranges["force-z"] == (-7.0, 7.0, "N") and ranges["moment-x"] == (-3.0, 3.0, "N m")
+    assert app._WRENCH_RANGE["force-x"] == (-validate.MAX_FORCE_N, validate.MAX_FORCE_N, "N")
+
+
+def test_number_text_is_the_validation_layer_s_rule():
+    """``number_text`` lives next to ``show_number`` (the one rule of the command line too) and stays
+    importable from :mod:`pytdcr.study` and its report."""
+    import pytdcr.study
+    import pytdcr.study._report
+    from pytdcr.validate import number_text
+
+    assert pytdcr.study.number_text is number_text and pytdcr.study._report.number_text is number_text
+    assert number_text(2e-4) == "0.0002" and number_text(-0.0) == "0.000" and number_text(1.25, 3, 9) == "    1.250"

@@ -21,9 +21,10 @@ from numpy.typing import ArrayLike
 from pydantic import AfterValidator, BeforeValidator, Strict
 
 __all__ = ["MAX_FORCE_N", "MAX_MOMENT_NM", "MAX_POSITION_M", "MAX_SEED", "MAX_TEXT_FILE_BYTES", "MIN_DIRECTION",
-           "Count", "Real", "SettingsError", "as_real_array", "check_count", "check_positions", "check_real",
-           "check_real_vector", "escape_controls", "field_ref", "in_range", "is_integer", "parse_numbers",
-           "read_text_file", "show", "show_number", "show_numbers", "show_path", "unit_vector", "unit_vectors"]
+           "PLAIN_SCALE", "Count", "Real", "SettingsError", "as_real_array", "check_count", "check_positions",
+           "check_real", "check_real_vector", "direction_or_none", "escape_controls", "field_ref", "finite_real",
+           "in_range", "is_integer", "number_text", "parse_numbers", "read_text_file", "show", "show_number",
+           "show_numbers", "show_path", "unit_vector", "unit_vectors"]
 
 #: the largest robot, bounds, loads or cases file read [bytes]
 MAX_TEXT_FILE_BYTES = 1_000_000
@@ -122,6 +123,22 @@ def show_number(x: float, *limits: float) -> str:
     text = f"{x:g}"
     if any(x != float(lim) and text == f"{float(lim):g}" for lim in limits):
         return repr(x)
+    return text
+
+
+def number_text(value: float, decimals: int = 3, width: int = 0) -> str:
+    """``value`` for a table or a message, right-aligned in ``width`` characters: ``decimals`` decimals, or three
+    significant digits (``.3g``) where the decimals would show a non-zero value as 0 (an error of 2e-4 mm is not
+    "0.000"). Zero is written unsigned (-0.0 as 0); non-finite values as Python writes them (``nan``, ``inf``).
+
+    The one rule for small non-zero numbers in the study's texts (``compare.md``, ``accuracy.md``, the
+    reproduction's report) and the command line's messages (:func:`show_number` is the one for a value in an
+    error message).
+    """
+    value = float(value) + 0.0  # -0.0 + 0.0 is +0.0
+    text = f"{value:{width}.{decimals}f}"
+    if value != 0.0 and float(text) == 0.0:
+        return f"{value:{width}.3g}"
     return text
 
 
@@ -286,6 +303,16 @@ def check_real(value: Any, name: str, lo: float | None, hi: float | None, unit: 
     return x + 0.0
 
 
+def finite_real(value: Any) -> float | None:
+    """``value`` as a finite float by :func:`check_real`'s rule (a real number, not a bool, not NaN or infinite,
+    not an integer too large for a float), ``-0.0`` as ``0.0``; None for anything else. For input that is
+    answered without an exception (a web request's field, a record read back), whose caller words the refusal."""
+    try:
+        return check_real(value, "value", None, None, "")
+    except (TypeError, ValueError):
+        return None
+
+
 def check_real_vector(value: ArrayLike, name: str, size: int = 3, limit: float = MAX_FORCE_N, unit: str = "",
                       reason: str = "") -> np.ndarray:
     """The safe-range rule for a vector: ``value`` as a finite float64 array of shape (size,), each component
@@ -336,38 +363,21 @@ def check_positions(value: ArrayLike, name: str, *, single: bool = False) -> np.
 PLAIN_SCALE = (1e-150, 1e150)
 
 
-def _unit_rows(arr: np.ndarray) -> np.ndarray:
+def _plain_rows(arr: np.ndarray) -> np.ndarray:
+    """Which rows of ``arr`` (K, n) have their largest |component| inside :data:`PLAIN_SCALE`, shape (K,)."""
+    big = np.max(np.abs(arr), axis=1)
+    return (big > PLAIN_SCALE[0]) & (big < PLAIN_SCALE[1])
+
+
+def _scaled_rows(arr: np.ndarray) -> np.ndarray:
     """Each row of the finite ``arr`` (K, n) (every row's largest |component| at least :data:`MIN_DIRECTION`)
-    divided by its length, computed without overflow or underflow: ``row / norm(row)`` where the largest
-    |component| lies in :data:`PLAIN_SCALE` (bit for bit what callers computed before this rule), else scaled by
-    the largest |component| first (``-0.0`` written ``0.0`` there)."""
-    out = np.empty_like(arr, dtype=float)
-    for k, row in enumerate(arr):
-        big = float(np.max(np.abs(row)))
-        if PLAIN_SCALE[0] < big < PLAIN_SCALE[1]:
-            out[k] = row / float(np.linalg.norm(row))
-        else:
-            scaled = row / big
-            out[k] = scaled / np.sqrt(np.sum(scaled * scaled)) + 0.0
-    return out
+    divided by its length, computed without overflow or underflow: scaled by its largest |component| first."""
+    scaled = arr / np.max(np.abs(arr), axis=1, keepdims=True)
+    return scaled / np.sqrt(np.sum(scaled * scaled, axis=1, keepdims=True)) + 0.0
 
 
-def unit_vectors(value: ArrayLike, name: str, size: int = 3) -> np.ndarray:
-    """The one rule for directions: each row of ``value`` (K, size), K >= 1, as a unit vector.
-
-    A direction's scale is free: ``(1e200, 1e200, 0)`` is ``(1, 1, 0) / sqrt(2)`` (each row is scaled by its
-    largest |component| before it is normalised, so no length overflows or underflows). Refused, with one line
-    naming ``name``: a row that is zero or not finite, and a row whose components are all subnormal (below
-    :data:`MIN_DIRECTION`: there too few bits are left for the direction to be the one written).
-
-    Raises
-    ------
-    TypeError
-        Booleans, complex numbers, strings.
-    SettingsError
-        A ValueError naming ``name``, the row and what is allowed.
-    """
-    arr = as_real_array(value, name)
+def _refuse_non_directions(arr: np.ndarray, name: str, size: int) -> None:
+    """Raise naming ``name`` unless ``arr`` is K >= 1 rows of ``size`` finite numbers, each with a direction."""
     if arr.ndim != 2 or arr.shape[1] != size or arr.shape[0] == 0:
         raise _named_error(name, f": give rows of {size} numbers, got shape {arr.shape}")
     for k, row in enumerate(arr):
@@ -378,15 +388,64 @@ def unit_vectors(value: ArrayLike, name: str, size: int = 3) -> np.ndarray:
             raise _named_error(name, f"{where}: give {size} finite numbers, not all zero nor all below "
                                f"{MIN_DIRECTION:.3g} in magnitude (there rounding loses the direction; its scale "
                                f"is free: write it larger), got {show_numbers(row)}")
-    return _unit_rows(arr)
+
+
+def unit_vectors(value: ArrayLike, name: str, size: int = 3) -> np.ndarray:
+    """The one rule for directions: each row of ``value`` (K, size), K >= 1, as a unit vector.
+
+    A row whose largest |component| lies in :data:`PLAIN_SCALE` is divided by its length exactly as it always
+    was, ``d / np.linalg.norm(d, axis=1, keepdims=True)`` (the same bits: the workspace's h(d) along the
+    directions given). A direction's scale is free: outside that interval ``(1e200, 1e200, 0)`` is
+    ``(1, 1, 0) / sqrt(2)`` (the row is scaled by its largest |component| before it is normalised, so no length
+    overflows or underflows; ``-0.0`` written ``0.0`` there). Refused, with one line naming ``name``: a row
+    that is zero or not finite, and a row whose components are all subnormal (below :data:`MIN_DIRECTION`:
+    there too few bits are left for the direction to be the one written).
+
+    Raises
+    ------
+    TypeError
+        Booleans, complex numbers, strings.
+    SettingsError
+        A ValueError naming ``name``, the row and what is allowed.
+    """
+    arr = as_real_array(value, name)
+    _refuse_non_directions(arr, name, size)
+    plain = _plain_rows(arr)
+    unit = np.empty_like(arr)
+    unit[plain] = arr[plain] / np.linalg.norm(arr[plain], axis=1, keepdims=True)
+    unit[~plain] = _scaled_rows(arr[~plain])
+    return unit
 
 
 def unit_vector(value: ArrayLike, name: str, size: int = 3) -> np.ndarray:
-    """``value`` (size numbers) as a unit vector, shape (size,), by :func:`unit_vectors`' rule."""
+    """``value`` (size numbers) as a unit vector, shape (size,), by :func:`unit_vectors`' rule; inside
+    :data:`PLAIN_SCALE` exactly ``v / np.linalg.norm(v)``, as a single vector always was (NumPy computes a
+    vector's length by another sum than a stack's rows', which may differ in the last bit)."""
     arr = as_real_array(value, name).reshape(-1)
     if arr.shape != (size,):
         raise _named_error(name, f": give {size} finite numbers, not all zero, got {show_numbers(value)}")
-    return unit_vectors(arr[None], name, size)[0]
+    _refuse_non_directions(arr[None], name, size)
+    if _plain_rows(arr[None])[0]:
+        return arr / np.linalg.norm(arr)
+    return _scaled_rows(arr[None])[0]
+
+
+def direction_or_none(value: ArrayLike, name: str, size: int = 3) -> np.ndarray | None:
+    """The direction of a vector that may be too small to have one (a load to draw as an arrow, a gravity): its
+    unit vector (:func:`unit_vector`), or None when every component is below :data:`MIN_DIRECTION` in magnitude
+    (zero included) or one is not finite.
+
+    Raises
+    ------
+    TypeError
+        Booleans, complex numbers, strings.
+    SettingsError
+        Not ``size`` numbers.
+    """
+    arr = as_real_array(value, name).reshape(-1)
+    if arr.shape == (size,) and not (np.all(np.isfinite(arr)) and float(np.max(np.abs(arr))) >= MIN_DIRECTION):
+        return None
+    return unit_vector(arr, name, size)
 
 
 def read_text_file(path: str | Path, what: str, limit: int = MAX_TEXT_FILE_BYTES) -> str:

@@ -46,7 +46,7 @@ from ..runtime import (
     write_json,
 )
 from ..statics import check_cancelled, mark_saving
-from ..validate import check_count
+from ..validate import check_count, finite_real
 from ._evaluate import check_capabilities, evaluate_design
 from ._figures import write_design_figures
 from ._optimize import design_batches, measures_nothing, objective_matrix, pareto_front
@@ -134,13 +134,9 @@ class _RecordShape:
 
 
 def _number(v: Any) -> bool:
-    """``v`` is a finite JSON number (not a bool, a string, NaN, 1e400, nor an integer beyond the floats)."""
-    if not isinstance(v, (int, float)) or isinstance(v, bool):
-        return False
-    try:
-        return math.isfinite(v)
-    except OverflowError:  # an integer of 400 digits
-        return False
+    """``v`` is a finite JSON number (not a bool, a string, NaN, 1e400, nor an integer beyond the floats):
+    :func:`~pytdcr.validate.finite_real`'s rule."""
+    return finite_real(v) is not None
 
 
 def _same_params(got: Any, planned: dict[str, float]) -> bool:

@@ -12,7 +12,6 @@ answers of requests a newer one has overtaken, so the page follows the last posi
 
 from __future__ import annotations
 
-import math
 import re
 import sys
 import traceback
@@ -24,6 +23,7 @@ from dash import Dash, Input, Output, Patch, State, ctx, dcc, html, no_update
 
 from ..results import StaticSolution
 from ..statics import MODELS
+from ..validate import MAX_FORCE_N, MAX_MOMENT_NM, finite_real
 from ._figure import MM, MOVING, REST, base_figure, pose_data, rest_data, target_data
 from ._guard import MAX_BODY_BYTES, Guard
 from ._session import FRICTIONS, Action, Controls, Explorer, Outcome, same_equilibrium
@@ -36,8 +36,8 @@ _TARGET = ("target-x", "target-y", "target-z")
 _ACTIONS = {"reset": Action.RESET, "rest": Action.REST, "reach-target": Action.TARGET,
             "clear-target": Action.CLEAR}
 #: the range each load box takes: low, high, unit (the tip force and moment as :class:`pytdcr.Loads` takes them)
-_WRENCH_RANGE = {**dict.fromkeys(_WRENCH[:3], (-1e6, 1e6, "N")), **dict.fromkeys(_WRENCH[3:6], (-1e6, 1e6, "N m")),
-                 "payload": (0.0, 1e4, "kg")}
+_WRENCH_RANGE = {**dict.fromkeys(_WRENCH[:3], (-MAX_FORCE_N, MAX_FORCE_N, "N")),
+                 **dict.fromkeys(_WRENCH[3:6], (-MAX_MOMENT_NM, MAX_MOMENT_NM, "N m")), "payload": (0.0, 1e4, "kg")}
 #: each coordinate of a target lies within this many robot lengths of the base
 TARGET_SPAN = 10.0
 #: the form of a session id the page issues (``uuid.uuid4().hex``)
@@ -184,33 +184,22 @@ def _layout(ex: Explorer) -> Any:
     return layout
 
 
-def _number(value: Any) -> float | None:
-    """``value`` as a finite float; None for anything else (a string, a list, an object, true, NaN, an integer too
-    large for a float)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return None
-    try:
-        x = float(value)
-    except OverflowError:
-        return None
-    return x if math.isfinite(x) else None
-
-
 def _controls(ex: Explorer, tensions: Any, wrench: Any, options: Any) -> Controls | str:
     """The controls read from the page, or what is wrong with them (naming the control and what it takes).
 
-    Every value is checked for its type and range here: a request may carry anything in any field."""
+    Every value is checked for its type and range here: a request may carry anything in any field (each number by
+    :func:`~pytdcr.validate.finite_real`: a string, a list, true, NaN or an integer too large for a float is none)."""
     lo, hi = ex.bounds.lower, ex.bounds.upper
     tensions = tensions if isinstance(tensions, (list, tuple)) else []
     wrench = wrench if isinstance(wrench, (list, tuple)) else []
     for k in range(ex.robot.n_tendons):
-        t = _number(tensions[k]) if k < len(tensions) else None
+        t = finite_real(tensions[k]) if k < len(tensions) else None
         if t is None or not lo[k] <= t <= hi[k]:
             return f"T{k + 1}: give a tension in [{lo[k]:g}, {hi[k]:g}] N"
     if len(tensions) != ex.robot.n_tendons:
         return f"tensions: give one per tendon ({ex.robot.n_tendons})"
     for i, name in enumerate(_WRENCH):
-        x = _number(wrench[i]) if i < len(wrench) else None
+        x = finite_real(wrench[i]) if i < len(wrench) else None
         low, high, unit = _WRENCH_RANGE[name]
         if x is None or not low <= x <= high:
             return f"{name.replace('-', ' ')}: give a number in [{low:g}, {high:g}] {unit}"
@@ -235,7 +224,7 @@ def _target_point(ex: Explorer, aim: Any) -> np.ndarray | str:
         return "target: give x, y and z in mm"
     span = TARGET_SPAN * ex.robot.length * MM
     for axis, v in zip("xyz", aim, strict=True):
-        x = _number(v)
+        x = finite_real(v)
         if x is None or not -span <= x <= span:
             return f"target {axis}: give a number in [{-span:g}, {span:g}] mm ({TARGET_SPAN:g} robot lengths)"
     return np.array([float(v) for v in aim], dtype=float) / MM

@@ -13,7 +13,7 @@ import numpy as np
 from ..design import Robot
 from ..loads import Loads
 from ..results import StaticSolution
-from ..validate import MIN_DIRECTION, unit_vector
+from ..validate import direction_or_none
 from ._workspace import WorkspaceView
 
 __all__ = [
@@ -132,10 +132,10 @@ def _workspace_traces(ws: WorkspaceView) -> list[dict[str, Any]]:
 def _arrow(origin: np.ndarray, vector: np.ndarray, length: float, heads: int = 1) -> np.ndarray:
     """An arrow from ``origin`` [m] along ``vector``, ``length`` [m] long, with ``heads`` heads of four barbs
     each, as polylines joined by NaN rows (:func:`_broken`); no points for a vector too small to have a direction
-    (:data:`~pytdcr.validate.MIN_DIRECTION`)."""
-    if not float(np.max(np.abs(vector))) >= MIN_DIRECTION:
+    (:func:`~pytdcr.validate.direction_or_none`)."""
+    d = direction_or_none(vector, "arrow")
+    if d is None:
         return np.zeros((0, 3))
-    d = unit_vector(vector, "arrow")
     e1 = np.cross(d, [0.0, 0.0, 1.0] if abs(d[2]) < 0.9 else [1.0, 0.0, 0.0])
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(d, e1)

@@ -7,21 +7,9 @@ from typing import Any
 
 import numpy as np
 
+from ..runtime import to_jsonable
+
 __all__ = ["Optimum", "ReachResult", "SearchFailed"]
-
-
-def _unsigned_zero(value: Any) -> Any:
-    """``value`` (a float, an array, or lists and dicts of them) for JSON with every -0.0 written 0.0 (``x + 0.0``
-    is ``x`` but for the zero's sign); integers, booleans, strings and None as they are."""
-    if isinstance(value, dict):
-        return {k: _unsigned_zero(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_unsigned_zero(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _unsigned_zero(value.tolist())
-    if isinstance(value, (float, np.floating)):
-        return float(value) + 0.0
-    return value
 
 
 class SearchFailed(RuntimeError):
@@ -53,9 +41,10 @@ class Optimum:
     stable: bool | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready form."""
-        return _unsigned_zero({"tensions": self.tensions, "tip_position": self.tip_position, "reach": self.reach,
-                               "cost": self.cost, "stable": self.stable})
+        """JSON-ready form (:func:`pytdcr.runtime.to_jsonable`, the rule of every JSON file and answer: lists of
+        floats, no -0.0, a non-finite number as None)."""
+        return to_jsonable({"tensions": self.tensions, "tip_position": self.tip_position, "reach": self.reach,
+                            "cost": self.cost, "stable": self.stable})
 
 
 @dataclass(frozen=True, eq=False)
@@ -144,8 +133,9 @@ class ReachResult:
         return Optimum(self.tensions, self.tip_position, self.reach, self.cost, self.stable)
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary (the keys of ``tdcr optimize --json``); no -0.0 in it."""
-        return _unsigned_zero({
+        """JSON-ready summary (the keys of ``tdcr optimize --json``), by :func:`pytdcr.runtime.to_jsonable`'s rule:
+        no -0.0 in it, a non-finite number as None."""
+        return to_jsonable({
             **self.optimum.to_dict(),
             "value": self.value,
             "converged": self.converged,

@@ -12,10 +12,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..limits import ResourceLimitError, check_memory
-from ..validate import check_count, show
+from ..validate import check_count, show, unit_vectors
 from ._frontier import FOLD_RULES
 from ._solve import EQUILIBRIA
-from ._support import fibonacci_directions, unit_directions
+from ._support import fibonacci_directions
 
 if TYPE_CHECKING:
     from ..design import Robot
@@ -77,7 +77,7 @@ def _flag(value: Any, name: str) -> bool:
 
 def _directions(value: Any) -> int | tuple[tuple[float, float, float], ...]:
     """A count of Fibonacci directions in [0, MAX_DIRECTIONS], or K >= 1 finite nonzero 3-vectors as tuples
-    (of any scale, not all components subnormal: :func:`~pytdcr.region._support.unit_directions`)."""
+    (of any scale, not all components subnormal: :func:`~pytdcr.validate.unit_vectors`)."""
     if isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_)):
         if not 0 <= value <= MAX_DIRECTIONS:
             raise ValueError(f"directions = {value}: must be an integer in [0, {MAX_DIRECTIONS:,}]")
@@ -89,7 +89,7 @@ def _directions(value: Any) -> int | tuple[tuple[float, float, float], ...]:
         raise ValueError(f"directions must have shape (K, 3), 1 <= K <= {MAX_DIRECTIONS}, got {d.shape}")
     if not (np.all(np.isfinite(d)) and np.all(np.any(d, axis=1))):
         raise ValueError("directions must be finite and nonzero")
-    unit_directions(d)  # any scale is a direction; all-subnormal rows are refused (they have none)
+    unit_vectors(d, "directions")  # any scale is a direction; all-subnormal rows are refused (they have none)
     return tuple((float(x), float(y), float(z)) for x, y, z in d)
 
 
@@ -232,7 +232,7 @@ class WorkspaceSettings:
         d = self.directions
         if isinstance(d, int):
             return fibonacci_directions(d) if d else None
-        return unit_directions(np.array(d, dtype=float))
+        return unit_vectors(np.array(d, dtype=float), "directions")
 
 
 @dataclass(frozen=True)

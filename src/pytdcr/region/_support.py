@@ -46,9 +46,6 @@ __all__ = ["DEFAULT_DIRECTIONS", "LargestReach", "SampleStates", "SupportFunctio
 
 #: directions of the support function by default (a Fibonacci sphere)
 DEFAULT_DIRECTIONS = 200
-#: the largest |component| of a direction divided by its length as computed plainly (:func:`unit_directions`):
-#: its squares neither overflow nor underflow there
-PLAIN_SCALE = (1e-150, 1e150)
 #: a direction is searched again from another direction's tip when that tip beats its h by more than this [m]
 EXCHANGE_TOL = 1e-7
 #: rounding allowed in ``h[k] = max_j d_k . tip_j`` [m]
@@ -331,26 +328,10 @@ def _check_samples(problem: ReachProblem, tensions: np.ndarray,
     return t, p
 
 
-def unit_directions(directions: np.ndarray) -> np.ndarray:
-    """Each row of ``directions`` (K, 3) as a unit vector, by :func:`~pytdcr.validate.unit_vectors`' rule (a
-    zero, non-finite or subnormal row is refused naming ``directions``; a direction's scale is free).
-
-    A row whose largest |component| lies in :data:`PLAIN_SCALE` is divided by its length as computed as it
-    always was (``np.linalg.norm``: no square over- or underflows there), so that the results of ordinary
-    directions, the Fibonacci sphere's included, keep every bit; only the rows outside it, whose length would
-    over- or underflow, take the scaled rule's unit vector.
-    """
-    d = np.asarray(directions, dtype=float)
-    unit = unit_vectors(d, "directions")
-    big = np.max(np.abs(d), axis=1)
-    plain = (big > PLAIN_SCALE[0]) & (big < PLAIN_SCALE[1])
-    unit[plain] = d[plain] / np.linalg.norm(d[plain], axis=1)[:, None]
-    return unit
-
-
 def _check_directions(directions: np.ndarray | None) -> np.ndarray:
     """Unit directions (K, 3), K >= 1: the default Fibonacci sphere, or the rows given, normalised
-    (:func:`unit_directions`)."""
+    (:func:`~pytdcr.validate.unit_vectors`: ordinary rows as ``d / np.linalg.norm(d, axis=1)`` always was, any
+    scale a direction, all-subnormal rows refused naming ``directions``)."""
     if directions is None:
         return fibonacci_directions(DEFAULT_DIRECTIONS)
     d = np.asarray(directions, dtype=float)
@@ -359,7 +340,7 @@ def _check_directions(directions: np.ndarray | None) -> np.ndarray:
         raise ValueError(f"directions must have shape (K, 3), K >= 1, got {np.shape(directions)}")
     if not (np.all(np.isfinite(d)) and np.all(np.any(d, axis=1))):
         raise ValueError("directions must be finite and nonzero")
-    return unit_directions(d)
+    return unit_vectors(d, "directions")
 
 
 def _dots(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -14,7 +14,7 @@ from ..io import robot_to_dict
 from ..loads import Loads
 from ..results import StaticSolution
 from ..runtime import to_jsonable
-from ..validate import MIN_DIRECTION, unit_vector
+from ..validate import direction_or_none
 
 __all__ = ["inputs_record", "load_arrows", "markdown_table"]
 
@@ -34,9 +34,9 @@ def inputs_record(robot: Robot, loads: Loads, **extra: Any) -> dict[str, Any]:
 def load_arrows(sol: StaticSolution, loads: Loads, robot: Robot) -> list[tuple]:
     """Arrows for the tip force (purple) and the tip moment's axis (orange), scaled to a quarter of the length.
 
-    Each arrow is its load's unit vector (:func:`~pytdcr.validate.unit_vector`, safe at any scale); a load whose
-    components are all below :data:`~pytdcr.validate.MIN_DIRECTION` (zero, or too small to have a direction) has
-    no arrow. Its label gives the load's magnitude (``math.hypot``: never 0 for a non-zero load).
+    Each arrow is its load's unit vector (:func:`~pytdcr.validate.direction_or_none`, safe at any scale); a load
+    whose components are all below :data:`~pytdcr.validate.MIN_DIRECTION` (zero, or too small to have a
+    direction) has no arrow. Its label gives the load's magnitude (``math.hypot``: never 0 for a non-zero load).
     """
     arrows: list[tuple] = []
     scale = 0.25 * robot.length
@@ -44,10 +44,10 @@ def load_arrows(sol: StaticSolution, loads: Loads, robot: Robot) -> list[tuple]:
                                              (loads.tip_moment, scale * 0.6, "tab:orange", "tip moment axis",
                                               "N m")):
         v = np.asarray(load, dtype=float)
-        if float(np.max(np.abs(v))) < MIN_DIRECTION:
+        d = direction_or_none(v, what)
+        if d is None:
             continue
-        arrows.append((sol.tip_position, unit_vector(v, what) * length, colour,
-                       f"{what}, {math.hypot(*v.tolist()):.3g} {unit}"))
+        arrows.append((sol.tip_position, d * length, colour, f"{what}, {math.hypot(*v.tolist()):.3g} {unit}"))
     return arrows
 
 

@@ -14,7 +14,7 @@ from ..design import Robot
 from ..optimize import ReachResult
 from ..paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT, PAYLOAD_MASS, payload_gravity, payload_loads
 from ..runtime import default_threads
-from ..validate import MIN_DIRECTION, unit_vector
+from ..validate import direction_or_none, number_text
 
 if TYPE_CHECKING:
     from ._reproduce import ReproduceRun, ReproduceSettings
@@ -22,23 +22,10 @@ if TYPE_CHECKING:
 __all__ = ["number_text", "reproduce_report"]
 
 
+# number_text is the one rule for small non-zero numbers (pytdcr.validate); imported from here by pytdcr.study
+
 #: reaches closer than this [m] are the same in the report (its tables print 6 decimals)
 SAME_REACH = 1e-6
-
-
-def number_text(value: float, decimals: int = 3, width: int = 0) -> str:
-    """``value`` for a table or a message, right-aligned in ``width`` characters: ``decimals`` decimals, or three
-    significant digits (``.3g``) where the decimals would show a non-zero value as 0 (an error of 2e-4 mm is not
-    "0.000"). Zero is written unsigned (-0.0 as 0); non-finite values as Python writes them (``nan``, ``inf``).
-
-    The one rule for small non-zero numbers in the study's texts (``compare.md``, ``accuracy.md``, this report)
-    and the command line's messages.
-    """
-    value = float(value) + 0.0  # -0.0 + 0.0 is +0.0
-    text = f"{value:{width}.{decimals}f}"
-    if value != 0.0 and float(text) == 0.0:
-        return f"{value:{width}.3g}"
-    return text
 
 
 def _bounds_trend(reach: Sequence[float], uppers: Sequence[float]) -> str:
@@ -195,12 +182,10 @@ def _antagonistic_pairs(robot: Robot) -> list[tuple[int, int]]:
 def _payload_is_axial(robot: Robot) -> bool:
     """True when the payload (:func:`~pytdcr.paper.payload_gravity`) acts along the unloaded robot's axis,
     against the direction it points (base z, the robot pointing up). Its direction is
-    :func:`~pytdcr.validate.unit_vector`'s (safe at any scale); a gravity whose components are all below
+    :func:`~pytdcr.validate.direction_or_none`'s (safe at any scale); a gravity whose components are all below
     :data:`~pytdcr.validate.MIN_DIRECTION` has no direction, so it is not axial."""
-    g = payload_gravity(robot)
-    if float(np.max(np.abs(g))) < MIN_DIRECTION:
-        return False
-    return bool(np.allclose(unit_vector(g, "gravity"), (0.0, 0.0, -1.0), rtol=0.0, atol=1e-12))
+    g = direction_or_none(payload_gravity(robot), "gravity")
+    return g is not None and bool(np.allclose(g, (0.0, 0.0, -1.0), rtol=0.0, atol=1e-12))
 
 
 def _axial_text(robot: Robot) -> str:
