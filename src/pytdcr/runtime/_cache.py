@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._readback import npz_arrays
+from ._readback import npz_arrays, read_fd
 
 __all__ = ["MAX_ENTRIES_PER_KIND", "MAX_ENTRY_BYTES", "STALE_TEMP_S", "cache_dir", "entry_kind", "read_arrays",
            "read_entry", "write_arrays", "write_entry"]
@@ -131,14 +131,7 @@ def read_entry(name: str, *, folder: Path | None = None, max_bytes: int = MAX_EN
             st = os.fstat(fd)
             if not stat.S_ISREG(st.st_mode) or not _ours(st) or st.st_nlink != 1 or st.st_size > max_bytes:
                 return None
-            chunks, left = [], st.st_size + 1
-            while left > 0:
-                chunk = os.read(fd, min(left, 1 << 20))
-                if not chunk:
-                    break
-                chunks.append(chunk)
-                left -= len(chunk)
-            data = b"".join(chunks)
+            data = read_fd(fd, max_bytes)
             return data if len(data) <= max_bytes else None
         finally:
             os.close(fd)

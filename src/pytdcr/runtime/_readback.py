@@ -37,7 +37,7 @@ import numpy as np
 
 from ..validate import SettingsError, check_real, is_integer, show, show_path
 
-__all__ = ["MAX_JSON_BYTES", "MAX_RUN_FILE_BYTES", "RunDoc", "RunFolder", "npz_arrays", "regular_file_bytes"]
+__all__ = ["MAX_JSON_BYTES", "MAX_RUN_FILE_BYTES", "RunDoc", "RunFolder", "npz_arrays", "read_fd", "regular_file_bytes"]
 
 #: the largest JSON file read back from a run's folder [bytes]
 MAX_JSON_BYTES = 64 * 2**20
@@ -47,6 +47,19 @@ MAX_RUN_FILE_BYTES = 4 * 2**30
 _READ_FLAGS = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0)
 _STEP = re.compile(r"\[(\d+)\]|\.?([^.\[\]]+)")
 _MISSING = object()
+
+
+def read_fd(fd: int, limit: int) -> bytes:
+    """The bytes of the open file ``fd`` from where it stands, at most ``limit + 1`` of them (so that a caller
+    sees a file that grew past ``limit`` since it was measured)."""
+    chunks, left = [], limit + 1
+    while left > 0:
+        chunk = os.read(fd, min(left, 1 << 24))
+        if not chunk:
+            break
+        chunks.append(chunk)
+        left -= len(chunk)
+    return b"".join(chunks)
 
 
 def regular_file_bytes(path: str | Path, limit: int, *, follow: bool = True) -> bytes:
@@ -63,16 +76,9 @@ def regular_file_bytes(path: str | Path, limit: int, *, follow: bool = True) -> 
             raise ValueError("not a regular file")
         if st.st_size > limit:
             raise ValueError(f"larger than {limit:,} bytes; not a file this run wrote")
-        chunks, left = [], limit + 1
-        while left > 0:
-            chunk = os.read(fd, min(left, 1 << 24))
-            if not chunk:
-                break
-            chunks.append(chunk)
-            left -= len(chunk)
+        data = read_fd(fd, limit)
     finally:
         os.close(fd)
-    data = b"".join(chunks)
     if len(data) > limit:
         raise ValueError(f"larger than {limit:,} bytes; not a file this run wrote")
     return data
