@@ -25,8 +25,8 @@ from _common import write_result
 
 from pytdcr.paper import paper_loads, paper_robot
 from pytdcr.statics import solve_batch, warmup
+from pytdcr.statics.compiled import _tip_derivative
 from pytdcr.statics.registry import resolve
-from pytdcr.statics.solver import _tip_derivative
 
 
 def _median_ms(fn: Callable[[], object], rows: int, repeat: int) -> float:

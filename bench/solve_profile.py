@@ -32,9 +32,9 @@ from scipy.spatial import cKDTree
 
 from pytdcr.paper import paper_loads, paper_robot
 from pytdcr.statics import PATH_NAMES, solve_batch, warmup
+from pytdcr.statics.compiled import case_tolerances, kernel_settings
 from pytdcr.statics.kernels import solver as SV
 from pytdcr.statics.registry import get_model
-from pytdcr.statics.solver import case_tolerances, kernel_settings
 
 #: the models solved by the compiled solver (their kernels are timed here)
 COMPILED = ("pcc", "pcc2", "sscr")

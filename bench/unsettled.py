@@ -27,10 +27,10 @@ from _common import write_result
 from pytdcr import ConstantFriction, Loads, NoFriction, paper_robot, solve_batch
 from pytdcr.paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT
 from pytdcr.statics import warmup
+from pytdcr.statics.compiled import case_tolerances
 from pytdcr.statics.kernels import pcc as K
 from pytdcr.statics.kernels import solver as SV
 from pytdcr.statics.pcc2 import PCC2
-from pytdcr.statics.solver import case_tolerances
 
 #: friction law by name (the ones ``pcc2`` misses rows with)
 LAWS = {"none": NoFriction(), "constant 0.1": ConstantFriction(mu=0.1)}

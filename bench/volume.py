@@ -3,7 +3,7 @@
 Each shape (a ball, an axis-aligned box, a torus: convex, flat-faced, concave) is filled with ``--points``
 uniform random points (rejection from its bounding box), all counted at every nested size, so that the
 sampling error is nil and what remains is the voxel resolution's. At voxel edges of L/32, L/24 and L/16
-(L = 0.4 m, the paper robot's length) :func:`pytdcr.region.estimate_volume` gives the outer (occupied voxels)
+(L = 0.4 m, the paper robot's length) :func:`pytdcr.workspace.estimate_volume` gives the outer (occupied voxels)
 and inner (surface moved in half a voxel) estimates, their mean (the reported volume) and the discretisation
 error it claims; beside them the true relative error of each. A claimed error below the true one is an error
 bar that misses. The last columns weigh an alternative: the inner estimate at twice the voxel edge, and the
@@ -21,7 +21,7 @@ import argparse
 import numpy as np
 from _common import write_result
 
-from pytdcr.region import estimate_volume
+from pytdcr.workspace._volume import estimate_volume
 
 LENGTH = 0.4
 DIVISIONS = (32, 24, 16)

@@ -26,18 +26,12 @@ from _common import write_result
 
 from pytdcr.optimize import ReachProblem
 from pytdcr.paper import paper_bounds, paper_loads, paper_robot
-from pytdcr.region import (
-    SampleStates,
-    WarmStarts,
-    WorkspaceSettings,
-    continue_plan,
-    fibonacci_directions,
-    plan_tensions,
-    solve_plan,
-    support_function,
-    workspace_region,
-)
 from pytdcr.statics import warmup
+from pytdcr.workspace import WorkspaceSettings
+from pytdcr.workspace._compute import workspace_region
+from pytdcr.workspace._plan import plan_tensions
+from pytdcr.workspace._solve import WarmStarts, continue_plan, solve_plan
+from pytdcr.workspace._support import SampleStates, fibonacci_directions, support_function
 
 
 def sampling(n: int, seed: int) -> dict[str, float]:

@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 
 from pytdcr import PointLoad, paper_loads, paper_robot, solve, solve_batch
+from pytdcr.runs import case_rows, write_shape_csv
 from pytdcr.runtime import write_csv
-from pytdcr.study import case_rows, write_shape_csv
 
 robot = paper_robot()
 scratch = tempfile.TemporaryDirectory(prefix="pytdcr-example-")

@@ -10,14 +10,14 @@ import traceback
 import numpy as np
 import pytest
 
-import pytdcr.region._estimate as estimate_module
-import pytdcr.region._solve as solve_module
-import pytdcr.study._workspace as workspace_module
+import pytdcr.runs._workspace as workspace_module
+import pytdcr.workspace._estimate as estimate_module
+import pytdcr.workspace._solve as solve_module
 from pytdcr import Loads, NoFriction, NotConvergedError, paper_robot
 from pytdcr.cli import main
-from pytdcr.region import WorkspaceSettings
-from pytdcr.study import ReproduceSettings, check_reproduce
+from pytdcr.runs import ReproduceSettings, check_reproduce
 from pytdcr.validate import SettingsError
+from pytdcr.workspace import WorkspaceSettings
 
 #: the smallest workspace run: a handful of samples, no search, no h(d), big voxels
 TINY = ["--n", "4", "--no-search", "--directions", "0", "--voxel", "0.1"]
@@ -85,7 +85,7 @@ def test_the_check_s_errors_name_the_setting_at_fault():
     """model: the model cannot take the robot (friction) whatever the settings; equilibria: continuation asked
     of a model that cannot continue; multistability: the loading-path region's check. Each error carries the
     setting it is about (``SettingsError.field``, ``UnsupportedFeatureError.setting``), never read from its words."""
-    from pytdcr.region import check_workspace
+    from pytdcr.workspace import check_workspace
 
     robot = paper_robot()  # exponential friction
     free = robot.with_friction(NoFriction())

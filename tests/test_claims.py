@@ -66,7 +66,7 @@ def test_the_reports_payload_force_is_the_one_the_payload_study_used(paper, grav
     robot without): the report prints that force, not (0, 0, -m 9.81) whatever the robot."""
     import re
 
-    from pytdcr.study._report import _payload_text
+    from pytdcr.runs._report import _payload_text
 
     robot = paper.with_gravity(gravity)
     text = _payload_text(robot, _reach_result(0.39))
@@ -87,7 +87,7 @@ def test_the_reports_payload_force_is_the_one_the_payload_study_used(paper, grav
     ((0.30,), "One upper bound only: nothing to compare", "grows"),
 ])
 def test_the_bounds_study_says_grows_only_when_the_reach_grows(reaches, says, never):
-    from pytdcr.study._report import _bounds_comment
+    from pytdcr.runs._report import _bounds_comment
 
     text = _bounds_comment([(hi, _reach_result(r)) for hi, r in zip((10.0, 20.0, 40.0), reaches, strict=False)])
     assert says in text and never not in text
@@ -110,9 +110,9 @@ def test_the_report_says_whether_each_optimum_is_stable(paper):
     """Every optimum's stability test is reported: the payload sentence, the GA and bounds tables, and a warning
     naming each optimum flagged unstable (the heavy robot's payload optimum, computed here)."""
     from pytdcr.paper import paper_bounds
-    from pytdcr.study import ReproduceSettings
-    from pytdcr.study._report import _payload_text, reproduce_report
-    from pytdcr.study._reproduce import ReproduceRun
+    from pytdcr.runs import ReproduceSettings
+    from pytdcr.runs._report import _payload_text, reproduce_report
+    from pytdcr.runs._reproduce import ReproduceRun
 
     heavy, pay = _heavy_payload_optimum(paper)
     assert pay.stable is False and pay.reach == pytest.approx(heavy.length)
@@ -142,8 +142,8 @@ def test_the_report_says_whether_each_optimum_is_stable(paper):
 def test_the_axial_payload_sentence_is_said_only_where_it_holds(paper, rao):
     """The antagonistic-pair sentence needs a pair of opposite tendons (same segment and radius, angles pi apart)
     and a robot pointing up against its payload; the axial part needs the latter alone."""
-    from pytdcr.design import Tendon
-    from pytdcr.study._report import _antagonistic_pairs, _payload_text
+    from pytdcr.robot import Tendon
+    from pytdcr.runs._report import _antagonistic_pairs, _payload_text
 
     r = _reach_result(0.4)
     assert _antagonistic_pairs(paper) == [(1, 3), (2, 4), (5, 7), (6, 8)]
@@ -178,7 +178,7 @@ def _study_of(results, robot, n: int = 3, reference_steps: int = 160):
 
 def test_an_accuracy_study_says_when_nothing_could_be_compared(paper):
     from pytdcr.accuracy import ModelAccuracy, default_groups
-    from pytdcr.study._accuracy import accuracy_markdown
+    from pytdcr.runs._accuracy import accuracy_markdown
 
     names = [g.name for g in default_groups()]
     empty = np.zeros(0)
@@ -205,7 +205,7 @@ def test_an_accuracy_study_says_when_nothing_could_be_compared(paper):
 def test_accuracy_md_states_the_reference_steps_it_used(paper, disks, per_sub, per_segment):
     """160 steps asked for per segment: ceil(160 / disks) per subsegment, at least 4 (80 disks: 320 per segment,
     not the 160 asked for)."""
-    from pytdcr.study._accuracy import accuracy_markdown
+    from pytdcr.runs._accuracy import accuracy_markdown
 
     study = _study_of([], paper.with_disks(disks))
     assert study.reference_steps_per_subsegment == per_sub

@@ -418,8 +418,8 @@ def test_planar_designs_name_no_best_by_volume_and_leak_no_warnings(tmp_path, ca
     import warnings
 
     from pytdcr.cli import main
-    from pytdcr.design import Tendon
     from pytdcr.io import write_robot
+    from pytdcr.robot import Tendon
 
     paper = paper_robot()
     tendons = tuple(Tendon(segment=s, radius=0.01, angle_deg=a) for s in (1, 2) for a in (0.0, 180.0))

@@ -201,8 +201,8 @@ def test_the_nearest_workspace_sample(workspace_run, monkeypatch):
     from pytdcr.explore import Explorer, _session
     from pytdcr.explore._app import _status
     from pytdcr.explore._target import SAMPLE, nearest_sample
+    from pytdcr.runs import read_workspace_pool
     from pytdcr.statics import MODELS
-    from pytdcr.study import read_workspace_pool
 
     pool = read_workspace_pool(workspace_run)
     target = pool.tips[3] + np.array([0.004, -0.003, 0.002])

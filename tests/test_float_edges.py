@@ -28,11 +28,11 @@ from pytdcr import (
     solve,
     tip_compliance,
 )
-from pytdcr.design import Backbone
 from pytdcr.io import RobotFileError, read_robot, robot_to_dict
 from pytdcr.loads import PointLoad
 from pytdcr.optimize import ReachProblem
 from pytdcr.results import NotConvergedError
+from pytdcr.robot import Backbone
 from pytdcr.statics import CosseratOptions, SolverOptions, SSCROptions
 from pytdcr.validate import SettingsError, check_real, unit_vector, unit_vectors
 
@@ -309,7 +309,7 @@ def test_a_load_arrow_is_its_unit_vector_at_any_scale_and_none_below_it():
     """The figures' load arrows use the one direction rule: a tip force of 5e-324 N (all components subnormal)
     has no arrow (the old code divided by its norm, 0: a RuntimeWarning and a NaN arrow), a tip moment of 1e-200
     N m an arrow along its axis labelled with its magnitude (the old norm underflowed to 0)."""
-    from pytdcr.study._output import load_arrows
+    from pytdcr.runs._output import load_arrows
 
     loads = Loads(np.zeros(8), tip_force=[5e-324, 5e-324, 0.0], tip_moment=[1e-200, 0.0, -1e-200])
     sol = SimpleNamespace(tip_position=np.array([0.0, 0.0, 0.4]))
@@ -336,8 +336,8 @@ def test_solve_plots_a_subnormal_tip_force_without_a_warning(tmp_path):
 def test_workspace_directions_of_any_scale_are_directions(scale):
     """``WorkspaceSettings(directions=...)`` and ``support_function``'s directions: (s, s, 0) is (1, 1, 0) /
     sqrt(2) at every scale (the old code made 1e200 a zero direction, h = 0, and refused 1e-200 as zero)."""
-    from pytdcr.region import WorkspaceSettings
-    from pytdcr.region._support import _check_directions
+    from pytdcr.workspace import WorkspaceSettings
+    from pytdcr.workspace._support import _check_directions
 
     rows = [[scale, scale, 0.0], [0.0, -scale, 0.0], [0.0, 0.0, 2.0]]
     want = [[2**-0.5, 2**-0.5, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0]]
@@ -348,8 +348,8 @@ def test_workspace_directions_of_any_scale_are_directions(scale):
 def test_workspace_directions_all_subnormal_are_refused_naming_directions():
     """A row whose components are all below MIN_DIRECTION has no direction: one line naming ``directions``
     (the old code accepted 5e-324 and divided by a norm of 0)."""
-    from pytdcr.region import WorkspaceSettings
-    from pytdcr.region._support import _check_directions
+    from pytdcr.workspace import WorkspaceSettings
+    from pytdcr.workspace._support import _check_directions
 
     rows = [[0.0, 0.0, 1.0], [5e-324, 0.0, -5e-324]]
     for make in (lambda: WorkspaceSettings(directions=rows), lambda: _check_directions(np.array(rows))):
@@ -361,8 +361,8 @@ def test_workspace_directions_all_subnormal_are_refused_naming_directions():
 def test_ordinary_directions_keep_every_bit():
     """Directions whose lengths are in range are divided by ``np.linalg.norm`` as before (the scaled rule could
     move a last bit, and the workspace baselines pin h(d)): the Fibonacci sphere's and arbitrary ones."""
-    from pytdcr.region import WorkspaceSettings, fibonacci_directions
-    from pytdcr.region._support import _check_directions
+    from pytdcr.workspace import WorkspaceSettings
+    from pytdcr.workspace._support import _check_directions, fibonacci_directions
 
     rng = np.random.default_rng(4)
     for d in (fibonacci_directions(200), rng.normal(size=(50, 3)) * 10.0 ** rng.uniform(-100, 100, (50, 1))):
@@ -381,7 +381,7 @@ def test_a_design_study_s_direction_of_any_scale_is_its_direction():
     """A study's measured direction (1e-200, 0, 1e-200) is accepted (the old check, ``norm == 0``, called it
     zero) and becomes (1, 0, 1) / sqrt(2) where h(d) is computed (the settings the designs are evaluated with)."""
     from pytdcr.designs import study_from_dict
-    from pytdcr.region import WorkspaceSettings
+    from pytdcr.workspace import WorkspaceSettings
 
     for scale in (1e-200, 1e300):
         study, _ = study_from_dict(_design_study([scale, 0.0, scale]), "s.toml")
@@ -432,11 +432,11 @@ class _FakeComparison:
 
 def test_compare_never_prints_a_small_tip_difference_as_zero(monkeypatch, tmp_path, capsys):
     """A tip difference of 0.3 micrometres is printed 0.0003 mm, not 0.000 mm; a true zero stays 0.000."""
-    import pytdcr.study
+    import pytdcr.runs
     from pytdcr.cli import main
 
     fake = SimpleNamespace(comparison=_FakeComparison(), robot=ROBOT, friction_off=(), files=["compare.csv"])
-    monkeypatch.setattr(pytdcr.study, "run_compare", lambda *a, **k: fake)
+    monkeypatch.setattr(pytdcr.runs, "run_compare", lambda *a, **k: fake)
     assert main(["compare", "--models", "pcc,pcc2", "--n", "2", "--out", str(tmp_path / "c")]) == 0
     out = capsys.readouterr().out
     assert "median 0.000 mm, max 0.0003 mm" in out, out
@@ -445,7 +445,7 @@ def test_compare_never_prints_a_small_tip_difference_as_zero(monkeypatch, tmp_pa
 def test_accuracy_never_prints_a_small_error_as_zero_and_keeps_its_columns(monkeypatch, tmp_path, capsys):
     """Errors under half a micrometre once printed 0.000 mm; now 3 significant digits, in the same 9 columns (the
     'mm' after each error at the same place on every line)."""
-    import pytdcr.study
+    import pytdcr.runs
     from pytdcr.cli import main
 
     def row(median: float, p95: float) -> dict:
@@ -456,7 +456,7 @@ def test_accuracy_never_prints_a_small_error_as_zero_and_keeps_its_columns(monke
     study = SimpleNamespace(nothing_compared=lambda: None, robot=ROBOT, groups=[1], models=["pcc"], seconds=0.0,
                             rows=lambda: rows)
     fake = SimpleNamespace(study=study, orders=[], files=["accuracy.csv"])
-    monkeypatch.setattr(pytdcr.study, "run_accuracy", lambda *a, **k: fake)
+    monkeypatch.setattr(pytdcr.runs, "run_accuracy", lambda *a, **k: fake)
     assert main(["accuracy", "--n", "2", "--order-cases", "0", "--out", str(tmp_path / "a")]) == 0
     lines = [ln for ln in capsys.readouterr().out.splitlines() if "median" in ln]
     assert len(lines) == 3
@@ -489,7 +489,7 @@ def test_an_extreme_tip_load_gives_an_answer_never_an_arithmetic_error(model, lo
 def _ordinary(seed: int) -> np.ndarray:
     """Ordinary directions: the Fibonacci sphere's, random normals at scales from 1e-100 to 1e100, (0.3, 0.2,
     0.9), and rows with a zero (also -0.0) component."""
-    from pytdcr.region import fibonacci_directions
+    from pytdcr.workspace._support import fibonacci_directions
 
     rng = np.random.default_rng(seed)
     return np.vstack([fibonacci_directions(200), rng.normal(size=(300, 3)),
@@ -530,9 +530,9 @@ def test_a_direction_at_the_edges_of_the_plain_rule_is_its_unit_vector(scale):
 
 def test_region_directions_go_through_the_one_rule():
     """The workspace's directions are :func:`pytdcr.validate.unit_vectors`' (no second rule in the region)."""
-    import pytdcr.region._support as support
-    from pytdcr.region import WorkspaceSettings
-    from pytdcr.region._support import _check_directions
+    import pytdcr.workspace._support as support
+    from pytdcr.workspace import WorkspaceSettings
+    from pytdcr.workspace._support import _check_directions
 
     assert not hasattr(support, "unit_directions") and not hasattr(support, "PLAIN_SCALE")
     rows = [[1e200, 1e200, 0.0], [0.3, 0.2, 0.9]]
@@ -650,10 +650,10 @@ def test_the_explorer_s_boxes_keep_their_messages_and_ranges():
 
 def test_number_text_is_the_validation_layer_s_rule():
     """``number_text`` lives next to ``show_number`` (the one rule of the command line too) and stays
-    importable from :mod:`pytdcr.study` and its report."""
-    import pytdcr.study
-    import pytdcr.study._report
+    importable from :mod:`pytdcr.runs` and its report."""
+    import pytdcr.runs
+    import pytdcr.runs._report
     from pytdcr.validate import number_text
 
-    assert pytdcr.study.number_text is number_text and pytdcr.study._report.number_text is number_text
+    assert pytdcr.runs.number_text is number_text and pytdcr.runs._report.number_text is number_text
     assert number_text(2e-4) == "0.0002" and number_text(-0.0) == "0.000" and number_text(1.25, 3, 9) == "    1.250"

@@ -18,14 +18,14 @@ from pydantic import BaseModel
 
 from pytdcr import Loads
 from pytdcr.compare import ModelComparison
-from pytdcr.design import MIN_GRAVITY, Robot
 from pytdcr.io import robot_to_dict
 from pytdcr.optimize import Optimum, ReachProblem, ReachResult
 from pytdcr.optimize._problem import MIN_COST_REACH
 from pytdcr.paper import paper_bounds, paper_robot
-from pytdcr.study._accuracy import _fmt
-from pytdcr.study._compare import _compare_markdown
-from pytdcr.study._report import _axial_text, _bounds_trend, _payload_is_axial, number_text
+from pytdcr.robot import MIN_GRAVITY, Robot
+from pytdcr.runs._accuracy import _fmt
+from pytdcr.runs._compare import _compare_markdown
+from pytdcr.runs._report import _axial_text, _bounds_trend, _payload_is_axial, number_text
 
 pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
 
@@ -206,7 +206,7 @@ def test_the_optimiser_writes_no_negative_zero():
 
 
 def _ordinary_directions() -> np.ndarray:
-    from pytdcr.region import fibonacci_directions
+    from pytdcr.workspace._support import fibonacci_directions
 
     rng = np.random.default_rng(7)
     return np.vstack([fibonacci_directions(200), rng.normal(size=(500, 3)), [[0.3, 0.2, 0.9], [0.0, -0.0, 1.0]],

@@ -11,8 +11,11 @@ import pytest
 
 from pytdcr.cli.workspace import FOLD_CHOICES
 from pytdcr.paper import paper_bounds, paper_loads
-from pytdcr.region import FOLD_RULES, GrowthSettings, WorkspaceSettings, plan_tensions, workspace_region
 from pytdcr.statics import SolverOptions, solve_batch
+from pytdcr.workspace import FOLD_RULES, WorkspaceSettings
+from pytdcr.workspace._compute import workspace_region
+from pytdcr.workspace._frontier import GrowthSettings
+from pytdcr.workspace._plan import plan_tensions
 
 
 @pytest.fixture(scope="module")
@@ -88,7 +91,7 @@ def test_a_design_study_searches_by_its_fold_rule(paper):
     """``[budget] folds`` reaches each design's workspace study: a design evaluated with ``"stop"`` has the volume
     of the same workspace study run directly with that rule, and not the snapping one's."""
     from pytdcr.designs import apply_parameters, design_seed, evaluate_design, study_from_dict
-    from pytdcr.region import workspace_study
+    from pytdcr.workspace import workspace_study
 
     data = {"name": "f", "robot": "paper", "seed": 3, "bounds": [0.0, 20.0],
             "parameters": {"routing_radius_2": {"values": [0.01]}}, "loads": {"cases": ["paper wrench"]},

@@ -204,7 +204,7 @@ def _reproduce(tmp: Path) -> dict[str, Any]:
     """The paper's study at reduced settings (the demo's own run is ``tdcr reproduce``; its numbers, at full
     settings, are compared by the slow case below)."""
     from pytdcr import paper_robot
-    from pytdcr.study import ReproduceSettings, run_reproduce
+    from pytdcr.runs import ReproduceSettings, run_reproduce
 
     settings = ReproduceSettings(pops=(8, 10), n_samples=12, max_gen=3, bound_uppers=(5.0,), side_max_gen=2,
                                  workspace_n=32, workspace_budget=200)

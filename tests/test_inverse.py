@@ -306,7 +306,9 @@ def test_the_start_pool_is_kept_on_disk_whole_or_made_again(tmp_path, monkeypatc
 def test_a_grid_deep_inside_the_fsw_is_reached():
     """Grid points deep inside the feasible static workspace (inside the region, and so are their six neighbours
     a voxel away) are all reached: the inverse and the region agree where the region is sure."""
-    from pytdcr.region import WorkspaceSettings, inside, workspace_region
+    from pytdcr.workspace import WorkspaceSettings
+    from pytdcr.workspace._compute import workspace_region
+    from pytdcr.workspace._grid import inside
 
     voxel = 0.025
     wr = workspace_region(ROBOT, LOADS, BOUNDS, WorkspaceSettings(n=200, seed=1, voxel=voxel, budget=1500))

@@ -19,11 +19,11 @@ MODULES = sorted(p for p in SRC.rglob("*.py"))
 LAYERS = [
     {"__init__", "_version"},  # the top-level package re-exports; checked apart below
     {"validate", "limits", "runtime"},  # shared infrastructure: numbers and files, memory, threads and folders
-    {"design", "loads", "bounds", "paper", "kinematics", "contact", "results", "io"},
+    {"robot", "loads", "bounds", "paper", "kinematics", "contact", "results", "io"},
     {"statics"},
-    {"workspace", "region", "optimize", "compare", "accuracy"},
+    {"workspace", "optimize", "compare", "accuracy"},
     {"plotting"},
-    {"study", "designs"},
+    {"runs", "designs"},
     {"explore"},  # the local web page (Dash, imported when the app is built)
     {"cli"},
 ]
@@ -138,10 +138,10 @@ def test_the_command_line_is_a_package_of_short_modules():
 def test_core_never_imports_plotting_or_the_command_line():
     for path in MODULES:
         me = _name(path)
-        if me.split(".")[0] in ("study", "designs", "explore", "cli", "plotting"):  # the layers that write results
+        if me.split(".")[0] in ("runs", "designs", "explore", "cli", "plotting"):  # the layers that write results
             continue
         for mod in _imports(path):
-            assert mod.split(".")[0] not in ("plotting", "cli", "study"), f"{me} imports {mod}"
+            assert mod.split(".")[0] not in ("plotting", "cli", "runs"), f"{me} imports {mod}"
         text = path.read_text()
         assert "import matplotlib" not in text and "from matplotlib" not in text, me
 
@@ -195,11 +195,11 @@ def test_import_has_no_side_effects():
     code = (
         "import sys, os\n"
         "os.environ.pop('MPLBACKEND', None)\n"
-        "import pytdcr, pytdcr.study, pytdcr.plotting, pytdcr.workspace, pytdcr.optimize, pytdcr.compare\n"
+        "import pytdcr, pytdcr.runs, pytdcr.plotting, pytdcr.workspace, pytdcr.optimize, pytdcr.compare\n"
         "bad = [m for m in ('matplotlib', 'pytdcr.cli') if m in sys.modules]\n"
         "import numba\n"
-        "from pytdcr.statics.kernels import pcc, solver\n"
-        "loaded = [k for k, f in (('solve_range', solver.solve_range), ('evaluate', pcc.evaluate))\n"
+        "from pytdcr.statics.kernels import loading_path, pcc\n"
+        "loaded = [k for k, f in (('solve_range', loading_path.solve_range), ('evaluate', pcc.evaluate))\n"
         "          if f.signatures]\n"
         "print(','.join(bad + loaded))\n"
     )
@@ -211,7 +211,7 @@ def test_importing_the_study_leaves_the_matplotlib_backend_alone():
     code = (
         "import matplotlib\n"
         "matplotlib.use('svg')\n"
-        "import pytdcr.study, pytdcr.plotting\n"
+        "import pytdcr.runs, pytdcr.plotting\n"
         "from pytdcr.plotting import plot_convergence\n"
         "plot_convergence([1.0], [2.0])\n"
         "print(matplotlib.get_backend())\n"

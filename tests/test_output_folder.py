@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 
 from pytdcr import Loads, TensionBounds
+from pytdcr.runs import BoundsSpec, SampleSettings, run_sample
 from pytdcr.runtime import MANIFEST, FolderError, RunInterrupted, output_folder, run_in_chunks, submit_in_context
 from pytdcr.statics import Cancelled, cancellable, solve_batch
-from pytdcr.study import BoundsSpec, SampleSettings, run_sample
 from pytdcr.workspace import SamplingConfig, SamplingInterrupted, sample_workspace
 
 
@@ -209,7 +209,7 @@ def test_sampling_interrupted_returns_the_finished_blocks(paper, monkeypatch):
 
 
 def test_sampling_run_interrupted_saves_what_it_solved(paper, tmp_path, monkeypatch):
-    import pytdcr.study._runs as runs
+    import pytdcr.runs._runs as runs
 
     _interrupt_third_block(monkeypatch)
     real = runs.sample_workspace

@@ -6,8 +6,9 @@ import pytest
 
 from pytdcr import Loads
 from pytdcr.paper import paper_bounds, paper_robot
-from pytdcr.region import WorkspaceSettings, planned_work, solve_seconds, workspace_estimate, workspace_study
-from pytdcr.region._estimate import STEP_SOLVES
+from pytdcr.workspace import WorkspaceSettings, workspace_estimate, workspace_study
+from pytdcr.workspace._compute import planned_work
+from pytdcr.workspace._estimate import STEP_SOLVES, solve_seconds
 
 
 def test_planned_work_is_what_the_study_spends():

@@ -20,8 +20,8 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from pytdcr import Backbone, ConstantFriction, ExponentialFriction, Loads, NoFriction, Robot, Segment, Tendon, solve
-from pytdcr.design import MIN_GRAVITY
 from pytdcr.io import RobotFileError, robot_from_dict, robot_to_dict
+from pytdcr.robot import MIN_GRAVITY
 from pytdcr.statics import get_model
 from pytdcr.validate import parse_numbers
 

@@ -9,19 +9,13 @@ import pytest
 from pytdcr import Loads, NoFriction, TensionBounds, solve
 from pytdcr.contact import disks_below_base, disks_touch
 from pytdcr.paper import paper_bounds, paper_loads, paper_robot
-from pytdcr.region import (
-    SOURCES,
-    WarmStarts,
-    WorkspaceSettings,
-    estimate_volume,
-    inside,
-    nested_stages,
-    plan_tensions,
-    region_from_points,
-    solve_plan,
-    tension_step,
-    workspace_region,
-)
+from pytdcr.workspace import WorkspaceSettings
+from pytdcr.workspace._compute import workspace_region
+from pytdcr.workspace._frontier import tension_step
+from pytdcr.workspace._grid import inside, region_from_points
+from pytdcr.workspace._plan import SOURCES, plan_tensions
+from pytdcr.workspace._solve import WarmStarts, solve_plan
+from pytdcr.workspace._volume import estimate_volume, nested_stages
 
 
 def test_plan_holds_sobol_then_corners_then_edges():
@@ -218,7 +212,7 @@ def test_tension_step_stays_in_the_box_and_moves_the_tip_as_asked():
 def test_the_compiled_box_least_squares_agrees_with_scipys_bvls():
     from scipy.optimize import lsq_linear
 
-    from pytdcr.region._step_kernel import box_least_squares
+    from pytdcr.workspace._step_kernel import box_least_squares
 
     rng = np.random.default_rng(11)
     for _ in range(300):
@@ -270,8 +264,8 @@ def test_without_loads_the_region_has_the_robots_fourfold_symmetry():
 
 
 def test_a_search_cut_short_by_its_budget_widens_the_error_by_its_whole_last_round():
-    from pytdcr.region import SearchRound
-    from pytdcr.region._compute import _tail
+    from pytdcr.workspace import SearchRound
+    from pytdcr.workspace._compute import _tail
 
     def rounds(steps: int) -> list[SearchRound]:
         return [SearchRound(0, k, 1000, s, 1000, v, v, 1.0) for k, (s, v) in
@@ -286,8 +280,8 @@ def test_a_search_cut_short_by_its_budget_widens_the_error_by_its_whole_last_rou
 def test_a_region_with_too_few_converged_samples_is_reported_and_not_meshed(tmp_path):
     import json
 
+    from pytdcr.runs import run_workspace
     from pytdcr.statics import SolverOptions
-    from pytdcr.study import run_workspace
 
     # one Newton iteration from the straight robot at full load, no load steps: no solve converges, so neither
     # region has a point (with load steps, one exact Newton iteration per small step does converge)
@@ -337,7 +331,7 @@ def test_workspace_settings_hold_every_default_and_range():
 def test_the_largest_reach_follows_its_rule():
     """"farthest" keeps the farthest of the reach search, the support function's tips and the samples;
     "samples" runs no search and keeps the farthest feasible sample."""
-    from pytdcr.region import workspace_study
+    from pytdcr.workspace import workspace_study
 
     robot, loads, b = paper_robot().with_gravity(None), Loads(np.zeros(8)), TensionBounds.uniform(8, 0, 4)
     base = {"n": 32, "seed": 2, "voxel": robot.length / 8, "search": False}
@@ -373,8 +367,8 @@ def test_the_largest_reach_follows_its_rule():
 def test_the_realisable_reach_is_labelled_the_farthest_realisable_sample():
     """``realisable.largest_reach_m`` is the farthest realisable sample, never searched, and says so; it can be
     below the FSW's searched optimum even when that optimum is itself realisable (checked here)."""
-    from pytdcr.region import workspace_study
-    from pytdcr.study._workspace import _reach_note
+    from pytdcr.runs._workspace import _reach_note
+    from pytdcr.workspace import workspace_study
 
     robot, loads, b = paper_robot().with_gravity(None), Loads(np.zeros(8)), TensionBounds.uniform(8, 0, 4)
     ws = workspace_study(robot, loads, b, WorkspaceSettings(n=32, seed=2, voxel=robot.length / 8, search=False,
@@ -400,7 +394,7 @@ def test_the_realisable_reach_is_labelled_the_farthest_realisable_sample():
 def test_the_dimension_of_point_sets_of_known_shape():
     """A cloud filling a cube is 3-D, a square of points in a tilted plane 2-D with its area, points on a line 1-D
     with its length, one point 0-D; a slab thinner than a voxel counts as flat."""
-    from pytdcr.region import region_dimension
+    from pytdcr.workspace._volume import region_dimension
 
     rng = np.random.default_rng(0)
     voxel = 0.01
@@ -432,9 +426,9 @@ def test_a_planar_robot_has_a_planar_workspace_with_no_volume(tmp_path):
     import json
 
     from pytdcr.cli import main
-    from pytdcr.design import Tendon
     from pytdcr.io import write_robot
-    from pytdcr.region import workspace_study
+    from pytdcr.robot import Tendon
+    from pytdcr.workspace import workspace_study
 
     paper = paper_robot()
     tendons = tuple(Tendon(segment=s, radius=0.01, angle_deg=a) for s in (1, 2) for a in (0.0, 180.0))
@@ -468,7 +462,7 @@ def test_one_free_tendon_traces_a_curve_not_an_area():
     its plane and, under the paper's wrench, out of it; the region is 1-D (volume 0, no area), whatever its
     affine extents, and its length is measured along the curve."""
     from pytdcr.paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT
-    from pytdcr.region import workspace_study
+    from pytdcr.workspace import workspace_study
 
     robot = paper_robot()
     lower = np.zeros(8)
@@ -504,7 +498,7 @@ def _tiny_robot():
 def test_warm_starts_agree_to_a_share_of_the_robots_length():
     """The same equilibrium means the same tip to 1e-6 m per 0.4 m of the robot: exactly 1e-6 m on the paper's
     robot (its results unchanged), 5 nm on a 2 mm robot, where 1e-6 m would be half a thousandth of its length."""
-    from pytdcr.region._solve import SAME_TIP, _agree, same_tip
+    from pytdcr.workspace._solve import SAME_TIP, _agree, same_tip
 
     paper, tiny = paper_robot(), _tiny_robot()
     assert same_tip(paper) == SAME_TIP == 1e-6 and same_tip(tiny) == pytest.approx(5e-9, rel=1e-12)

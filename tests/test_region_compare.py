@@ -8,7 +8,8 @@ import json
 import numpy as np
 import pytest
 
-from pytdcr.region import region_from_points, region_overlap
+from pytdcr.workspace import region_overlap
+from pytdcr.workspace._grid import region_from_points
 
 VOXEL = 0.01
 
@@ -96,8 +97,8 @@ def test_the_reproduce_workspace_section_compares_the_models(tmp_path):
     """``tdcr reproduce --full``'s workspace section with models (here a small budget and two): per model a
     volume, per pair the overlap, the slices written and the report's table."""
     from pytdcr.paper import paper_bounds, paper_robot
-    from pytdcr.study import ReproduceSettings
-    from pytdcr.study._workspace import workspace_section, workspace_text
+    from pytdcr.runs import ReproduceSettings
+    from pytdcr.runs._workspace import workspace_section, workspace_text
 
     s = ReproduceSettings(workspace_n=16, workspace_budget=0, workspace_voxels=10, workspace_models=("pcc", "pcc2"),
                           models_n=32, models_voxels=10)
@@ -111,7 +112,7 @@ def test_the_reproduce_workspace_section_compares_the_models(tmp_path):
     text = "\n".join(workspace_text(ws, s))
     assert "### The workspace by model" in text and "| pcc2 |" in text and "Hausdorff" in text
     # the models' searches stop at folds (an sscr search that snaps through them takes hours)
-    from pytdcr.study._workspace import _section_cases
+    from pytdcr.runs._workspace import _section_cases
 
     loads_cases, model_cases = _section_cases(paper_robot(), s, 1)
     assert {v[2].folds for v in model_cases.values()} == {"stop"}
@@ -123,8 +124,8 @@ def test_the_reproduce_workspace_section_compares_the_models(tmp_path):
 def test_a_comparisons_progress_names_each_case(tmp_path):
     """Every stage a comparison shows carries its case's name (the bars of one case are told from the next)."""
     from pytdcr.paper import paper_bounds, paper_loads, paper_robot
-    from pytdcr.region import WorkspaceSettings
-    from pytdcr.study import WorkspaceRunOptions, run_workspace_compare
+    from pytdcr.runs import WorkspaceRunOptions, run_workspace_compare
+    from pytdcr.workspace import WorkspaceSettings
 
     seen: list[str] = []
 

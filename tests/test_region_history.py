@@ -9,23 +9,12 @@ import pytest
 from pytdcr import solve
 from pytdcr.cli.workspace import EQUILIBRIA_CHOICES
 from pytdcr.paper import paper_bounds, paper_loads
-from pytdcr.region import (
-    EQUILIBRIA,
-    FIRST_WAVE,
-    ROOT,
-    RegionSamples,
-    TensionPlan,
-    WorkspaceSettings,
-    continue_plan,
-    equilibria_for,
-    inside,
-    measure_multistability,
-    plan_tensions,
-    region_from_points,
-    solve_plan,
-)
-from pytdcr.region._solve import _Solver
 from pytdcr.statics import get_model
+from pytdcr.workspace import EQUILIBRIA, RegionSamples, WorkspaceSettings, equilibria_for
+from pytdcr.workspace._grid import inside, region_from_points
+from pytdcr.workspace._history import measure_multistability
+from pytdcr.workspace._plan import TensionPlan, plan_tensions
+from pytdcr.workspace._solve import FIRST_WAVE, ROOT, _Solver, continue_plan, solve_plan
 
 # one tension vector with two stable equilibria under the paper's load (tests/test_continuation.py)
 BISTABLE = np.array([13.18, 14.16, 17.09, 16.97, 11.38, 19.27, 10.38, 18.73])
@@ -127,7 +116,7 @@ def test_h_and_the_largest_reach_come_from_stable_equilibria(paper):
     """Under the paper's load the support function and the reach search refuse unstable equilibria (issue 27,
     item 3), and report the equilibria of the continued region: every row is marked stable, and each searched
     row's tip is what continuing its parent sample's equilibrium to its tensions reaches, a stable equilibrium."""
-    from pytdcr.region import workspace_study
+    from pytdcr.workspace import workspace_study
 
     ws = workspace_study(paper, paper_loads(), paper_bounds(),
                          WorkspaceSettings(n=48, seed=4, search=False, directions=6, multistability=0, threads=2))
@@ -161,7 +150,7 @@ def test_an_unstable_root_leaves_the_continued_region_empty_and_says_so(paper, t
     robot at zero tension is an unstable equilibrium. The continued region holds no sample (none has a stable
     parent), has no largest reach, and the run says why."""
     from pytdcr import Loads
-    from pytdcr.study import run_workspace
+    from pytdcr.runs import run_workspace
 
     robot = paper.with_gravity(None)
     euler = np.pi**2 * robot.backbone.bending_stiffness / (4 * robot.length**2)

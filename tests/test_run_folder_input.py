@@ -21,8 +21,8 @@ import pytest
 
 from pytdcr.cli import main
 from pytdcr.explore import read_workspace
+from pytdcr.runs import read_workspace_pool
 from pytdcr.runtime import RunDoc, RunFolder, output_folder
-from pytdcr.study import read_workspace_pool
 from pytdcr.validate import SettingsError
 
 TARGET = "0.1,0.05,0.3"
@@ -430,7 +430,7 @@ def test_a_link_swapped_in_after_the_check_is_not_followed(tmp_path, monkeypatch
 
 def test_one_rule_for_tensions_inside_the_bounds():
     from pytdcr import TensionBounds
-    from pytdcr.study._inverse import BOUNDS_SLACK, inside_bounds
+    from pytdcr.runs._inverse import BOUNDS_SLACK, inside_bounds
 
     bounds = TensionBounds.uniform(2, 0.0, 20.0)
     slack = BOUNDS_SLACK * 20.0  # relative to the upper bound

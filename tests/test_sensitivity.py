@@ -136,8 +136,8 @@ def test_the_compiled_tip_gradients_are_the_implicit_function_theorems(paper, mo
     """The compiled derivative (PCC models) is the reference arithmetic of the Python one, row by row, whatever
     the threads; a row without an equilibrium stays NaN."""
     from pytdcr.statics import solve_batch, tip_gradient
+    from pytdcr.statics.compiled import _tip_derivative
     from pytdcr.statics.registry import resolve
-    from pytdcr.statics.solver import _tip_derivative
 
     loads = paper_loads()
     T = np.random.default_rng(3).uniform(0.0, 20.0, (24, paper.n_tendons))

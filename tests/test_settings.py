@@ -11,7 +11,7 @@ from pytdcr.accuracy import check_accuracy_plan
 from pytdcr.cli import main
 from pytdcr.cli._args import FLAGS
 from pytdcr.compare import ModelSummary, check_models, compare_models
-from pytdcr.study import (
+from pytdcr.runs import (
     AccuracySettings,
     BoundsSpec,
     CompareSettings,

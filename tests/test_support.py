@@ -11,17 +11,17 @@ import pytest
 from pytdcr import solve
 from pytdcr.optimize import MemeticGA, ReachProblem, SearchFailed, Termination, maximize_reach
 from pytdcr.paper import paper_bounds, paper_loads, paper_robot
-from pytdcr.region import (
+from pytdcr.workspace import SupportFunction
+from pytdcr.workspace import _support as support_module
+from pytdcr.workspace._plan import plan_tensions
+from pytdcr.workspace._solve import solve_plan
+from pytdcr.workspace._support import (
     SampleStates,
-    SupportFunction,
     SupportSettings,
     fibonacci_directions,
     largest_reach,
-    plan_tensions,
-    solve_plan,
     support_function,
 )
-from pytdcr.region import _support as support_module
 
 #: h may fall short of a sample's d . tip by no more than this [m] (rounding)
 SLACK = 1e-9

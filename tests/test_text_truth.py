@@ -7,8 +7,8 @@ import re
 
 import pytest
 
-from pytdcr.study._report import _stability, _stable_cell
-from pytdcr.study._workspace import _error_words, _warnings, search_stop_words
+from pytdcr.runs._report import _stability, _stable_cell
+from pytdcr.runs._workspace import _error_words, _warnings, search_stop_words
 
 
 def _summary(stop: str, volume_cm3: float, error_cm3: float, growth_cm3: float) -> dict:

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from pytdcr import Loads, solve, solve_batch
-from pytdcr.design import NoFriction, Robot
 from pytdcr.paper import paper_loads, paper_robot
+from pytdcr.robot import NoFriction, Robot
 from pytdcr.statics.tolerance import FLOOR, RELATIVE, moment_scale, tolerances
 
 TENSIONS = np.array([5.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0])

@@ -11,7 +11,8 @@ import pytest
 
 from pytdcr.cli import main
 from pytdcr.designs import MEASURES, measures_for
-from pytdcr.region import Multistability, feasible_words, stability_counts, stability_test, stability_words
+from pytdcr.statics import feasible_words, stability_counts, stability_test, stability_words
+from pytdcr.workspace import Multistability
 
 TINY = ["--n", "4", "--no-search", "--directions", "0", "--voxel", "0.1", "--multistability", "0"]
 
@@ -119,8 +120,8 @@ def test_unstable_counts_only_the_converged_samples():
     solver leaves NaN there, so the numbers of real runs, and the golden baselines, do not move)."""
     from types import SimpleNamespace
 
-    from pytdcr.region._study import _counts
-    from pytdcr.study._runs import _sample_counts
+    from pytdcr.runs._runs import _sample_counts
+    from pytdcr.workspace._study import _counts
 
     ok = np.array([True, True, False, False])
     st = np.array([0.0, 1.0, 0.0, np.nan])  # row 2 did not converge: its 0 is not a tested state

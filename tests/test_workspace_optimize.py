@@ -11,7 +11,7 @@ import pytest
 from pytdcr import Loads, Robot, Segment, SolverOptions, Tendon, TensionBounds, solve, tip_gradient
 from pytdcr.optimize import MemeticGA, ReachProblem, Termination, maximize_reach, polish_reach
 from pytdcr.plotting import plot_convergence, plot_reach_samples
-from pytdcr.study import OptimizeSettings, ReproduceSettings, SampleSettings, run_optimize, run_reproduce, run_sample
+from pytdcr.runs import OptimizeSettings, ReproduceSettings, SampleSettings, run_optimize, run_reproduce, run_sample
 from pytdcr.workspace import sample_workspace
 
 

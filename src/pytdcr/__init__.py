@@ -8,7 +8,10 @@ from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
 from .bounds import TensionBounds
-from .design import (
+from .loads import Loads, PointLoad
+from .paper import paper_loads, paper_robot, rao_robot
+from .results import BatchSolution, NotConvergedError, StaticSolution
+from .robot import (
     Backbone,
     ConstantFriction,
     ExponentialFriction,
@@ -17,9 +20,6 @@ from .design import (
     Segment,
     Tendon,
 )
-from .loads import Loads, PointLoad
-from .paper import paper_loads, paper_robot, rao_robot
-from .results import BatchSolution, NotConvergedError, StaticSolution
 from .statics import (
     MODELS,
     CosseratOptions,

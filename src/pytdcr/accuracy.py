@@ -22,10 +22,10 @@ from typing import Any
 
 import numpy as np
 
-from .design import Robot
 from .loads import Loads, check_tensions
 from .paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT, PAYLOAD_MASS, STANDARD_GRAVITY, payload_gravity
 from .results import StaticSolution
+from .robot import Robot
 from .statics import (
     MODELS,
     Model,

@@ -6,8 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .design import MAX_TENDONS, Robot
 from .loads import check_tensions
+from .robot import MAX_TENDONS, Robot
 from .validate import as_real_array, check_count
 
 __all__ = ["TensionBounds"]

@@ -11,9 +11,9 @@ from typing import Any
 
 import numpy as np
 
-from .design import Robot
 from .loads import Loads, check_tensions
 from .results import StaticSolution
+from .robot import Robot
 from .statics import Model, get_models, resolve
 from .validate import SettingsError
 

@@ -38,8 +38,8 @@ from typing import Any
 import tomli_w
 from pydantic import ValidationError
 
-from .design import Robot
 from .paper import BUILTIN_ROBOTS
+from .robot import Robot
 from .runtime import atomic_write_text, to_jsonable
 from .validate import escape_controls, is_integer, read_text_file, show, show_path
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .design import MAX_DISKS_PER_SEGMENT, MAX_SEGMENTS
+from .robot import MAX_DISKS_PER_SEGMENT, MAX_SEGMENTS
 from .validate import MAX_FORCE_N, as_real_array, check_real, check_real_vector, is_integer, show, show_number
 
 __all__ = ["MAX_TENSION", "Loads", "PointLoad", "check_tensions", "check_vector"]

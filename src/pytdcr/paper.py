@@ -17,8 +17,8 @@ from __future__ import annotations
 import numpy as np
 
 from .bounds import TensionBounds
-from .design import Backbone, ConstantFriction, ExponentialFriction, NoFriction, Robot, Segment, Tendon
 from .loads import Loads
+from .robot import Backbone, ConstantFriction, ExponentialFriction, NoFriction, Robot, Segment, Tendon
 
 __all__ = [
     "BUILTIN_ROBOTS",

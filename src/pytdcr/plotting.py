@@ -15,8 +15,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .design import Robot
 from .results import StaticSolution
+from .robot import Robot
 from .runtime import atomic_write
 
 if TYPE_CHECKING:
@@ -348,7 +348,7 @@ def plot_order(studies: Sequence[Any], ax: Axes | None = None, **kwargs: Any) ->
 
 
 def plot_region_slices(regions: dict[str, Any], length: float, title: str = "") -> Any:
-    """Slices of workspace regions (:class:`pytdcr.region.Region`), overlaid (a line style each, so that equal
+    """Slices of workspace regions (:class:`pytdcr.workspace.Region`), overlaid (a line style each, so that equal
     boundaries stay visible): the xz plane (y = 0), the yz plane (x = 0) and the xy plane at 1/4, 1/2 and 3/4
     of ``length`` [m]. Returns the figure."""
     plt = pyplot()

@@ -10,9 +10,9 @@ from typing import Any
 
 import numpy as np
 
-from .design import Robot
 from .kinematics import backbone_curve
 from .loads import Loads
+from .robot import Robot
 
 __all__ = ["BatchSolution", "NotConvergedError", "Stability", "StaticSolution"]
 

@@ -2,7 +2,7 @@
 
 Every check here raises ``ValueError`` (or ``TypeError`` for a wrong type) with
 one line that names the field, shows the value (shortened, control characters
-escaped) and says what is allowed. The robot description (:mod:`pytdcr.design`,
+escaped) and says what is allowed. The robot description (:mod:`pytdcr.robot`,
 through pydantic in strict mode), the loads (:mod:`pytdcr.loads`), the robot
 and bounds files (:mod:`pytdcr.io`) and the command line all use it.
 """

@@ -2,7 +2,7 @@
 
 One module per command (or pair of commands): ``solve``, ``inverse``, ``sample``, ``workspace``, ``optimize``,
 ``reproduce``, ``compare`` (with ``accuracy``), ``designs``, ``robot``, ``explore``; each declares its options
-(``add_parser``) and runs (``run``): it turns the options into the study's settings (:mod:`pytdcr.study`),
+(``add_parser``) and runs (``run``): it turns the options into the study's settings (:mod:`pytdcr.runs`),
 calls the library and prints.
 The options the commands share are declared once (:mod:`._args`); how a command runs, Ctrl-C and the exit
 status are in :mod:`._runtime`: 0 success, 1 not converged, 2 bad input, 70 internal error (a bug), 75 the

@@ -23,7 +23,7 @@ from ..validate import MAX_SEED, parse_numbers, show
 from ._runtime import CliError
 
 if TYPE_CHECKING:
-    from ..study import BoundsSpec, LoadSpec, ModelSpec, RobotSpec
+    from ..runs import BoundsSpec, LoadSpec, ModelSpec, RobotSpec
 
 __all__ = ["FLAGS", "Parser", "add_bounds", "add_model", "add_n", "add_out", "add_robot_and_loads", "add_seed",
            "bounds_spec", "check_out", "count_type", "glue_negative_values", "has_tip_wrench",
@@ -148,7 +148,7 @@ def add_out(p: argparse.ArgumentParser, default: str | None, help: str | None = 
 # ---------------------------------------------------------------- from the options to the settings' groups
 def robot_spec(args: argparse.Namespace) -> RobotSpec:
     """The robot of :func:`add_robot_and_loads`'s options."""
-    from ..study import RobotSpec
+    from ..runs import RobotSpec
 
     friction: str | float | None = args.friction
     if friction is not None:
@@ -159,7 +159,7 @@ def robot_spec(args: argparse.Namespace) -> RobotSpec:
 
 def load_spec(args: argparse.Namespace) -> LoadSpec:
     """The loads of :func:`add_robot_and_loads`'s options."""
-    from ..study import LoadSpec
+    from ..runs import LoadSpec
 
     tf = parse_floats(args.tip_force, "--tip-force", 3) if args.tip_force else np.zeros(3)
     tm = parse_floats(args.tip_moment, "--tip-moment", 3) if args.tip_moment else np.zeros(3)
@@ -179,14 +179,14 @@ def _disk_wrench(text: str, option: str) -> tuple[int, tuple[float, ...]]:
 
 def model_spec(args: argparse.Namespace, atol: float | None = None) -> ModelSpec:
     """The model of :func:`add_model`'s options (and a tolerance, for solve)."""
-    from ..study import ModelSpec
+    from ..runs import ModelSpec
 
     return ModelSpec(args.model, shear_extension=args.shear_extension, atol=atol)
 
 
 def bounds_spec(args: argparse.Namespace) -> BoundsSpec | None:
     """The bounds of :func:`add_bounds`'s options; None when neither is given."""
-    from ..study import BoundsSpec
+    from ..runs import BoundsSpec
 
     if args.bounds_file:
         return BoundsSpec(file=args.bounds_file)

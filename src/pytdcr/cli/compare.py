@@ -54,7 +54,7 @@ def _names(text: str) -> tuple[str, ...]:
 
 def run(args: argparse.Namespace) -> int:
     """Compare; print the tip differences and solve times, and what was written."""
-    from ..study import CompareSettings, run_compare
+    from ..runs import CompareSettings, run_compare
 
     models = _names(args.models)
     check_models(models)  # before any other option
@@ -93,8 +93,8 @@ def run(args: argparse.Namespace) -> int:
 def error_mm(value: float, width: int = 0) -> str:
     """A distance or error [mm] for a message, right-aligned in ``width`` characters: three decimals, or three
     significant digits where three decimals would show a non-zero value as 0 (below half a micrometre):
-    :func:`pytdcr.study.number_text`, the one rule."""
-    from ..study import number_text
+    :func:`pytdcr.runs.number_text`, the one rule."""
+    from ..runs import number_text
 
     return number_text(value, 3, width)
 
@@ -129,7 +129,7 @@ def _int_list(text: str, name: str) -> tuple[int, ...]:
 
 def run_accuracy_command(args: argparse.Namespace) -> int:
     """The accuracy study; print its table and orders, and what was written."""
-    from ..study import AccuracySettings, BoundsSpec, run_accuracy
+    from ..runs import AccuracySettings, BoundsSpec, run_accuracy
 
     out = check_out(args.out)
     robot = robot_spec(args)

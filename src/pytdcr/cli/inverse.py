@@ -63,7 +63,7 @@ def add_parser(sub: Any) -> None:
 def _problem(args: argparse.Namespace) -> tuple[Any, Any, Any, Any, Any]:
     """Robot, loads, bounds, model name and the search's pool (None: the built-in one) of the options, or of
     ``--workspace``."""
-    from ..study import BoundsSpec, read_workspace_pool
+    from ..runs import BoundsSpec, read_workspace_pool
 
     if args.workspace is None:
         robot = robot_spec(args).build()
@@ -84,7 +84,7 @@ def _problem(args: argparse.Namespace) -> tuple[Any, Any, Any, Any, Any]:
 def run(args: argparse.Namespace) -> int:
     """Solve the target (or the path); print the answer (or one JSON object, or the CSV table)."""
     from .. import InverseSearch, TipTarget, inverse_path, inverse_statics
-    from ..study import check_csv_path, read_targets
+    from ..runs import check_csv_path, read_targets
 
     out = check_csv_path(args.csv) if args.csv is not None else None
     direction = parse_floats(args.direction, "--direction", 3) if args.direction else None
@@ -111,8 +111,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         _print_path(results, out)
     if out is not None:
+        from ..runs import inverse_columns, inverse_rows
         from ..runtime import write_csv
-        from ..study import inverse_columns, inverse_rows
 
         out.parent.mkdir(parents=True, exist_ok=True)
         write_csv(out, inverse_columns(robot.n_tendons), inverse_rows(results))
@@ -140,7 +140,7 @@ def _print_one(robot: Any, model: str, r: Any) -> None:
 
 def _print_path(results: list[Any], out: Any) -> None:
     """The path's table on stdout (without ``--csv``) or its summary."""
-    from ..study import inverse_columns, inverse_rows
+    from ..runs import inverse_columns, inverse_rows
 
     if out is None:
         buf = io.StringIO()

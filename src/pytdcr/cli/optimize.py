@@ -74,7 +74,7 @@ def print_reach(res: ReachResult, args: argparse.Namespace) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Search; print the optimum (or one JSON object) and what was written."""
-    from ..study import BoundsSpec, OptimizeSettings, run_optimize
+    from ..runs import BoundsSpec, OptimizeSettings, run_optimize
 
     out = check_out(args.out) if args.out else None
     settings = OptimizeSettings(robot=robot_spec(args), loads=load_spec(args), model=model_spec(args),

@@ -28,7 +28,7 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """The study on the robot asked for (the study sets its own loads); print where the report is."""
-    from ..study import ReproduceSettings, reproduce_estimate, run_reproduce
+    from ..runs import ReproduceSettings, reproduce_estimate, run_reproduce
 
     robot = robot_spec(args).build()
     if has_tip_wrench(args):
@@ -60,7 +60,7 @@ def _optimum(r: Any) -> str:
 
 
 def closing_lines(res: Any) -> list[str]:
-    """The key results of a reproduce run (:class:`~pytdcr.study.ReproduceRun`), one line each."""
+    """The key results of a reproduce run (:class:`~pytdcr.runs.ReproduceRun`), one line each."""
     smp = res.sampling
     lines = [f"samples: {smp['converged']} of {smp['n']} converged, reach {smp['reach_min'] * 1e3:.1f} to "
              f"{smp['reach_max'] * 1e3:.1f} mm"]

@@ -21,7 +21,7 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Print the robot, or write it to ``--out``."""
-    from ..study import RobotSpec
+    from ..runs import RobotSpec
 
     try:
         robot = RobotSpec(robot=args.robot).build()

@@ -42,7 +42,7 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Sample; print the counts and the reach, and what was written."""
-    from ..study import BoundsSpec, SampleSettings, run_sample
+    from ..runs import BoundsSpec, SampleSettings, run_sample
 
     out = check_out(args.out)
     settings = SampleSettings(robot=robot_spec(args), loads=load_spec(args), model=model_spec(args),

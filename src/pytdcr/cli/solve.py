@@ -77,8 +77,8 @@ def _run_cases(args: argparse.Namespace) -> int:
     import io
 
     from .. import solve_batch
+    from ..runs import case_rows, check_csv_path, read_cases
     from ..runtime import write_csv
-    from ..study import case_rows, check_csv_path, read_cases
 
     for flag, given in (("--plot", args.plot), ("--compliance", args.compliance), ("--jacobians", args.jacobians)):
         if given:
@@ -106,7 +106,7 @@ def _run_cases(args: argparse.Namespace) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """Solve; print a summary (or one JSON object) and write the figure asked for."""
-    from ..study import SolveSettings, check_figure_path, run_solve
+    from ..runs import SolveSettings, check_figure_path, run_solve
 
     if args.cases is not None:
         return _run_cases(args)

@@ -31,10 +31,10 @@ from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK, CliError
 
 __all__ = ["add_parser", "run"]
 
-#: the region's equilibria (:data:`pytdcr.region.EQUILIBRIA`: the parser is built without importing the region
+#: the region's equilibria (:data:`pytdcr.workspace.EQUILIBRIA`: the parser is built without importing the region
 #: package, so they are named here and a test checks them against the library's)
 EQUILIBRIA_CHOICES = ("continuation", "loading-path")
-#: the boundary search's rules at a fold (:data:`pytdcr.region.FOLD_RULES`), likewise
+#: the boundary search's rules at a fold (:data:`pytdcr.workspace.FOLD_RULES`), likewise
 FOLD_CHOICES = ("snap", "stop")
 
 
@@ -82,8 +82,8 @@ def _compare_models(args: argparse.Namespace, robot: Any, loads: Any) -> dict[st
     """The cases of ``--compare-models`` (name → robot, loads, no settings of its own, model, options), or None
     without it; CliError for an unknown model, a repeated one, fewer than two, or another comparison asked
     (what each model can do is checked with every case's requirements: :func:`_check_cases`)."""
+    from ..runs import ModelSpec
     from ..statics import MODELS
-    from ..study import ModelSpec
 
     if args.compare_models is None:
         return None
@@ -107,11 +107,11 @@ def _check_cases(args: argparse.Namespace, cases: dict[str, tuple[Any, ...]] | N
                  settings: Any, model: tuple[Any, Any]) -> None:
     """Every case's requirements against its model's capabilities, before the first solve (and before the
     estimate, which solves a few): CliError naming the flag that made the cases, the case and what its model
-    lacks (:func:`pytdcr.study.check_workspace_cases`); for a single case, the flag of the setting the error
+    lacks (:func:`pytdcr.runs.check_workspace_cases`); for a single case, the flag of the setting the error
     names (``--model``, ``--equilibria`` or ``--multistability``)."""
-    from ..region import check_workspace
-    from ..study import WorkspaceCaseSpec, check_workspace_cases
+    from ..runs import WorkspaceCaseSpec, check_workspace_cases
     from ..validate import SettingsError
+    from ..workspace import check_workspace
 
     if cases is None:
         try:
@@ -133,8 +133,8 @@ def _check_cases(args: argparse.Namespace, cases: dict[str, tuple[Any, ...]] | N
 def _say_estimate(cases: dict[str, tuple[Any, ...]] | None, robot: Any, loads: Any, bounds: Any, settings: Any,
                   model: tuple[Any, Any]) -> None:
     """Say the run's estimated time on stderr when it will take more than a minute (not with ``--quiet``)."""
-    from ..region import workspace_estimate
-    from ..study import WorkspaceCaseSpec
+    from ..runs import WorkspaceCaseSpec
+    from ..workspace import workspace_estimate
 
     if quiet():
         return
@@ -147,8 +147,8 @@ def _say_estimate(cases: dict[str, tuple[Any, ...]] | None, robot: Any, loads: A
 
 
 def _workspace_lines(name: str, s: dict[str, Any]) -> list[str]:
-    from ..region import stability_words
-    from ..study import format_measure_of
+    from ..runs import format_measure_of
+    from ..statics import stability_words
 
     out = [f"  {name}:"]
     for label, d in (("FSW", s), ("realisable", s["realisable"])):
@@ -169,8 +169,8 @@ def _workspace_lines(name: str, s: dict[str, Any]) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     """The workspace study; print each case's volumes and reach, and what was written."""
-    from ..region import WorkspaceSettings
-    from ..study import BoundsSpec, WorkspaceRunOptions, run_workspace, run_workspace_compare
+    from ..runs import BoundsSpec, WorkspaceRunOptions, run_workspace, run_workspace_compare
+    from ..workspace import WorkspaceSettings
 
     out = check_out(args.out)
     robot = robot_spec(args).build()
@@ -186,7 +186,7 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as err:
         raise CliError(f"--{err}") from None
     if args.equilibria is not None:
-        from ..region import equilibria_for
+        from ..workspace import equilibria_for
 
         for kind in EQUILIBRIA_CHOICES if args.equilibria == "both" else (args.equilibria,):
             try:

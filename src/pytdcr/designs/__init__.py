@@ -1,6 +1,6 @@
 """Design studies: which robot to build. A study file names a base robot, the parameters to vary and their
 ranges, how designs are chosen (a grid, Sobol points, or NSGA-II over the parameters), the load cases, the
-objectives and a per-design budget; every design gets a workspace study (:mod:`pytdcr.region`), on local
+objectives and a per-design budget; every design gets a workspace study (:mod:`pytdcr.workspace`), on local
 processes or a Dask cluster, written one file per design so that a stopped study resumes. ``tdcr designs``
 runs it from the command line."""
 

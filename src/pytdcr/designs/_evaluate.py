@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 
 from ..bounds import TensionBounds
-from ..region import Estimate, WorkspaceSettings, check_workspace, workspace_estimate, workspace_study
 from ..statics import Cancelled
+from ..workspace import Estimate, WorkspaceSettings, check_workspace, workspace_estimate, workspace_study
 from ._space import apply_parameters
 from ._spec import MEASURES, DesignStudy
 
@@ -46,7 +46,7 @@ def _workspace_settings(study: DesignStudy, base: Any, seed: int) -> WorkspaceSe
 
 def check_capabilities(study: DesignStudy, robot: Any, source: str = "study") -> None:
     """Every load case of ``study`` on its base ``robot`` against the study's model's capabilities, before any
-    design is solved (:func:`pytdcr.region.check_workspace`, with each design's settings): the parameters vary
+    design is solved (:func:`pytdcr.workspace.check_workspace`, with each design's settings): the parameters vary
     geometry and stiffness only, so what the base robot can ask of the model, every design asks.
 
     Raises
@@ -66,7 +66,7 @@ def check_capabilities(study: DesignStudy, robot: Any, source: str = "study") ->
 
 def designs_estimate(study: DesignStudy, robot: Any, designs: int, workers: int) -> Estimate:
     """The expected length of ``designs`` designs (and the base robot) of ``study`` on ``workers`` processes: the
-    base robot's workspace study of each load case (:func:`~pytdcr.region.workspace_estimate`, on one thread)
+    base robot's workspace study of each load case (:func:`~pytdcr.workspace.workspace_estimate`, on one thread)
     for each design. Designs that move the tendons or the backbone cost more or less than the base robot."""
     settings = _workspace_settings(study, robot, study.seed)
     bounds = TensionBounds.uniform(robot.n_tendons, *study.bounds)
@@ -114,7 +114,7 @@ def evaluate_design(study_data: dict[str, Any], robot_data: dict[str, Any], inde
     "timing": {"seconds", "host", "pid"}}``. A design whose robot is invalid, or whose study raises, fails with
     its reason instead of raising; an interrupt is not caught.
     """
-    from ..design import Robot
+    from ..robot import Robot
 
     t0 = time.perf_counter()
     study = DesignStudy.model_validate(study_data)

@@ -9,8 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from ..design import Robot
 from ..plotting import pyplot, save_figure, set_equal_aspect
+from ..robot import Robot
 from ._optimize import measures_nothing
 from ._spec import DesignStudy
 

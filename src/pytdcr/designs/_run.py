@@ -30,9 +30,8 @@ from typing import Any
 import numpy as np
 
 from .. import __version__
-from ..design import Robot
 from ..io import write_robot
-from ..region import FOLD_RULES
+from ..robot import Robot
 from ..runtime import (
     MAX_JSON_BYTES,
     RunInterrupted,
@@ -47,6 +46,7 @@ from ..runtime import (
 )
 from ..statics import check_cancelled, mark_saving
 from ..validate import check_count, finite_real
+from ..workspace import FOLD_RULES
 from ._evaluate import check_capabilities, evaluate_design
 from ._figures import write_design_figures
 from ._optimize import design_batches, measures_nothing, objective_matrix, pareto_front
@@ -490,7 +490,7 @@ def _front_table(study: DesignStudy, ok: Any) -> list[str]:
             "|---" * (1 + len(study.parameters) + len(heads)) + "|", *(r[1] for r in rows)]
 
 
-#: how the report says what the search's steps do at folds, by rule (:data:`~pytdcr.region.FOLD_RULES`)
+#: how the report says what the search's steps do at folds, by rule (:data:`~pytdcr.workspace.FOLD_RULES`)
 _FOLD_WORDS = dict(zip(FOLD_RULES, ("snapping through", "stopping"), strict=True))
 
 
@@ -692,7 +692,7 @@ def run_designs(study: DesignStudy, robot: Robot, out: str | Path, *, study_text
     ``options`` (:class:`DesignsRunOptions`): a Dask scheduler to run on, or local processes (``workers``,
     default all cores); ``restart`` to start again; ``progress(done, failed, total)``, called as designs finish;
     ``figures``. ``study_text`` is kept as ``study.toml``. Ctrl-C stops at once, keeping every finished design
-    (:class:`pytdcr.study.RunInterrupted` says how many).
+    (:class:`pytdcr.runs.RunInterrupted` says how many).
     Returns the table (also ``designs.parquet`` and ``designs.csv``) and the summary (``summary.json``).
     """
     check_capabilities(study, robot)  # every load case against the model, before the folder or any design

@@ -13,8 +13,8 @@ import numpy as np
 from pydantic import ValidationError
 from scipy.stats import qmc
 
-from ..design import Robot
 from ..io import format_validation_error
+from ..robot import Robot
 
 __all__ = ["PARAMETERS", "ParameterInfo", "apply_parameters", "choose_designs", "from_unit", "parameter_info",
            "read_parameter"]

@@ -47,13 +47,13 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from ..design import Robot
 from ..io import format_validation_error, load_robot, read_toml
 from ..loads import Loads
 from ..paper import workspace_load_cases
-from ..region import FOLD_RULES
+from ..robot import Robot
 from ..statics import MODELS
 from ..validate import unit_vector
+from ..workspace import FOLD_RULES
 from ._space import apply_parameters, parameter_info
 
 __all__ = ["LOAD_CASE_NAMES", "MAX_DESIGNS", "MEASURES", "DesignStudy", "Objective", "Parameter", "StudyError",
@@ -82,8 +82,8 @@ MEASURES = {
 def measures_for(model: str) -> dict[str, str]:
     """:data:`MEASURES` as they hold for a study solved by ``model``: the FSW's samples are its converged
     equilibria, the unstable ones left out where the model tests stability, and said to be untested where it
-    does not (:func:`pytdcr.region.feasible_words`)."""
-    from ..region import feasible_words, stability_test
+    does not (:func:`pytdcr.statics.feasible_words`)."""
+    from ..statics import feasible_words, stability_test
 
     test = stability_test(model)
     if test == "run":
@@ -158,7 +158,7 @@ class Designs(_Strict):
 class Budget(_Strict):
     """Work per design and load case: base samples, boundary-search solves, whether to search the largest reach,
     the volume's voxel edge [m] (the same for every design; default the base robot's length / 32), and what a
-    search step does at a fold (:data:`~pytdcr.region.FOLD_RULES`: ``"snap"`` through it, or ``"stop"`` there,
+    search step does at a fold (:data:`~pytdcr.workspace.FOLD_RULES`: ``"snap"`` through it, or ``"stop"`` there,
     about half the search's cost under a load)."""
 
     samples: Annotated[int, Field(ge=16, le=1_000_000)] = 500

@@ -21,7 +21,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from ..design import Robot
+from ..robot import Robot
 from ..runtime import check_cancelled
 from ..validate import SettingsError
 from ._session import Explorer

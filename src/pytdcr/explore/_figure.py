@@ -10,9 +10,9 @@ from typing import Any
 
 import numpy as np
 
-from ..design import Robot
 from ..loads import Loads
 from ..results import StaticSolution
+from ..robot import Robot
 from ..validate import direction_or_none
 from ._workspace import WorkspaceView
 

@@ -21,12 +21,12 @@ from pathlib import Path
 import numpy as np
 
 from ..bounds import TensionBounds
-from ..design import NoFriction, Robot
 from ..loads import Loads
 from ..paper import STANDARD_GRAVITY, paper_bounds, paper_robot, payload_gravity
 from ..results import StaticSolution
+from ..robot import NoFriction, Robot
+from ..runs import read_workspace_pool
 from ..statics import MODELS, Model, UnsupportedFeatureError, get_model, solve
-from ..study import read_workspace_pool
 from ..validate import SettingsError
 from ._target import (
     SAME_TIP_M,

@@ -14,10 +14,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..bounds import TensionBounds
-from ..design import Robot
 from ..loads import Loads
 from ..optimize import InverseSearch, inverse_statics
 from ..results import StaticSolution
+from ..robot import Robot
 from ..statics import Model, solve
 
 __all__ = ["CONTINUED", "INVERSE", "SAME_TIP_M", "SAMPLE", "SEARCH", "NearestSample", "TargetAnswer",

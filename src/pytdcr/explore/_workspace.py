@@ -9,11 +9,11 @@ from pathlib import Path, PurePosixPath
 import numpy as np
 
 from ..bounds import TensionBounds
-from ..design import Robot
 from ..loads import Loads
+from ..robot import Robot
+from ..runs import inside_bounds, read_workspace_inputs
 from ..runtime import RunDoc, RunFolder
 from ..statics import MODELS, solve
-from ..study import inside_bounds, read_workspace_inputs
 from ..validate import show
 
 __all__ = ["MAX_COORDINATE_M", "MAX_FACES", "MAX_MESH_BYTES", "REACH_AGREES_M", "ReachPose", "WorkspaceView",

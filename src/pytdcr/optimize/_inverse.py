@@ -36,9 +36,9 @@ from typing import Any
 import numpy as np
 
 from ..bounds import TensionBounds
-from ..design import Robot
 from ..loads import Loads, check_tensions
 from ..results import StaticSolution
+from ..robot import Robot
 from ..statics import Model, resolve, solve
 from ..validate import MAX_SEED, SettingsError, as_real_array, check_count, check_positions, unit_vector
 from ._inverse_search import (

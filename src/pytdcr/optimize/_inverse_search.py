@@ -16,10 +16,10 @@ from scipy.stats import qmc
 
 from .._version import __version__
 from ..bounds import TensionBounds
-from ..design import Robot
 from ..io import robot_to_dict
 from ..loads import Loads
 from ..results import StaticSolution
+from ..robot import Robot
 from ..runtime import cache_dir, read_arrays, write_arrays
 from ..statics import Model, equilibrium_jacobians, solve, solve_batch
 

@@ -8,9 +8,9 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from ..bounds import TensionBounds
-from ..design import Robot
 from ..loads import Loads
 from ..results import BatchSolution, StaticSolution
+from ..robot import Robot
 from ..statics import TIGHT_ATOL, Model, configure, resolve
 from ..validate import SettingsError, unit_vector
 

@@ -15,10 +15,10 @@ from typing import TYPE_CHECKING, Any, Literal, Protocol, runtime_checkable
 if TYPE_CHECKING:
     import numpy as np
 
-    from ..design import Robot
     from ..limits import Resources
     from ..loads import Loads
     from ..results import BatchSolution, StaticSolution
+    from ..robot import Robot
 
 __all__ = ["Capabilities", "Model", "UnsupportedFeatureError"]
 

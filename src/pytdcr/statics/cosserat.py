@@ -31,10 +31,10 @@ import numpy as np
 from scipy.optimize import root
 
 from ..contact import contact_failure
-from ..design import Robot
 from ..limits import Resources
 from ..loads import Loads
 from ..results import BatchSolution, StaticSolution
+from ..robot import Robot
 from ..runtime import check_cancelled, run_in_chunks
 from .base import Capabilities
 from .kernels import cosserat as CK

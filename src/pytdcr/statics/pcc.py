@@ -4,7 +4,7 @@
 equations and evaluates them (residual, exact Jacobian, tendon tensions); it
 knows nothing of how they are solved. :class:`PCCModel` is the registry's
 entry: it solves them (quasi-Newton with an exact Jacobian along the loading
-path, see :func:`pytdcr.statics.kernels.solver.solve_one`) for one tension vector
+path, see :func:`pytdcr.statics.kernels.loading_path.solve_one`) for one tension vector
 or a batch, and differentiates an equilibrium's tip by the tensions.
 
 Which equilibrium? A robot under large loads can have several. By default
@@ -25,16 +25,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..design import ConstantFriction, ExponentialFriction, NoFriction, Robot
 from ..kinematics import subsegment_derivatives, tip_jacobian
 from ..loads import Loads
 from ..results import StaticSolution
+from ..robot import ConstantFriction, ExponentialFriction, NoFriction, Robot
 from ..runtime import run_in_chunks
 from .base import Capabilities
+from .compiled import CompiledModel, Evaluation, PackedEquations
 from .kernels import pcc as K
 from .kernels.pcc_gradient import tip_gradient_range
 from .options import SolverOptions
-from .solver import CompiledModel, Evaluation, PackedEquations
 
 __all__ = ["PCC", "PCCEquations", "PCCModel", "friction_params"]
 

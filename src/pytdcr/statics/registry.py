@@ -2,7 +2,7 @@
 
 Adding a model: one module that defines a class satisfying
 :class:`~pytdcr.statics.base.Model` (for a model the shared compiled solver
-solves, a :class:`~pytdcr.statics.solver.CompiledModel` that names its kernel
+solves, a :class:`~pytdcr.statics.compiled.CompiledModel` that names its kernel
 module under :mod:`pytdcr.statics.kernels`), one line in :data:`MODELS`, and
 its tests. :func:`register` makes the kernels known to the compiled solver.
 Everything else (``solve``, ``solve_batch``, the comparison, the workspace,
@@ -15,13 +15,13 @@ import dataclasses
 from collections.abc import Sequence
 from typing import Any
 
-from ..design import Robot
 from ..limits import Resources, check_memory, human_seconds
 from ..loads import Loads
+from ..robot import Robot
 from ..validate import SettingsError
 from .base import Model, UnsupportedFeatureError
 from .cosserat import COSSERAT
-from .kernels.solver import register_kernels
+from .kernels.loading_path import register_kernels
 from .pcc import PCC
 from .pcc2 import PCC2
 from .sscr import SSCR
@@ -32,7 +32,7 @@ __all__ = ["MODELS", "check_resources", "configure", "get_model", "get_models", 
 
 def register(*models: Model) -> dict[str, Model]:
     """``models`` by name; each compiled model's kernel module is registered with the shared compiled solver
-    (:func:`pytdcr.statics.kernels.solver.register_kernels`), keyed by its packed-equation type."""
+    (:func:`pytdcr.statics.kernels.loading_path.register_kernels`), keyed by its packed-equation type."""
     out: dict[str, Model] = {}
     for m in models:
         if m.name in out:

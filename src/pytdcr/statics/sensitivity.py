@@ -17,12 +17,12 @@ from typing import Any
 import numpy as np
 from scipy.linalg import lu_factor, lu_solve
 
-from ..design import Robot
 from ..loads import Loads
 from ..results import StaticSolution
+from ..robot import Robot
 from .base import Model
+from .equilibrium import check_solution
 from .registry import resolve
-from .solving import check_solution
 
 __all__ = ["Jacobians", "TipCompliance", "equilibrium_jacobians", "tip_compliance"]
 

@@ -21,13 +21,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..design import Robot
 from ..loads import Loads
+from ..robot import Robot
 from .base import Capabilities
+from .compiled import CompiledModel, Evaluation, PackedEquations
 from .kernels import sscr as SK
 from .options import SSCROptions
 from .pcc import PCCEquations
-from .solver import CompiledModel, Evaluation, PackedEquations
 
 __all__ = ["SSCR", "SSCREquations", "SSCRModel", "SSCROptions"]
 

@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..design import Robot
 from ..loads import Loads
+from ..robot import Robot
 
 __all__ = ["FLOOR", "RELATIVE", "STEP_RELATIVE", "moment_scale", "tolerances"]
 

@@ -4,7 +4,7 @@ Implicit function theorem at an equilibrium q of r(q, T) = 0: dq/dT = -J^-1 dr/d
 of :func:`pytdcr.statics.kernels.pcc.evaluate` and dr/dT_c = r(q, T + e_c) - r(q, T) exactly (the residual is
 affine in the actuator tensions at fixed q); the tip's derivative is the exact
 :func:`pytdcr.kinematics.tip_jacobian` times dq/dT. The same arithmetic as
-:func:`pytdcr.statics.solver._tip_derivative` (the reference the tests hold it to), without a Python call per
+:func:`pytdcr.statics.compiled._tip_derivative` (the reference the tests hold it to), without a Python call per
 residual: one batch runs in threads.
 """
 

@@ -1,6 +1,6 @@
 """The exact Jacobians of many equilibria, compiled (the GIL released), for the static stability test; and
 their residuals, to check that a batch to continue holds equilibria. Both for any packed model the compiled
-solver takes (:func:`pytdcr.statics.kernels.solver.model_evaluate`): the same numbers as the model's Python
+solver takes (:func:`pytdcr.statics.kernels.loading_path.model_evaluate`): the same numbers as the model's Python
 ``evaluate``, without a Python call per row.
 """
 
@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .solver import model_evaluate, model_with_tension, model_work
+from .loading_path import model_evaluate, model_with_tension, model_work
 
 __all__ = ["jacobian_range", "largest_residuals"]
 

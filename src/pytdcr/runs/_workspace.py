@@ -12,7 +12,6 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from ..bounds import TensionBounds
-from ..design import Robot
 from ..limits import ResourceLimitError
 from ..loads import Loads
 from ..optimize import SearchFailed
@@ -24,9 +23,12 @@ from ..plotting import (
     save_figure,
     write_region_html,
 )
-from ..region import (
-    MIN_MESH_POINTS,
-    SOURCES,
+from ..results import NotConvergedError
+from ..robot import Robot
+from ..runtime import atomic_write, atomic_write_text, output_folder, write_csv, write_json
+from ..statics import Model, feasible_words, options_record, saving, solve, stability_words
+from ..validate import SettingsError
+from ..workspace import (
     Estimate,
     LargestReach,
     Region,
@@ -38,16 +40,10 @@ from ..region import (
     WorkspaceSettings,
     WorkspaceStudy,
     check_workspace,
-    feasible_words,
     region_overlap,
-    stability_words,
     workspace_estimate,
     workspace_study,
 )
-from ..results import NotConvergedError
-from ..runtime import atomic_write, atomic_write_text, output_folder, write_csv, write_json
-from ..statics import Model, options_record, saving, solve
-from ..validate import SettingsError
 from ._output import inputs_record
 
 __all__ = [
@@ -74,7 +70,8 @@ class WorkspaceRunOptions:
     command : str
         The command that made it, named in each ``report.md``.
     progress : callable or None
-        ``progress(stage, total)`` returns a callable advanced by the work done (:class:`pytdcr.region.WorkspaceHooks`).
+        ``progress(stage, total)`` returns a callable advanced by the work done
+        (:class:`pytdcr.workspace.WorkspaceHooks`).
     on_round : callable or None
         Sees each round of the boundary search.
     """
@@ -139,12 +136,12 @@ class WorkspaceRun:
 
 def _with_mesh(numbers: dict[str, Any], mesh: str) -> dict[str, Any]:
     """A region's numbers with the name of its mesh file after the largest reach; None when it has too few
-    points to mesh (:data:`MIN_MESH_POINTS`) or no volume to enclose (dimension below 3)."""
+    points to mesh (:attr:`Region.MIN_MESH_POINTS`) or no volume to enclose (dimension below 3)."""
     out: dict[str, Any] = {}
     for key, value in numbers.items():
         out[key] = value
         if key == "largest_reach_m":
-            out["mesh"] = mesh if numbers["points"] >= MIN_MESH_POINTS and numbers["dimension"] == 3 else None
+            out["mesh"] = mesh if numbers["points"] >= Region.MIN_MESH_POINTS and numbers["dimension"] == 3 else None
     return out
 
 
@@ -220,7 +217,8 @@ def _warnings(summary: dict[str, Any]) -> list[str]:
             plural = "s" * (d["points"] != 1)
             out.append(f"the {label} holds {d['points']} feasible sample{plural} "
                        f"({feasible_words(summary['stability_test'])}), fewer than "
-                       f"the {MIN_MESH_POINTS} a boundary needs: {name} is not written and its volume is that of "
+                       f"the {Region.MIN_MESH_POINTS} a boundary needs: {name} is not written and its volume is "
+                       f"that of "
                        f"the occupied voxels alone")
     return out
 
@@ -232,7 +230,7 @@ def _directions_record(settings: WorkspaceSettings) -> int | list[list[float]]:
 
 def _case(name: str, robot: Robot, loads: Loads, bounds: TensionBounds, settings: WorkspaceSettings,
           model: str | Model, options: Any, hooks: WorkspaceHooks) -> WorkspaceCase:
-    """Compute one load case (:func:`pytdcr.region.workspace_study`) and its summary."""
+    """Compute one load case (:func:`pytdcr.workspace.workspace_study`) and its summary."""
     ws = workspace_study(robot, loads, bounds, settings, model=model, options=options, hooks=hooks)
     numbers = ws.to_dict()
     summary = _with_mesh(numbers, "fsw.ply")
@@ -253,7 +251,7 @@ def _save_samples(out: Path, s: RegionSamples) -> None:
             extra = {} if s.parent is None else {"parent": s.parent}
             np.savez_compressed(f, tensions=s.tensions, source=s.source, tip=s.tip_position, stage=s.stage,
                                 converged=s.converged, stable=s.stable, below_base=s.below_base,
-                                disks_touch=s.disks_touch, sources=np.array(SOURCES), **extra)
+                                disks_touch=s.disks_touch, sources=np.array(RegionSamples.SOURCES), **extra)
 
     atomic_write(out / "samples.npz", write)
 
@@ -328,7 +326,7 @@ def _write_case(out: Path, case: WorkspaceCase, robot: Robot, command: str) -> l
 def run_workspace(robot: Robot, loads: Loads, bounds: TensionBounds, settings: WorkspaceSettings, out: str | Path,
                   *, model: str | Model = "pcc", options: Any = None,
                   run_options: WorkspaceRunOptions | None = None) -> WorkspaceRun:
-    """The workspace under ``loads`` (:func:`pytdcr.region.workspace_study` with ``settings``), written to ``out``
+    """The workspace under ``loads`` (:func:`pytdcr.workspace.workspace_study` with ``settings``), written to ``out``
     (the output-folder rule): ``workspace.json``, ``fsw.ply``, ``fsw_realisable.ply``, ``samples.npz``,
     ``support.csv``, figures (slices, 3D boundary with the robot at its largest reach, h(d) map; PNG and PDF),
     ``workspace.html`` and ``report.md``. ``run_options`` names the command in the report and carries the
@@ -448,7 +446,7 @@ def _centroid(region: Region) -> np.ndarray:
 
 
 def _pairs(cases: list[WorkspaceCase]) -> list[dict[str, Any]]:
-    """Per pair of cases (a before b): how their FSWs differ (:func:`pytdcr.region.region_overlap`)."""
+    """Per pair of cases (a before b): how their FSWs differ (:func:`pytdcr.workspace.region_overlap`)."""
     return [{"a": a.name, "b": b.name, **region_overlap(a.region.fsw_region, b.region.fsw_region).to_dict()}
             for i, a in enumerate(cases) for b in cases[i + 1:]]
 
@@ -537,7 +535,7 @@ def _case_settings(spec: WorkspaceCaseSpec, settings: WorkspaceSettings) -> Work
 def check_workspace_cases(specs: Mapping[str, WorkspaceCaseSpec], settings: WorkspaceSettings, *,
                           model: str | Model = "pcc", options: Any = None, field_name: str = "cases") -> None:
     """Every planned case's requirements against its model's capabilities, before the first solve: the check
-    each case's study makes first (:func:`pytdcr.region.check_workspace`), for all of them at once.
+    each case's study makes first (:func:`pytdcr.workspace.check_workspace`), for all of them at once.
 
     ``specs`` name → :class:`WorkspaceCaseSpec` (a case without a model of its own is solved by ``model`` with
     ``options``); ``settings`` the run's, with its voxel fixed (:meth:`WorkspaceSettings.with_voxel_for`).
@@ -586,7 +584,7 @@ def run_workspace_compare(robot: Robot, cases: dict[str, tuple[Any, ...]], bound
     ``comparison.json`` (per case, and per pair the Hausdorff distance between the boundaries and the share of
     each region inside the other), ``comparison.md``, ``support_compare.csv``, overlaid slices and 3D
     boundaries (PNG, PDF) and ``comparison.html``. Every case has ``robot``'s voxel
-    (:meth:`~pytdcr.region.WorkspaceSettings.voxel_for`: one grid). A case with settings of its own (``tdcr
+    (:meth:`~pytdcr.workspace.WorkspaceSettings.voxel_for`: one grid). A case with settings of its own (``tdcr
     workspace --equilibria both``) keeps the run's voxel; one with a model of its own (``--compare-models``)
     is solved by it, the others by ``model``.
 
@@ -724,7 +722,7 @@ def section_check(robot: Robot, s: Any, *, seed: int = 0) -> None:
 
 def section_estimate(robot: Robot, bounds: TensionBounds, s: Any, *, seed: int = 0) -> Estimate:
     """The expected length of :func:`workspace_section` at the settings ``s``
-    (:func:`~pytdcr.region.workspace_estimate`)."""
+    (:func:`~pytdcr.workspace.workspace_estimate`)."""
     cases, models = _section_cases(robot, s, seed)
     return workspace_estimate([(r, loads, st, m, None) for r, loads, st, m in [*cases.values(), *models.values()]],
                               bounds)
@@ -733,7 +731,7 @@ def section_estimate(robot: Robot, bounds: TensionBounds, s: Any, *, seed: int =
 def workspace_section(robot: Robot, bounds: TensionBounds, s: Any, out: Path, files: list[str], *,
                       seed: int = 0, progress: Any = None) -> dict[str, Any]:
     """``tdcr reproduce``'s workspace section: the FSW under the paper's tip wrench next to no load, at the
-    budget of ``s`` (:class:`~pytdcr.study.ReproduceSettings`); writes ``workspace_slices`` (PNG, PDF) and the
+    budget of ``s`` (:class:`~pytdcr.runs.ReproduceSettings`); writes ``workspace_slices`` (PNG, PDF) and the
     two boundaries (``workspace_fsw_paper.ply``, ``workspace_fsw_no_load.ply``), appends them to ``files``.
     The paper's definition of the equilibria (each sample from rest, ``equilibria="loading-path"``: this is the
     paper's study), and no multistability check (``tdcr workspace`` has both): at the demo's budget it would

@@ -9,9 +9,9 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from ..bounds import TensionBounds
-from ..design import Robot
 from ..io import robot_from_dict
 from ..loads import Loads, PointLoad
+from ..robot import Robot
 from ..runtime import RunDoc, RunFolder
 from ..validate import MAX_FORCE_N, MAX_MOMENT_NM, SettingsError
 

@@ -9,9 +9,9 @@ from typing import Any
 import numpy as np
 
 from ..bounds import TensionBounds
-from ..design import Robot
 from ..loads import Loads
 from ..optimize import MemeticGA, ReachProblem, ReachResult, Termination, maximize_reach, polish_reach
+from ..robot import Robot
 from ..runtime import end_stage
 
 __all__ = ["ModelVerdict", "model_verdicts", "verdict_text"]

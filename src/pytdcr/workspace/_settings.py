@@ -18,7 +18,7 @@ from ._solve import EQUILIBRIA
 from ._support import fibonacci_directions
 
 if TYPE_CHECKING:
-    from ..design import Robot
+    from ..robot import Robot
     from ._frontier import SearchRound
     from ._solve import RegionSamples
 
@@ -95,7 +95,7 @@ def _directions(value: Any) -> int | tuple[tuple[float, float, float], ...]:
 
 @dataclass(frozen=True)
 class WorkspaceSettings:
-    """What a workspace study (:func:`pytdcr.region.workspace_study`) computes, checked when made.
+    """What a workspace study (:func:`pytdcr.workspace.workspace_study`) computes, checked when made.
 
     Attributes
     ----------
@@ -120,7 +120,7 @@ class WorkspaceSettings:
     reach : str
         How the largest reach is found (:data:`REACH_RULES`):
 
-        - ``"search"``: the reach search (:func:`pytdcr.region.largest_reach`) from the farthest feasible
+        - ``"search"``: the reach search (``largest_reach``) from the farthest feasible
           samples, with more starts from the support function's farthest tips (``tdcr workspace``);
         - ``"farthest"``: the farthest of the reach search, the support function's tips and the samples
           (a design study with ``budget.reach_search``);
@@ -134,7 +134,7 @@ class WorkspaceSettings:
         Threads of the solves and searches, >= 1 (default: the cores this process may use); the results do not
         depend on them.
     equilibria : str or None
-        Which equilibrium of a tension vector the region holds (:data:`pytdcr.region.EQUILIBRIA`):
+        Which equilibrium of a tension vector the region holds (:data:`pytdcr.workspace.EQUILIBRIA`):
         ``"continuation"``, the one the robot reaches from rest by quasi-static tension changes (each sample
         continued from a solved parent; the boundary search's steps from the samples they step from), or
         ``"loading-path"``, each tension vector solved from rest with every load ramped together (the paper's).
@@ -145,7 +145,7 @@ class WorkspaceSettings:
         region; continued from the root for a loading-path one) to measure how often the equilibrium depends
         on the history, in [0, 100000] (0: not measured; fewer when the region has fewer).
     folds : str
-        What a boundary-search step does where its continuation meets a fold (:data:`pytdcr.region.FOLD_RULES`):
+        What a boundary-search step does where its continuation meets a fold (:data:`pytdcr.workspace.FOLD_RULES`):
         ``"snap"`` (default) through to the equilibrium past it, kept as a sample; ``"stop"`` there, keeping
         nothing: the region then grows only along paths without a snap from its samples (which may have snapped),
         at about half the search's cost (docs/workspace.md gives the measured difference). Models without the
@@ -245,9 +245,9 @@ class WorkspaceHooks:
         ``progress(stage, total)`` returns a callable advanced by the work done in that stage (the solves of the
         sampling and of the boundary search, the directions of h(d)); ``total`` is None when unknown.
     on_round : callable or None
-        Sees each round of the boundary search (:class:`pytdcr.region.SearchRound`).
+        Sees each round of the boundary search (:class:`pytdcr.workspace.SearchRound`).
     checkpoint : callable or None
-        Sees the samples solved so far (:class:`pytdcr.region.RegionSamples`) after the sampling and after each
+        Sees the samples solved so far (:class:`pytdcr.workspace.RegionSamples`) after the sampling and after each
         stage of the boundary search: to save them, so that an interrupted study keeps them.
     """
 

@@ -1,6 +1,6 @@
 """Multistability: how often the equilibrium a tension vector holds the robot in depends on how it got there.
 
-A region of continued samples (:data:`~pytdcr.region.EQUILIBRIA` ``"continuation"``) holds, for each tension
+A region of continued samples (:data:`~pytdcr.workspace.EQUILIBRIA` ``"continuation"``) holds, for each tension
 vector, the equilibrium the robot reaches by its own history of quasi-static tension changes from rest; a
 loading-path region holds the one reached from rest with every load ramped together. Where the robot has two
 stable equilibria for one tension vector the two histories can end in different ones. A random subset of the
@@ -33,7 +33,7 @@ class Multistability:
     Attributes
     ----------
     equilibria : str
-        The region's equilibria (:data:`~pytdcr.region.EQUILIBRIA`).
+        The region's equilibria (:data:`~pytdcr.workspace.EQUILIBRIA`).
     other : str
         How the checked samples were solved the second time: ``"loading path from rest"`` (every load ramped
         together) for a continued region, ``"continuation from the root"`` for a loading-path one.
@@ -46,7 +46,7 @@ class Multistability:
         the stability test, every converged one: ``tested`` is then False).
     distinct : ndarray of bool, shape (K,)
         The second history converged on another equilibrium (tips farther apart than
-        :func:`~pytdcr.region.same_tip`).
+        ``same_tip``).
     seconds : float
         Wall time of the second solves [s].
     tested : bool

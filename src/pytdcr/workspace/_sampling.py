@@ -9,13 +9,13 @@ from typing import Any
 
 import numpy as np
 
-from .bounds import TensionBounds
-from .design import Robot
-from .limits import check_memory
-from .loads import Loads
-from .results import BatchSolution
-from .statics import Model, check_resources, resolve, solve_batch
-from .validate import check_count
+from ..bounds import TensionBounds
+from ..limits import check_memory
+from ..loads import Loads
+from ..results import BatchSolution
+from ..robot import Robot
+from ..statics import Model, check_resources, resolve, solve_batch
+from ..validate import check_count
 
 __all__ = ["SamplingConfig", "SamplingInterrupted", "WorkspaceSamples", "sample_workspace"]
 

@@ -10,17 +10,16 @@ import numpy as np
 from scipy import ndimage
 
 from ..bounds import TensionBounds
-from ..design import Robot
 from ..loads import Loads
 from ..optimize import ReachProblem
+from ..robot import Robot
 from ..runtime import end_stage
-from ..statics import Model
+from ..statics import Model, stability_counts, stability_test
 from ._compute import WorkspaceRegion, check_workspace, workspace_region
 from ._grid import Region
 from ._plan import SOURCES
 from ._settings import WorkspaceHooks, WorkspaceSettings
 from ._solve import RegionSamples
-from ._stability import stability_counts, stability_test
 from ._support import LargestReach, SampleStates, SupportFunction, largest_reach, support_function
 from ._volume import VolumeEstimate
 

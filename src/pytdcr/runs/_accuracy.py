@@ -19,9 +19,9 @@ from ..accuracy import (
     reference_options,
 )
 from ..bounds import TensionBounds
-from ..design import Robot
 from ..loads import Loads
 from ..plotting import plot_order, save_figure
+from ..robot import Robot
 from ..runtime import atomic_write_text, output_folder, write_csv, write_json
 from ..statics import saving
 from ._output import inputs_record

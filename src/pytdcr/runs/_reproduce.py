@@ -13,12 +13,11 @@ from typing import Any
 import numpy as np
 
 from ..bounds import TensionBounds
-from ..design import Robot
 from ..loads import MAX_TENSION, Loads
 from ..optimize import MemeticGA, ReachProblem, ReachResult, Termination, maximize_reach, polish_reach
 from ..paper import DEFAULT_BOUNDS, PAYLOAD_MASS, paper_bounds, paper_loads, payload_loads
 from ..plotting import plot_robot, save_figure
-from ..region import Estimate
+from ..robot import Robot
 from ..runtime import (
     atomic_write_text,
     default_threads,
@@ -31,6 +30,7 @@ from ..runtime import (
 )
 from ..statics import options_record, resolve, solve
 from ..validate import SettingsError, check_real, show
+from ..workspace import Estimate
 from ._output import inputs_record, load_arrows
 from ._report import reproduce_report
 from ._runs import sample_into, write_optimize
@@ -274,7 +274,7 @@ def _run_jobs(jobs: dict[str, _Job], s: ReproduceSettings, seed: int, note: Call
 
 
 def reproduce_estimate(robot: Robot, settings: ReproduceSettings | None = None, *, seed: int = 0) -> Estimate:
-    """The expected length of :func:`run_reproduce`'s workspace sections (:func:`~pytdcr.region.workspace_estimate`),
+    """The expected length of :func:`run_reproduce`'s workspace sections (:func:`~pytdcr.workspace.workspace_estimate`),
     which take longest when they are large (``--full``); the GAs and the better models run beside them."""
     return section_estimate(robot, paper_bounds(robot.n_tendons), settings or ReproduceSettings(), seed=seed)
 

@@ -209,7 +209,7 @@ def tension_step(J: np.ndarray, t: np.ndarray, lower: np.ndarray, upper: np.ndar
     """The tension step ``dt`` (n,) [N] with ``J dt`` closest to ``dp`` (3,) [m] and ``t + dt`` in the bounds,
     the smallest such: the least-norm solution when it stays inside, else bounded least squares with a small
     damping of the step (``J`` (3, n) [m/N] scaled by its largest entry times 1e-3;
-    :func:`~pytdcr.region._step_kernel.box_least_squares`)."""
+    ``_step_kernel.box_least_squares``)."""
     free = upper > lower
     dt = np.zeros(t.size)
     A = J[:, free]

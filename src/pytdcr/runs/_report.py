@@ -10,9 +10,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..bounds import TensionBounds
-from ..design import Robot
 from ..optimize import ReachResult
 from ..paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT, PAYLOAD_MASS, payload_gravity, payload_loads
+from ..robot import Robot
 from ..runtime import default_threads
 from ..validate import direction_or_none, number_text
 
@@ -22,7 +22,7 @@ if TYPE_CHECKING:
 __all__ = ["number_text", "reproduce_report"]
 
 
-# number_text is the one rule for small non-zero numbers (pytdcr.validate); imported from here by pytdcr.study
+# number_text is the one rule for small non-zero numbers (pytdcr.validate); imported from here by pytdcr.runs
 
 #: reaches closer than this [m] are the same in the report (its tables print 6 decimals)
 SAME_REACH = 1e-6
@@ -219,7 +219,7 @@ def _payload_text(robot: Robot, pay: ReachResult) -> str:
 
 def reproduce_report(robot: Robot, run: ReproduceRun, bounds: TensionBounds, s: ReproduceSettings,
                      extra: Sequence[str] = ()) -> str:
-    """The Markdown report of :func:`~pytdcr.study.run_reproduce`: its results ``run`` on ``robot`` within the
+    """The Markdown report of :func:`~pytdcr.runs.run_reproduce`: its results ``run`` on ``robot`` within the
     paper's ``bounds``, at the budget ``s``; ``extra`` lines (the better models' and the workspace's sections)
     before the list of files."""
     ga, pay, bound_study = run.ga, run.payload, run.bounds_study

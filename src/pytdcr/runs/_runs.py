@@ -10,13 +10,12 @@ from typing import Any
 import numpy as np
 
 from ..bounds import TensionBounds
-from ..design import Robot
 from ..loads import Loads
 from ..optimize import ReachProblem, ReachResult, maximize_reach
 from ..plotting import plot_convergence, plot_reach_samples, plot_robot, plot_robots, save_figure
-from ..region import stability_counts, stability_test
+from ..robot import Robot
 from ..runtime import output_folder, write_csv, write_json
-from ..statics import TIGHT_ATOL, options_record, saving, solve
+from ..statics import TIGHT_ATOL, options_record, saving, solve, stability_counts, stability_test
 from ..workspace import SamplingConfig, SamplingInterrupted, WorkspaceSamples, sample_workspace
 from ._output import inputs_record, load_arrows
 from ._settings import OptimizeSettings, SampleSettings

@@ -12,8 +12,8 @@ import numpy as np
 from scipy.stats import qmc
 
 from ..bounds import TensionBounds
-from ..design import Robot
 from ..loads import Loads
+from ..robot import Robot
 from ..runtime import default_threads, duration
 from ..statics import resolve, solve
 from ._compute import planned_work
@@ -88,7 +88,7 @@ def _loaded(loads: Loads) -> bool:
 def workspace_estimate(cases: Sequence[tuple[Robot, Loads, WorkspaceSettings, Any, Any]],
                        bounds: TensionBounds) -> Estimate:
     """The expected length of workspace studies of ``cases`` (robot, loads, settings, model, options each, run
-    one after the other) with tensions in ``bounds``: each case's :func:`~pytdcr.region.planned_work` in solves
+    one after the other) with tensions in ``bounds``: each case's planned work in solves
     (:data:`STEP_SOLVES`, :data:`SOLVES_PER_DIRECTION`, by whether the case has a load) at the time of one of
     its solves (:func:`solve_seconds`), over its threads, plus the files."""
     seconds, solves, per, threads = 0.0, 0, [], 1

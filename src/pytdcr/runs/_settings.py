@@ -5,8 +5,8 @@ Every setting is a frozen dataclass whose fields hold the defaults, with their r
 ``__post_init__`` checks each field and raises :class:`~pytdcr.validate.SettingsError` (a ValueError) naming the
 field, the value and what is allowed, so that a Python caller and the command line accept exactly the same
 inputs. The groups the runs share (:class:`RobotSpec`, :class:`LoadSpec`, :class:`ModelSpec`,
-:class:`BoundsSpec`) are declared once, in :mod:`pytdcr.study._specs`. :class:`ReproduceSettings` (the budget of
-the paper's study) is in :mod:`pytdcr.study._reproduce`.
+:class:`BoundsSpec`) are declared once, in :mod:`pytdcr.runs._specs`. :class:`ReproduceSettings` (the budget of
+the paper's study) is in :mod:`pytdcr.runs._reproduce`.
 """
 
 from __future__ import annotations
@@ -21,9 +21,9 @@ import numpy as np
 
 from ..accuracy import LoadGroup, default_groups
 from ..compare import check_models
-from ..design import Robot
 from ..loads import check_tensions
 from ..optimize import MemeticGA, Termination
+from ..robot import Robot
 from ..statics import MODELS, get_models
 from ..validate import SettingsError, field_ref, is_integer, parse_numbers, read_text_file, show, show_path
 from ._specs import (

@@ -11,9 +11,9 @@ from typing import Any
 
 import numpy as np
 
-from ..design import Robot
 from ..loads import Loads, check_tensions
 from ..results import BatchSolution, StaticSolution
+from ..robot import Robot
 from ..runtime import default_threads
 from .base import Model
 from .options import SAME_EQUILIBRIUM

@@ -9,10 +9,10 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
-from ..design import Robot
 from ..io import robot_to_dict
 from ..loads import Loads
 from ..results import StaticSolution
+from ..robot import Robot
 from ..runtime import to_jsonable
 from ..validate import direction_or_none
 

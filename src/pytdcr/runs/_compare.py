@@ -10,9 +10,9 @@ from typing import Any
 import numpy as np
 
 from ..compare import ModelComparison, compare_models
-from ..design import NoFriction, Robot
 from ..loads import Loads
 from ..plotting import plot_model_overlay, save_figure
+from ..robot import NoFriction, Robot
 from ..runtime import atomic_write_text, output_folder, write_csv, write_json
 from ..statics import get_models, options_record, resolve, saving
 from ._output import inputs_record, markdown_table

@@ -8,10 +8,10 @@ from typing import Any
 
 import numpy as np
 
-from ..design import Robot
 from ..loads import Loads
 from ..plotting import plot_robot, save_figure_as
 from ..results import StaticSolution
+from ..robot import Robot
 from ..runtime import FileRefused, writable_file, write_csv
 from ..statics import Jacobians, Model, TipCompliance, equilibrium_jacobians, solve, tip_compliance
 from ..validate import SettingsError, show_path

@@ -1,4 +1,4 @@
-"""The Python side of the shared compiled solver (:mod:`pytdcr.statics.kernels.solver`): what the models it
+"""The Python side of the shared compiled solver (:mod:`pytdcr.statics.kernels.loading_path`): what the models it
 solves (``pcc``, ``pcc2``, ``sscr``) have in common.
 
 A model here provides its packed equations (:class:`Equations`); the base class
@@ -16,12 +16,12 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 
 from ..contact import contact_failure
-from ..design import Robot
 from ..limits import Resources
 from ..loads import Loads
 from ..results import BatchSolution, StaticSolution
+from ..robot import Robot
 from ..runtime import MAX_CHUNK, check_cancelled, run_in_chunks
-from .kernels import solver as SV
+from .kernels import loading_path as SV
 from .kernels.stiffness import jacobian_range, largest_residuals
 from .options import (
     FOLDS,
@@ -195,7 +195,7 @@ class _Path(NamedTuple):
 def _continue_rows(path: _Path, settings: SV.Settings, tols: np.ndarray, threads: int | None,
                    max_chunk: int = MAX_CHUNK) -> _BatchOut:
     """Every continuation of ``path``, each to its tolerances ``tols`` (B, 2) [N m], in chunks over ``threads``
-    threads (:func:`pytdcr.statics.kernels.solver.continue_range`)."""
+    threads (:func:`pytdcr.statics.kernels.loading_path.continue_range`)."""
     out = _empty_out(path.T1.shape[0], path.end.n_unknowns)
     settings = settings._replace(stepping=STEP_CONTINUE)
 

@@ -6,21 +6,21 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from ..bounds import TensionBounds
 from ..contact import bending_curvature, disks_below_base, disks_touch
-from ..design import Robot
 from ..limits import check_memory
 from ..loads import Loads
 from ..results import BatchSolution
+from ..robot import Robot
 from ..statics import Model, check_resources, resolve, solve_batch
 from ..statics.options import PATH_FOLD, PATH_NAMES
 from ..validate import SettingsError, check_count
-from ._plan import TensionPlan
+from ._plan import SOURCES, TensionPlan
 
 __all__ = [
     "AGREEMENT_REQUIRED",
@@ -131,7 +131,7 @@ class RegionSamples:
         The actuator tensions solved [N], one row per sample (not the per-piece tensions of
         :attr:`pytdcr.StaticSolution.tensions`, shape (n_tendons, N)).
     source : ndarray of int8, shape (M,)
-        Where each comes from (:data:`pytdcr.region.SOURCES`).
+        Where each comes from (:attr:`SOURCES`).
     tip_position : ndarray, shape (M, 3)
         Tip position [m]; NaN where not converged.
     converged : ndarray of bool, shape (M,)
@@ -165,8 +165,11 @@ class RegionSamples:
         ``"unstable"`` (an axial load past buckling), ``"stability untested"`` (converged, by a model without
         the stability test: continued from as if stable) or ``"not converged"``; when it is unstable or not
         converged no sample has a parent and none is solved. None for samples each solved from rest.
+    SOURCES : tuple of str
+        (class attribute) The names of the ``source`` codes, by code.
     """
 
+    SOURCES: ClassVar[tuple[str, ...]] = SOURCES
     tensions: np.ndarray
     source: np.ndarray
     tip_position: np.ndarray
@@ -188,7 +191,7 @@ class RegionSamples:
     @property
     def feasible(self) -> np.ndarray:
         """The paper's FSW: converged and not unstable, shape (M,) of bool. For a model without the stability
-        test every converged sample (untested: :func:`pytdcr.region.feasible_words` says so wherever it is
+        test every converged sample (untested: :func:`pytdcr.statics.feasible_words` says so wherever it is
         reported)."""
         return self.converged & (self.stable != 0.0)
 

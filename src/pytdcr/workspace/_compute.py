@@ -8,8 +8,8 @@ from typing import Any
 import numpy as np
 
 from ..bounds import TensionBounds
-from ..design import Robot
 from ..loads import Loads
+from ..robot import Robot
 from ..runtime import end_stage
 from ..statics import Model, UnsupportedFeatureError, check_resources, resolve
 from ._frontier import BoundarySearch, GrowthSettings, SearchRound, SearchState, grow_region
@@ -42,7 +42,7 @@ class WorkspaceRegion:
     samples : RegionSamples
         Every solved tension vector: the plan's, then the boundary search's.
     voxel : float
-        Voxel edge [m] (the settings' :meth:`~pytdcr.region.WorkspaceSettings.voxel_for` the robot).
+        Voxel edge [m] (the settings' :meth:`~pytdcr.workspace.WorkspaceSettings.voxel_for` the robot).
     fsw, realisable : VolumeEstimate
         The volume of the paper's FSW (converged, stable) and of its realisable part, with errors.
     fsw_region, realisable_region : Region
@@ -50,7 +50,7 @@ class WorkspaceRegion:
     search : BoundarySearch or None
         What the boundary search did (None when it was off).
     equilibria : str
-        Which equilibria the region holds (:data:`~pytdcr.region.EQUILIBRIA`).
+        Which equilibria the region holds (:data:`~pytdcr.workspace.EQUILIBRIA`).
     multistability : Multistability or None
         Samples solved along the other history and compared (None when not measured).
     """
@@ -142,7 +142,7 @@ def check_workspace(robot: Robot, loads: Loads, settings: WorkspaceSettings | No
 
 def planned_work(robot: Robot, loads: Loads, bounds: TensionBounds, settings: WorkspaceSettings | None = None, *,
                  model: str | Model = "pcc", options: Any = None) -> dict[str, int]:
-    """The most work a workspace study (:func:`pytdcr.region.workspace_study`) of these inputs plans, by stage,
+    """The most work a workspace study (:func:`pytdcr.workspace.workspace_study`) of these inputs plans, by stage,
     before it starts: ``"sampling"`` and ``"boundary search"`` (the budget; the search may converge sooner) and
     ``"multistability"`` in solves, ``"support function h(d)"`` in directions, ``"largest reach search"`` 1
     when it runs (the model must have a tip gradient for h(d) and the search). Nothing is solved."""
@@ -161,12 +161,12 @@ def workspace_region(robot: Robot, loads: Loads, bounds: TensionBounds, settings
                      *, model: str | Model = "pcc", options: Any = None,
                      hooks: WorkspaceHooks | None = None) -> WorkspaceRegion:
     """The feasible static workspace of ``robot`` under ``loads`` with tensions in ``bounds``, as regions: the
-    first stage of :func:`pytdcr.region.workspace_study` (``settings.directions`` and ``settings.reach`` are not
+    first stage of :func:`pytdcr.workspace.workspace_study` (``settings.directions`` and ``settings.reach`` are not
     used here).
 
     ``settings.n`` scrambled Sobol tension vectors (``settings.seed``) and the box's corners and edges are
     solved: by default each continued from a solved parent (:func:`continue_plan`; ``settings.equilibria``,
-    :func:`~pytdcr.region.equilibria_for`), or from rest along the loading path (:func:`solve_plan`, with
+    :func:`~pytdcr.workspace.equilibria_for`), or from rest along the loading path (:func:`solve_plan`, with
     checked warm starts when ``settings.warm``); with ``settings.search``, the boundary search
     (:func:`grow_region`) then grows the region at n/4, n/2 and n base samples in turn, within
     ``settings.search_budget`` solves (default 25 n), until a round adds less than ``settings.tol`` of the
@@ -174,12 +174,12 @@ def workspace_region(robot: Robot, loads: Loads, bounds: TensionBounds, settings
     it steps from in a continued region; in a loading-path region it follows the loading path (warm starts
     from the equilibria they step from agree with it on only about 91 % of a checked subset on the paper's
     case: the boundary lies near folds). ``settings.multistability`` of the region's samples are then solved
-    along the other history (:func:`~pytdcr.region.measure_multistability`). The volume at each size by
+    along the other history (``measure_multistability``). The volume at each size by
     two estimators gives the error (:func:`estimate_volume`), widened by the growth still expected when the
     budget stopped the search.
 
     The voxel is ``settings.voxel_for(robot)`` (default the robot's length / 32), checked against the robot
-    (:meth:`~pytdcr.region.WorkspaceSettings.check`). ``hooks`` (:class:`~pytdcr.region.WorkspaceHooks`) see the
+    (:meth:`~pytdcr.workspace.WorkspaceSettings.check`). ``hooks`` (:class:`~pytdcr.workspace.WorkspaceHooks`) see the
     progress, each search round and the samples solved so far after the sampling and after each stage of the
     search.
     """

@@ -18,10 +18,10 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..bounds import TensionBounds
-from ..design import ConstantFriction, ExponentialFriction, NoFriction, Robot
 from ..io import load_robot, read_toml
 from ..loads import Loads, PointLoad, check_vector
 from ..paper import DEFAULT_BOUNDS
+from ..robot import ConstantFriction, ExponentialFriction, NoFriction, Robot
 from ..statics import Model, configure, get_model, get_models, resolve
 from ..validate import MAX_SEED, SettingsError, as_real_array, check_count, show, show_path
 
@@ -58,7 +58,7 @@ def check_flag(value: Any, name: str) -> bool:
 def check_type(value: Any, kind: type, name: str) -> None:
     """TypeError unless ``value`` is a ``kind`` (one of the settings' groups, say)."""
     if not isinstance(value, kind):
-        raise TypeError(f"{name} must be a pytdcr.study.{kind.__name__}, got {type(value).__name__}")
+        raise TypeError(f"{name} must be a pytdcr.runs.{kind.__name__}, got {type(value).__name__}")
 
 
 @dataclass(frozen=True)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from scipy import ndimage
@@ -32,8 +32,11 @@ class Region:
         Iterations of the morphological closing (gaps up to about twice this many voxels are filled).
     points : int
         Tip positions it was made from.
+    MIN_MESH_POINTS : int
+        (class attribute) The fewest tip positions a boundary surface is made from.
     """
 
+    MIN_MESH_POINTS: ClassVar[int] = MIN_MESH_POINTS
     origin: np.ndarray
     voxel: float
     occupied: np.ndarray
