@@ -31,7 +31,7 @@ from numba import njit
 from scipy.spatial import cKDTree
 
 from pytdcr.paper import paper_loads, paper_robot
-from pytdcr.statics import PATH_NAMES, solve_batch, warmup
+from pytdcr.statics import SolvePath, solve_batch, warmup
 from pytdcr.statics.compiled import case_tolerances, kernel_settings
 from pytdcr.statics.kernels import solver as SV
 from pytdcr.statics.registry import get_model
@@ -97,7 +97,7 @@ def cold(eq, T: np.ndarray, tols: np.ndarray, options) -> tuple[dict, np.ndarray
     total = a[:, 0].sum()
     out: dict = {"solves": len(T), "median_ms": float(np.median(a[:, 0]) * 1e3),
                  "mean_ms": float(a[:, 0].mean() * 1e3), "by_path": {}}
-    for code, name in [(-1, "not converged"), *enumerate(PATH_NAMES)]:
+    for code, name in [(-1, "not converged"), *((m.code, m.value) for m in SolvePath if m.code >= 0)]:
         s = a[:, 1] == code
         if s.any():
             out["by_path"][name] = {"fraction": float(s.mean()), "time_share": float(a[s, 0].sum() / total),
@@ -152,7 +152,7 @@ def main() -> None:
     eq = model.equations(robot, loads, options)
     T = np.random.default_rng(args.seed).uniform(0.0, 20.0, (args.samples, robot.n_tendons))
     summary, table = cold(eq, T, case_tolerances(robot, loads, T, options.atol), options)
-    ok = table[:, 1] == PATH_NAMES.index("loading")
+    ok = table[:, 1] == SolvePath.LOADING.code
     cases = solve_batch(robot, T, loads, model=args.model)  # the same cold solves, for the unknowns and tips
     q_mid = cases.q[int(np.flatnonzero(ok)[0])].ravel()
     result = {"samples": args.samples, "seed": args.seed, "model": args.model, "kernel": kernel_costs(eq, q_mid),

@@ -85,11 +85,13 @@ class StaticSolution:
         Newton iterations in all (load steps included).
     load_steps : int
         Continuation steps taken (0 when the direct solve converged).
-    path : str
-        How the equilibrium was reached: ``"loading"`` (followed the loading
-        path from the unloaded robot), ``"snap"`` (that path, relaxed through
-        a fold), ``"direct"`` (Newton at full load from the start point) or
-        ``"fallback"`` (the loading path failed; another equilibrium).
+    path : SolvePath
+        How the equilibrium was reached, a :class:`pytdcr.statics.SolvePath` member (a ``str`` equal to its
+        value): ``"loading"`` (followed the loading path from the unloaded robot), ``"snap"`` (that path,
+        relaxed through a fold), ``"direct"`` (Newton at full load from the start point), ``"fallback"`` (the
+        loading path failed; another equilibrium), ``"continued"`` (from a solved state), ``"fold"`` (stopped
+        at a fold, not converged) or ``"self-contact"`` (refused, see ``failure``). Annotated ``str`` here:
+        this module lies below :mod:`pytdcr.statics`, which defines the enumeration.
     q : ndarray
         The model's unknowns, a warm start for a nearby solve of the same
         model (its ``unknowns`` attribute says what they are). PCC: shape
@@ -240,8 +242,9 @@ class BatchSolution:
         [m]; NaN where not converged.
     seconds : float
         Wall time of the whole batch [s].
-    path : ndarray of str, shape (B,)
-        How each equilibrium was reached (see :class:`StaticSolution`).
+    path : ndarray of object, shape (B,)
+        How each equilibrium was reached, :class:`pytdcr.statics.SolvePath` members (see
+        :class:`StaticSolution`; ``"no start"``: a row not continued, its start not converged).
     model : str
         The registered name of the model.
     disk_positions : ndarray, shape (B, N+1, 3), or None

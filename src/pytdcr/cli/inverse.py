@@ -140,6 +140,7 @@ def _print_one(robot: Any, model: str, r: Any) -> None:
 
 def _print_path(results: list[Any], out: Any) -> None:
     """The path's table on stdout (without ``--csv``) or its summary."""
+    from ..optimize import InversePath
     from ..runs import inverse_columns, inverse_rows
 
     if out is None:
@@ -148,7 +149,8 @@ def _print_path(results: list[Any], out: Any) -> None:
         print(buf.getvalue(), end="")
         return
     reached = [r for r in results if r.reachable]
-    paths = {p: sum(r.path == p for r in reached) for p in ("continued", "loading path", "another branch")}
+    paths = {p: sum(r.path == p for r in reached) for p in (InversePath.CONTINUED, InversePath.LOADING_PATH,
+                                                            InversePath.ANOTHER_BRANCH)}
     how = f" ({', '.join(f'{n} {p}' for p, n in paths.items() if n)})" if reached else ""
     missed = len(results) - len(reached)
     t = np.array([r.tensions for r in results])

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..bounds import TensionBounds
 from ..loads import Loads
-from ..optimize import InverseSearch, inverse_statics
+from ..optimize import InversePath, InverseSearch, inverse_statics
 from ..results import StaticSolution
 from ..robot import Robot
 from ..statics import Model, solve
@@ -30,7 +30,7 @@ SEARCH = InverseSearch()
 #: the methods of an answer
 INVERSE, SAMPLE = "inverse statics", "nearest workspace sample"
 #: the path of an inverse answer the page's robot reaches from its last pose by moving its tensions
-CONTINUED = "continued"
+CONTINUED = InversePath.CONTINUED
 
 
 @dataclass(frozen=True, eq=False)

@@ -8,11 +8,11 @@ cost, the reach or the reach along a direction, and its gradient), how
 objective.
 """
 
-from ._inverse import OBJECTIVES, InverseResult, InverseSearch, TipTarget, inverse_path, inverse_statics
+from ._inverse import OBJECTIVES, InversePath, InverseResult, InverseSearch, TipTarget, inverse_path, inverse_statics
 from ._problem import INFEASIBLE_COST, Evaluated, ReachProblem
 from ._result import Optimum, ReachResult, SearchFailed
 from ._search import MemeticGA, Termination, maximize_reach, polish_reach
 
-__all__ = ["INFEASIBLE_COST", "OBJECTIVES", "Evaluated", "InverseResult", "InverseSearch", "MemeticGA", "Optimum",
-           "ReachProblem", "ReachResult", "SearchFailed", "Termination", "TipTarget",
+__all__ = ["INFEASIBLE_COST", "OBJECTIVES", "Evaluated", "InversePath", "InverseResult", "InverseSearch",
+           "MemeticGA", "Optimum", "ReachProblem", "ReachResult", "SearchFailed", "Termination", "TipTarget",
            "inverse_path", "inverse_statics", "maximize_reach", "polish_reach"]

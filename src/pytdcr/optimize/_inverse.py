@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, replace
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
@@ -53,11 +54,29 @@ from ._inverse_search import (
     sample_pool,
 )
 
-__all__ = ["NEAREST", "OBJECTIVES", "InverseResult", "InverseSearch", "TipTarget", "inverse_path",
+__all__ = ["NEAREST", "OBJECTIVES", "InversePath", "InverseResult", "InverseSearch", "TipTarget", "inverse_path",
            "inverse_statics", "objective_value"]
 
 #: how a solution is chosen among the redundant ones
 OBJECTIVES = ("least-squares", "least-max", "least-total")
+
+
+class InversePath(StrEnum):
+    """How the robot reaches an answer of inverse statics (``InverseResult.path``).
+
+    A member is a ``str`` equal to its value (``InversePath.LOADING_PATH == "loading path"``) and prints and
+    serialises as that value (JSON, CSV): the files written keep their text, and a path read back from one
+    compares equal to its member. Not :class:`pytdcr.statics.SolvePath`: that says how one solve reached an
+    equilibrium, this how a robot gets to the answer's.
+    """
+
+    #: applied from rest (the loading path), the answer's tensions give its equilibrium
+    LOADING_PATH = "loading path"
+    #: along a path of targets, reached from the previous target's equilibrium by moving the tensions straight
+    #: there (:func:`inverse_path`)
+    CONTINUED = "continued"
+    #: only a robot brought there another way holds the answer's equilibrium (from rest, another one)
+    ANOTHER_BRANCH = "another branch"
 
 
 @dataclass(frozen=True)
@@ -161,7 +180,7 @@ class InverseResult:
         The equilibrium's stability (None where the model has no test).
     converged : bool
         The equilibrium converged (False only when no start converged).
-    path : str
+    path : InversePath
         ``"loading path"`` (applied from rest, the tensions give this equilibrium), ``"continued"`` (in a
         path, reached from the previous target's equilibrium by moving the tensions straight there) or
         ``"another branch"`` (only a robot brought there another way holds it).
@@ -190,7 +209,7 @@ class InverseResult:
     reachable: bool
     stable: bool | None
     converged: bool
-    path: str
+    path: InversePath
     objective: str
     objective_value: float
     optimal: bool
@@ -289,7 +308,7 @@ def inverse_statics(robot: Robot, loads: Loads, target: Any, *, bounds: TensionB
         if p.distance <= search.tol:
             p = s.choose(p)
         out = _settle(tg, bounds, p, objective, search.tol, clock)
-        if out.reachable and out.path == "loading path":
+        if out.reachable and out.path is InversePath.LOADING_PATH:
             return out
         if best is None or _rank(out) < _rank(best):
             best = out
@@ -305,7 +324,7 @@ def _rank(r: InverseResult) -> tuple[int, float]:
     """Reaching before missing; of those reaching, the loading path before another branch; of those missing,
     the nearer (every equilibrium found is one the robot holds, brought there one way or another)."""
     if r.reachable:
-        return (0 if r.path == "loading path" else 1), r.objective_value
+        return (0 if r.path is InversePath.LOADING_PATH else 1), r.objective_value
     return 2, r.distance_m
 
 
@@ -315,18 +334,18 @@ def _settle(tg: Target, bounds: TensionBounds, found: Point, objective: str, tol
     equilibrium, the search again with every step solved from rest; else ``found``, on another branch."""
     rest = tg.evaluate(found.tensions, None)
     if rest is not None and float(np.linalg.norm(rest.miss - found.miss)) <= tol:
-        return _result(rest, objective, "loading path", tol, tg, clock, bounds)
+        return _result(rest, objective, InversePath.LOADING_PATH, tol, tg, clock, bounds)
     if rest is not None:
         cold = Search(tg, bounds, objective, tol, cold=True)
         again = cold.reach(rest, max_steps=20)
         if again.distance <= tol and found.distance <= tol:
             again = cold.choose(again, max_steps=20)
         if again.distance <= max(tol, found.distance):
-            return _result(again, objective, "loading path", tol, tg, clock, bounds)
-    return _result(found, objective, "another branch", tol, tg, clock, bounds)
+            return _result(again, objective, InversePath.LOADING_PATH, tol, tg, clock, bounds)
+    return _result(found, objective, InversePath.ANOTHER_BRANCH, tol, tg, clock, bounds)
 
 
-def _result(p: Point, objective: str, path: str, tol: float, tg: Target, clock: float,
+def _result(p: Point, objective: str, path: InversePath, tol: float, tg: Target, clock: float,
             bounds: TensionBounds) -> InverseResult:
     """The :class:`InverseResult` at ``p``."""
     sol = p.solution
@@ -371,7 +390,7 @@ def inverse_path(robot: Robot, loads: Loads, targets: Any, *, bounds: TensionBou
             moved = solve(robot, loads.with_tensions(p.tensions), model=tg.m, options=tg.opts, start=last.solution)
             tg.count += 1
             if moved.converged and float(np.linalg.norm(moved.tip_position - p.solution.tip_position)) <= search.tol:
-                res = _result(tg.measure(p.tensions, moved), objective, "continued", search.tol, tg, clock,
+                res = _result(tg.measure(p.tensions, moved), objective, InversePath.CONTINUED, search.tol, tg, clock,
                               bounds)
                 out.append(replace(res, evaluations=tg.count - counted))
                 continue

@@ -26,11 +26,9 @@ from .kernels.stiffness import jacobian_range, largest_residuals
 from .options import (
     FOLDS,
     LOAD_STEPPING,
-    PATH_NAMES,
-    PATH_NO_START,
-    PATH_SELF_CONTACT,
     SAME_EQUILIBRIUM,
     STEP_CONTINUE,
+    SolvePath,
     SolverOptions,
 )
 from .stability import Stability, conjugate_stiffness, stability_from_eigenvalues, stability_of
@@ -300,7 +298,7 @@ class CompiledModel:
         """The one solution of ``out``, refused where the backbone passes through itself."""
         sol = self.solution(eq, out, 0, seconds, atol)
         failure = self._contact(robot, eq.shape(sol.q)) if sol.converged else ""
-        return replace(sol, converged=False, path=PATH_SELF_CONTACT, failure=failure) if failure else sol
+        return replace(sol, converged=False, path=SolvePath.SELF_CONTACT, failure=failure) if failure else sol
 
     def _contact(self, robot: Robot, shape: tuple[np.ndarray, np.ndarray, np.ndarray | None]) -> str:
         """Why the equilibrium of ``shape`` (``Equations.shape``) is refused for contact (``""``: it is not)."""
@@ -323,7 +321,7 @@ class CompiledModel:
         ok = bool(out.converged[row]) and bool(np.all(np.isfinite(q)))
         q = q.copy()
         return StaticSolution(converged=ok, residual=float(out.residual[row]), iterations=int(out.iterations[row]),
-                              load_steps=int(out.load_steps[row]), path=PATH_NAMES[out.path[row]],
+                              load_steps=int(out.load_steps[row]), path=SolvePath.from_code(int(out.path[row])),
                               q=q.reshape(eq.n_disks, -1), tensions=eq.evaluate(q).tensions, seconds=seconds,
                               atol=atol, _positions=pos, _rotations=rot, model=self.name, _curve=curve,
                               _stability_fn=lambda: self.stability_at(eq, q), loads=eq.loads)
@@ -357,7 +355,7 @@ class CompiledModel:
                               self._chunk(robot, options))
         out = _empty_out(nb, eq.n_unknowns)
         out.q[:], out.converged[:], out.residual[:] = np.nan, False, np.nan
-        out.iterations[:], out.load_steps[:], out.path[:] = 0, 0, -1
+        out.iterations[:], out.load_steps[:], out.path[:] = 0, 0, SolvePath.NO_START.code
         for full, got in zip(out, part, strict=True):
             full[rows] = got
         return self._batch(robot, eq, tensions, out, (time.perf_counter() - t0, tols, threads))
@@ -373,13 +371,13 @@ class CompiledModel:
         seconds, tols, threads = run
         nb = tensions.shape[0]
         ok = out.converged & np.all(np.isfinite(out.q), axis=1)
-        paths = np.array([*PATH_NAMES, PATH_NO_START], dtype=object)[out.path]  # code -1: no start
+        paths = SolvePath.from_codes(out.path)  # code -1: a row not solved (no start)
         pos = np.full((nb, eq.n_disks + 1, 3), np.nan)
         rot = np.full((nb, eq.n_disks + 1, 3, 3), np.nan)
         for b in np.flatnonzero(ok):
             shape = eq.shape(out.q[b])
             if self._contact(robot, shape):
-                ok[b], paths[b] = False, PATH_SELF_CONTACT
+                ok[b], paths[b] = False, SolvePath.SELF_CONTACT
             else:
                 pos[b], rot[b] = shape[:2]
         tips = pos[:, -1].copy()

@@ -39,7 +39,7 @@ from ..runtime import check_cancelled, run_in_chunks
 from .base import Capabilities
 from .kernels import cosserat as CK
 from .kernels.pcc import Packed
-from .options import PATH_DIRECT, PATH_FALLBACK, PATH_LOADING, PATH_NAMES, PATH_SELF_CONTACT, PATH_SNAP, CosseratOptions
+from .options import CosseratOptions, SolvePath
 from .pcc import PCCEquations
 from .tolerance import RELATIVE, tolerances
 
@@ -246,7 +246,7 @@ def _solve_shooting(problem: CosseratShooting, m0: np.ndarray | None, opts: Coss
     """
     t0 = time.perf_counter()
     count = steps = 0
-    path = PATH_DIRECT
+    path = SolvePath.DIRECT
     warm = m0 is not None
     if warm:
         x0 = np.asarray(m0, dtype=float).reshape(-1)
@@ -264,21 +264,21 @@ def _solve_shooting(problem: CosseratShooting, m0: np.ndarray | None, opts: Coss
         ramp = _ramp(problem, opts, tol, float(steps_tol[0]))
         x, res, steps = ramp.m0, ramp.residual, ramp.steps
         count += ramp.integrations
-        path = PATH_LOADING
+        path = SolvePath.LOADING
         if res > tol and ramp.load_factor > 0.0:  # a fold of the loading path: jump to full load from there
             x, res, c = problem.root(1.0, x, tol, opts.max_eval)
             count += c
-            path = PATH_SNAP
+            path = SolvePath.SNAP
         if res > tol:
             x, res, c = problem.root(1.0, x0, tol, opts.max_eval)
             count += c
-            path = PATH_FALLBACK
+            path = SolvePath.FALLBACK
     converged = bool(res <= tol and np.all(np.isfinite(x)))
     shot = problem.shoot(x, record=True)
     failure = ""
     if converged and shot.curve is not None:
         failure = contact_failure(shot.curve, problem.robot.backbone.outer_radius)
-    name = PATH_SELF_CONTACT if failure else PATH_NAMES[path]
+    name = SolvePath.SELF_CONTACT if failure else path
     seconds = time.perf_counter() - t0
     p = problem.packed
     pieces = np.arange(1, p.sub.shape[0] + 1)

@@ -2,15 +2,17 @@
 
 - :class:`SolverOptions`: the compiled solver of the PCC family (``pcc``, ``pcc2``); :class:`SSCROptions` adds
   the subsegment Cosserat rod's; :class:`CosseratOptions`: the smeared Cosserat rod's shooting solver.
-- How an equilibrium was reached (the ``PATH_*`` codes, :data:`PATH_NAMES`), the load-stepping modes and
-  what the solver does at a fold (``FOLD_*``); the compiled kernels read these codes as globals (frozen at
-  compile time).
+- How an equilibrium was reached (:class:`SolvePath`, and the integer ``PATH_*`` codes derived from it), the
+  load-stepping modes and what the solver does at a fold (``FOLD_*``); the compiled kernels read these codes as
+  globals (frozen at compile time).
 - The default tolerances and the range every solver accepts (:func:`check_common_options`).
 """
 
 from __future__ import annotations
 
+import operator
 from dataclasses import dataclass
+from enum import StrEnum
 from typing import Literal
 
 import numpy as np
@@ -19,27 +21,93 @@ from ..validate import check_count, check_real, show_number
 
 __all__ = ["DEFAULT_ATOL", "FOLDS", "FOLD_ARCLENGTH", "FOLD_RELAX", "FOLD_STOP", "LOAD_STEPPING", "MAX_ATOL",
            "MIN_ATOL", "MIN_STEP_SCALE", "PATH_CONTINUED", "PATH_DIRECT", "PATH_FALLBACK", "PATH_FOLD",
-           "PATH_LOADING", "PATH_NAMES", "PATH_NO_START", "PATH_SELF_CONTACT", "PATH_SNAP", "SAME_EQUILIBRIUM",
-           "STEP_CONTINUE", "TIGHT_ATOL", "CosseratOptions", "SSCROptions", "SolverOptions", "check_common_options"]
+           "PATH_LOADING", "PATH_SNAP", "SAME_EQUILIBRIUM", "STEP_CONTINUE", "TIGHT_ATOL",
+           "CosseratOptions", "SSCROptions", "SolvePath", "SolverOptions", "check_common_options"]
 
-#: Newton from the start point at full load
-PATH_DIRECT = 0
-#: continuation along the loading path from the unloaded robot
-PATH_LOADING = 1
-#: the loading path, relaxed through a fold (snap-through)
-PATH_SNAP = 2
-#: the loading path failed; another equilibrium at full load
-PATH_FALLBACK = 3
-#: continuation from a solved state along the straight path of the loads to the new ones
-PATH_CONTINUED = 4
-#: the path met a fold and stopped there (``fold="stop"``): not converged, no snap-through sought
-PATH_FOLD = 5
-#: ``StaticSolution.path`` by path code
-PATH_NAMES = ("direct", "loading", "snap", "fallback", "continued", "fold")
-#: ``path`` of an equilibrium refused because the backbone passes through itself (:mod:`pytdcr.contact`)
-PATH_SELF_CONTACT = "self-contact"
-#: ``path`` of a batch row not continued because its start did not converge (``solve_batch(..., start=batch)``)
-PATH_NO_START = "no start"
+
+class SolvePath(StrEnum):
+    """How an equilibrium was reached: ``StaticSolution.path`` and the entries of ``BatchSolution.path``.
+
+    A member is a ``str`` equal to its value (``SolvePath.LOADING == "loading"``), and prints, formats and
+    serialises as that value (``str``, f-strings, ``json.dumps``, ``csv``, pandas): the files written keep their
+    text, and a path read back from one compares equal to its member (``SolvePath(text)`` gives the member).
+
+    Each member has an integer :attr:`code` (:meth:`from_code` is its inverse). The six the compiled kernels
+    return are 0 to 5, the ``PATH_*`` integers the kernels read as globals (:data:`PATH_DIRECT` ... derived
+    from the members, so the values cannot drift apart). The two the Python side decides get negative codes,
+    which no kernel returns: ``NO_START`` (-1, what the Python side writes into the kernels' code array for a
+    row it did not solve) and ``SELF_CONTACT`` (-2, the verdict of :mod:`pytdcr.contact` on a converged
+    equilibrium). ``SELF_CONTACT`` has a code rather than none so that every member round-trips through an
+    integer array (a compact column, or the kernels' own code array overwritten after the contact check)
+    and :attr:`code` never fails; a negative code always means "decided outside the kernels".
+    """
+
+    #: Newton from the start point at full load (``load_stepping`` ``"never"`` or ``"auto"``, or a warm start)
+    DIRECT = "direct", 0
+    #: continuation along the loading path, every load ramped from the unloaded robot to full load
+    LOADING = "loading", 1
+    #: the loading path, relaxed through a fold (the robot snapped through to another branch)
+    SNAP = "snap", 2
+    #: the loading path failed; another equilibrium at full load, found from the start point
+    FALLBACK = "fallback", 3
+    #: continuation from a solved state along the straight path of the loads to the new ones
+    #: (``solve(..., start=solution)``)
+    CONTINUED = "continued", 4
+    #: the path met a fold and stopped there (``fold="stop"``): not converged, no snap-through sought
+    FOLD = "fold", 5
+    #: a batch row not continued because its start did not converge (``solve_batch(..., start=batch)``)
+    NO_START = "no start", -1
+    #: an equilibrium refused because the backbone passes through itself (:mod:`pytdcr.contact`); not converged
+    SELF_CONTACT = "self-contact", -2
+
+    _code: int
+
+    def __new__(cls, value: str, code: int) -> SolvePath:
+        member = str.__new__(cls, value)
+        member._value_ = value
+        member._code = code
+        return member
+
+    @property
+    def code(self) -> int:
+        """The member's integer code: the kernels' (0 to 5), or negative where Python decides (see the class)."""
+        return self._code
+
+    @classmethod
+    def from_code(cls, code: int) -> SolvePath:
+        """The member whose :attr:`code` is ``code`` (an integer; TypeError otherwise, ValueError if unknown)."""
+        if isinstance(code, bool) or not isinstance(code, (int, np.integer)):
+            raise TypeError(f"a path code must be an integer, got {type(code).__name__}")
+        for member in cls:
+            if member._code == operator.index(code):
+                return member
+        known = ", ".join(f"{m._code} ({m.value})" for m in cls)
+        raise ValueError(f"unknown path code {code}: the codes are {known}")
+
+    @classmethod
+    def from_codes(cls, codes: np.ndarray) -> np.ndarray:
+        """The members of an integer array of codes (any shape), as an object array of that shape (TypeError for
+        codes that are not integers, ValueError naming an unknown one)."""
+        codes = np.asarray(codes)
+        if codes.size and not np.issubdtype(codes.dtype, np.integer):
+            raise TypeError(f"path codes must be integers, got an array of {codes.dtype}")
+        low = min(m._code for m in cls)
+        table = np.array([cls.from_code(k) for k in range(low, max(m._code for m in cls) + 1)], dtype=object)
+        index = codes.astype(np.int64) - low
+        bad = (index < 0) | (index >= table.size)
+        if np.any(bad):
+            cls.from_code(int(codes[bad].flat[0]))  # raises, naming the codes there are
+        return table[index]
+
+
+#: the kernels' integer codes (read by :mod:`pytdcr.statics.kernels.loading_path` as compile-time globals:
+#: plain ints, derived from :class:`SolvePath`)
+PATH_DIRECT: int = SolvePath.DIRECT.code
+PATH_LOADING: int = SolvePath.LOADING.code
+PATH_SNAP: int = SolvePath.SNAP.code
+PATH_FALLBACK: int = SolvePath.FALLBACK.code
+PATH_CONTINUED: int = SolvePath.CONTINUED.code
+PATH_FOLD: int = SolvePath.FOLD.code
 
 #: how far past its own residual and tolerance a solution may be out of balance for the robot and loads it is
 #: given with (a gradient's solution, a continuation's start) and still count as theirs
