@@ -373,22 +373,21 @@ def test_the_realisable_reach_is_labelled_the_farthest_realisable_sample():
     robot, loads, b = paper_robot().with_gravity(None), Loads(np.zeros(8)), TensionBounds.uniform(8, 0, 4)
     ws = workspace_study(robot, loads, b, WorkspaceSettings(n=32, seed=2, voxel=robot.length / 8, search=False,
                                                             directions=3, reach="search"))
-    numbers, s = ws.to_dict(), ws.samples
-    real = numbers["realisable"]
-    assert real["reach_rule"] == "the farthest realisable sample (not searched)"
-    assert real["largest_reach_m"] == np.linalg.norm(s.tip_position[s.realisable], axis=1).max()
-    assert numbers["reach_rule"] == "the reach search's optimum" and ws.largest_reach.source == "search"
-    assert real["largest_reach_m"] < numbers["largest_reach_m"]
+    fsw, real, s = ws.summary.fsw, ws.summary.realisable, ws.samples
+    assert real.reach_rule == "the farthest realisable sample (not searched)"
+    assert real.largest_reach_m == np.linalg.norm(s.tip_position[s.realisable], axis=1).max()
+    assert fsw.reach_rule == "the reach search's optimum" and ws.largest_reach.source == "search"
+    assert real.largest_reach_m < fsw.largest_reach_m
     optimum = solve(robot, loads.with_tensions(ws.largest_reach.tensions))
     pos, rot, r = optimum.disk_positions[None], optimum.disk_rotations[None], robot.disk_radius
     assert not disks_below_base(pos, rot, r)[0] and not disks_touch(pos, rot, r)[0]  # realisable, yet unsearched
-    note = _reach_note(numbers, real)
+    note = _reach_note(fsw, real)
     assert "the realisable region's is the farthest realisable sample (not searched)" in note
     assert "may be below the FSW's" in note
     # both from the samples: the realisable one is below only where the farthest feasible sample is not realisable
     plain = workspace_study(robot, loads, b, WorkspaceSettings(n=32, seed=2, voxel=robot.length / 8, search=False,
-                                                               directions=0, reach="samples")).to_dict()
-    assert "may be below" not in _reach_note(plain, plain["realisable"])
+                                                               directions=0, reach="samples")).summary
+    assert "may be below" not in _reach_note(plain.fsw, plain.realisable)
 
 
 def test_the_dimension_of_point_sets_of_known_shape():

@@ -9,15 +9,18 @@ import pytest
 
 from pytdcr.runs._report import _stability, _stable_cell
 from pytdcr.runs._workspace import _error_words, _warnings, search_stop_words
+from pytdcr.workspace import BoundarySearch, RegionNumbers, SampleCounts, VolumeEstimate, WorkspaceSummary
+from pytdcr.workspace._solve import WarmStartCheck
 
 
-def _summary(stop: str, volume_cm3: float, error_cm3: float, growth_cm3: float) -> dict:
+def _summary(stop: str, volume_cm3: float, error_cm3: float, growth_cm3: float) -> WorkspaceSummary:
     """A workspace summary with a boundary search stopped by ``stop`` and a 3D region of these numbers."""
-    vol = {"volume_m3": volume_cm3 * 1e-6, "error_m3": error_cm3 * 1e-6, "search_m3": growth_cm3 * 1e-6}
-    region = {"dimension": 3, "points": 500, "mesh": "fsw.ply"}
-    return {"root": "stable", "boundary_search": {"stop": stop, "solves": 1500, "tol": 0.002},
-            "volume": vol, "points": 500, "dimension": 3, "mesh": "fsw.ply",
-            "realisable": {**region, "volume": vol}}
+    vol = VolumeEstimate(volume_cm3 * 1e-6, error_cm3 * 1e-6, error_cm3 * 1e-6, 0.0, 1.0, (), growth_cm3 * 1e-6)
+    region = RegionNumbers.of(vol, 500, 0.2, "the farthest feasible sample (not searched)")
+    counts = SampleCounts(500, 500, 0, 0, 0, 500, 0, 0, 0.0, 0.0, 1.0, {})
+    return WorkspaceSummary(region, region, 0.01, counts, WarmStartCheck("warm", 0, 0, 0), {},
+                            BoundarySearch((), 1500, stop, 0.002, 1500), None, None, 0.0, "continued", "stable",
+                            "run", None).with_meshes("fsw.ply", "fsw_realisable.ply")
 
 
 @pytest.mark.parametrize(("error", "growth"), [(533, 0), (533, 100), (533, 300), (98990, 96730), (10, 10)])
@@ -42,7 +45,7 @@ def test_a_converged_search_gets_no_budget_warning():
 
 @pytest.mark.parametrize("stop", ["converged", "budget", "no boundary left", "rounds"])
 def test_the_reason_a_search_stopped_is_the_one_it_records(stop):
-    words = search_stop_words({"stop": stop, "solves": 1500, "tol": 0.002})
+    words = search_stop_words(BoundarySearch((), 1500, stop, 0.002, 1500))
     if stop == "converged":
         assert words.startswith("converged") and "budget" not in words and "added less than 0.2%" in words
     else:

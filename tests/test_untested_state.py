@@ -121,16 +121,16 @@ def test_unstable_counts_only_the_converged_samples():
     from types import SimpleNamespace
 
     from pytdcr.runs._runs import _sample_counts
-    from pytdcr.workspace._study import _counts
+    from pytdcr.workspace import SampleCounts
 
     ok = np.array([True, True, False, False])
     st = np.array([0.0, 1.0, 0.0, np.nan])  # row 2 did not converge: its 0 is not a tested state
     no = np.zeros(4, dtype=bool)
     region = SimpleNamespace(converged=ok, stable=st, below_base=no, disks_touch=no, realisable=ok,
                              source=np.zeros(4, dtype=np.int8))
-    c = _counts(region, "run")
-    assert c["unstable"] == 1 and c["stable"] == 1 and c["stable"] + c["unstable"] + c["stability_untested"] == 2
-    assert _counts(region, "untested")["unstable"] is None
+    c = SampleCounts.of(region, "run")
+    assert c.unstable == 1 and c.stable == 1 and c.stable + c.unstable + c.stability_untested == 2
+    assert SampleCounts.of(region, "untested").unstable is None
     tips = np.array([[0.1, 0.0, 0.2]] * 2 + [[np.nan] * 3] * 2)
     sample = SimpleNamespace(converged=ok, stable=st, reach=np.linalg.norm(tips, axis=1))
     assert _sample_counts(sample, "pcc")["unstable"] == 1

@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 import sys
 from dataclasses import replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..paper import workspace_load_cases
 from ..validate import escape_controls
@@ -28,6 +28,9 @@ from ._args import (
 )
 from ._progress import Bars, quiet, say
 from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK, CliError
+
+if TYPE_CHECKING:
+    from ..workspace import WorkspaceSummary
 
 __all__ = ["add_parser", "run"]
 
@@ -146,24 +149,24 @@ def _say_estimate(cases: dict[str, tuple[Any, ...]] | None, robot: Any, loads: A
         say(est.text())
 
 
-def _workspace_lines(name: str, s: dict[str, Any]) -> list[str]:
+def _workspace_lines(name: str, s: WorkspaceSummary) -> list[str]:
+    """What the command prints of one case: each region's measure and largest reach, the samples, the
+    equilibria, the boundary search and the multistability check."""
     from ..runs import format_measure_of
-    from ..statics import stability_words
 
     out = [f"  {name}:"]
-    for label, d in (("FSW", s), ("realisable", s["realisable"])):
-        reach = (f"{d['largest_reach_m']:.4f} m ({d['reach_rule']})" if d["largest_reach_m"] is not None
-                 else "none")
+    for label, d in (("FSW", s.fsw), ("realisable", s.realisable)):
+        reach = f"{d.largest_reach_m:.4f} m ({d.reach_rule})" if d.largest_reach_m is not None else "none"
         out.append(f"    {label}: {format_measure_of(d)}, largest reach {reach}")
-    c = s["counts"]
-    search = s.get("boundary_search") or {}
-    how = s["equilibria"] if s["equilibria"] == "continuation" else f"{s['equilibria']} ({s['warm_start']['mode']})"
-    out.append(f"    {c['converged']} of {c['solved']} converged, {stability_words(c, s['stability_test'])}; "
-               f"equilibria: {how}; boundary search: {search.get('solves', 0)} solves, {search.get('stop', 'off')}")
-    ms = s.get("multistability")
-    if ms and ms["checked"]:
-        out.append(f"    multistability: {ms['distinct']} of {ms['checked']} checked samples reach another equilibrium "
-                   f"by the {ms['other']} ({100 * ms['fraction']:.1f} %)")
+    c, search = s.counts, s.boundary_search
+    how = s.equilibria if s.equilibria == "continuation" else f"{s.equilibria} ({s.warm_start.mode})"
+    out.append(f"    {c.converged} of {c.solved} converged, {s.stability_words()}; "
+               f"equilibria: {how}; boundary search: {search.solves if search is not None else 0} solves, "
+               f"{search.stop if search is not None else 'off'}")
+    ms = s.multistability
+    if ms is not None and ms.checked:
+        out.append(f"    multistability: {ms.distinct} of {ms.checked} checked samples reach another equilibrium "
+                   f"by the {ms.other} ({100 * (ms.fraction or 0.0):.1f} %)")
     return out
 
 
@@ -222,11 +225,11 @@ def run(args: argparse.Namespace) -> int:
         print("\n".join(_workspace_lines(case.name, case.summary)))
     print(f"wrote {', '.join(res.files)} in {escape_controls(str(out))}")
     for case in res.cases:
-        for w in case.summary["warnings"]:
+        for w in case.warnings:
             print(f"tdcr: {case.name}: {w}", file=sys.stderr)
     for name, why in res.failed.items():  # the others are kept, with their comparison
         print(f"tdcr: {escape_controls(name)}: failed while running, not compared: {escape_controls(why)}",
               file=sys.stderr)
-    if res.failed or any(c.summary["points"] == 0 for c in res.cases):  # a case failed, or one has no region
+    if res.failed or any(c.summary.fsw.points == 0 for c in res.cases):  # a case failed, or one has no region
         return EXIT_NOT_CONVERGED
     return EXIT_OK

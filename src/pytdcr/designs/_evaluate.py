@@ -77,31 +77,36 @@ def designs_estimate(study: DesignStudy, robot: Any, designs: int, workers: int)
 
 
 def _case_row(study: DesignStudy, settings: WorkspaceSettings, robot: Any, loads: Any) -> dict[str, Any]:
+    """One load case's row of a design: its workspace study's numbers
+    (:attr:`~pytdcr.workspace.WorkspaceStudy.summary`, the same ``tdcr workspace`` writes: volumes [m^3] with
+    errors, dimension, shares of the samples, largest reach [m]), the peak bending stress [Pa] over the converged
+    samples, the arc length [m], h [m] along the study's named directions, and the tensions that reach farthest
+    [N]."""
     bounds = TensionBounds.uniform(robot.n_tendons, *study.bounds)
     ws = workspace_study(robot, loads, bounds, settings, model=study.model)
-    s = ws.samples
-    ok, feas = s.converged, s.feasible
+    s, numbers = ws.samples, ws.summary
+    fsw, counts = numbers.fsw, numbers.counts
     row: dict[str, Any] = {
-        "volume_m3": ws.region.fsw.volume_m3, "volume_err_m3": ws.region.fsw.error_m3,
-        "realisable_volume_m3": ws.region.realisable.volume_m3,
-        "realisable_volume_err_m3": ws.region.realisable.error_m3,
-        "fsw_dimension": 3 if ws.region.fsw.dimension is None else ws.region.fsw.dimension.dimension,
-        "fraction_converged": float(ok.mean()),
-        "fraction_realisable": float(s.realisable.sum() / max(int(ok.sum()), 1)),
+        "volume_m3": fsw.volume_m3, "volume_err_m3": fsw.volume_err_m3,
+        "realisable_volume_m3": numbers.realisable.volume_m3,
+        "realisable_volume_err_m3": numbers.realisable.volume_err_m3,
+        "fsw_dimension": fsw.dimension,
+        "fraction_converged": counts.converged / counts.solved if counts.solved else float("nan"),
+        "fraction_realisable": counts.fraction_realisable,
         "peak_stress_pa": (float(robot.backbone.youngs_modulus * np.nanmax(s.curvature)
-                                 * robot.backbone.outer_radius) if ok.any() else np.nan),
+                                 * robot.backbone.outer_radius) if counts.converged else np.nan),
         "arc_length_m": float(robot.length)}
     names = list(study.measures.directions)
     if names:
         if ws.support is not None:
             h = ws.support.h
         else:  # no gradient search (or nothing feasible): the samples' own
-            tips, D = s.tip_position[feas], settings.direction_vectors()
+            tips, D = s.tip_position[s.feasible], settings.direction_vectors()
             h = (tips @ D.T).max(axis=0) if tips.size else np.full(len(names), np.nan)
         row.update({f"h_{k}_m": float(v) for k, v in zip(names, h, strict=True)})
-    far = ws.largest_reach
-    row["largest_reach_m"] = far.reach if far.reach is not None else np.nan
+    row["largest_reach_m"] = fsw.largest_reach_m if fsw.largest_reach_m is not None else np.nan
     # not a column: the tensions that reach farthest, to draw the design (the table ignores this key)
+    far = ws.largest_reach
     row["reach_tensions_n"] = None if far.tensions is None else [float(t) for t in far.tensions]
     return row
 

@@ -26,12 +26,14 @@ from ..plotting import (
 from ..results import NotConvergedError
 from ..robot import Robot
 from ..runtime import atomic_write, atomic_write_text, output_folder, write_csv, write_json
-from ..statics import Model, feasible_words, options_record, saving, solve, stability_words
+from ..statics import Model, feasible_words, options_record, saving, solve
 from ..validate import SettingsError
 from ..workspace import (
+    BoundarySearch,
     Estimate,
     LargestReach,
     Region,
+    RegionNumbers,
     RegionSamples,
     SearchRound,
     SupportFunction,
@@ -39,6 +41,7 @@ from ..workspace import (
     WorkspaceRegion,
     WorkspaceSettings,
     WorkspaceStudy,
+    WorkspaceSummary,
     check_workspace,
     region_overlap,
     workspace_estimate,
@@ -94,13 +97,20 @@ class WorkspaceCaseSpec(NamedTuple):
 
 @dataclass(frozen=True, eq=False)
 class WorkspaceCase:
-    """One load case's workspace: the study (regions, support function, largest reach) and its summary (the
-    study's numbers with the files' names, the inputs and the warnings: ``workspace.json``)."""
+    """One load case's workspace: the study (regions, support function, largest reach), its numbers with the
+    meshes' names (``summary``), the inputs' record and the warnings; :meth:`record` is its ``workspace.json``
+    but for the files."""
 
     name: str
     loads: Loads
     study: WorkspaceStudy
-    summary: dict[str, Any]
+    summary: WorkspaceSummary
+    inputs: dict[str, Any]
+    warnings: tuple[str, ...]
+
+    def record(self) -> dict[str, Any]:
+        """``workspace.json`` but for its ``files``: the numbers with the meshes, the inputs, the warnings."""
+        return {**self.summary.to_json(meshes=True), "inputs": self.inputs, "warnings": list(self.warnings)}
 
     @property
     def region(self) -> WorkspaceRegion:
@@ -134,17 +144,6 @@ class WorkspaceRun:
         return self.cases[0]
 
 
-def _with_mesh(numbers: dict[str, Any], mesh: str) -> dict[str, Any]:
-    """A region's numbers with the name of its mesh file after the largest reach; None when it has too few
-    points to mesh (:attr:`Region.MIN_MESH_POINTS`) or no volume to enclose (dimension below 3)."""
-    out: dict[str, Any] = {}
-    for key, value in numbers.items():
-        out[key] = value
-        if key == "largest_reach_m":
-            out["mesh"] = mesh if numbers["points"] >= Region.MIN_MESH_POINTS and numbers["dimension"] == 3 else None
-    return out
-
-
 def _cell(value: float | None, fmt: str = ".4f", scale: float = 1.0) -> str:
     """A table cell: ``value`` times ``scale`` in ``fmt``, or "—" where there is none (None or NaN)."""
     if value is None or not np.isfinite(value):
@@ -152,16 +151,10 @@ def _cell(value: float | None, fmt: str = ".4f", scale: float = 1.0) -> str:
     return format(value * scale, fmt)
 
 
-def format_measure_of(d: dict[str, Any]) -> str:
-    """A region's measure in words from its numbers (``workspace.json``'s region): its volume with error in
-    cm³, or, below three dimensions, what it is and its area or length."""
-    if d["dimension"] == 3:
-        return f"volume {d['volume_m3'] * 1e6:.0f} ± {d['volume_err_m3'] * 1e6:.0f} cm³"
-    if d["dimension"] == 2:
-        return f"planar (dimension 2, volume 0): area {d['area_m2'] * 1e4:.1f} ± {d['area_err_m2'] * 1e4:.1f} cm²"
-    if d["dimension"] == 1:
-        return f"a segment (dimension 1, volume 0): length {d['length_m']:.4f} ± {d['length_err_m']:.4f} m"
-    return "a point or nothing (dimension 0, volume 0)"
+def format_measure_of(region: RegionNumbers) -> str:
+    """A region's measure in words (:meth:`RegionNumbers.measure_words`): its volume with error in cm³, or,
+    below three dimensions, what it is and its area or length."""
+    return region.measure_words()
 
 
 def _error_words(growth_m3: float, error_m3: float) -> str:
@@ -175,48 +168,49 @@ def _error_words(growth_m3: float, error_m3: float) -> str:
     return f"holds {g} cm³ of growth the last rounds point to, the rest the estimators' spread"
 
 
-def search_stop_words(search: dict[str, Any]) -> str:
-    """Why a boundary search stopped, as its record (``boundary_search`` of ``workspace.json``) says."""
-    rule = f"{search['tol']:.1%} of the voxels"
-    if search["stop"] == "converged":
+def search_stop_words(search: BoundarySearch) -> str:
+    """Why a boundary search stopped, as it records (``boundary_search`` of ``workspace.json``)."""
+    rule = f"{search.tol:.1%} of the voxels"
+    if search.stop == "converged":
         return f"converged (its last round added less than {rule})"
-    if search["stop"] == "budget":
-        return (f"its budget ({search['solves']} solves) ran out before a round added less than {rule}, which "
+    if search.stop == "budget":
+        return (f"its budget ({search.solves} solves) ran out before a round added less than {rule}, which "
                 "would have meant converged")
-    if search["stop"] == "no boundary left":
+    if search.stop == "no boundary left":
         return "no boundary face was left untried (every face of the region's boundary voxels was searched)"
-    if search["stop"] == "rounds":
+    if search.stop == "rounds":
         return f"its cap of rounds, before a round added less than {rule}"
-    return str(search["stop"])
+    return str(search.stop)
 
 
-def _warnings(summary: dict[str, Any]) -> list[str]:
+def _warnings(summary: WorkspaceSummary) -> list[str]:
     """One line per region with too few points to mesh (what was not written, and why), and one when the
-    boundary search ran out of budget before the region converged (the volume is then a lower bound)."""
+    boundary search ran out of budget before the region converged (the volume is then a lower bound).
+    ``summary`` holds the meshes' names (:meth:`WorkspaceSummary.with_meshes`)."""
     out = []
-    root = summary.get("root")
+    root = summary.root
     if root is not None and root not in ("stable", "stability untested"):
         why = ("is not stable at zero tension under this load (an axial load past buckling?)" if root == "unstable"
                else "did not converge at zero tension under this load")
         out.append(f"the robot {why}: the root every continued sample is reached from is missing, no sample has a "
                    "stable parent and the region is empty; --equilibria loading-path solves each sample from rest")
-    search, vol = summary.get("boundary_search"), summary["volume"]
-    if search is not None and search["stop"] == "budget" and summary["points"] and summary["dimension"] == 3:
-        why = _error_words(vol["search_m3"], vol["error_m3"])
-        out.append(f"the boundary search stopped at its budget ({search['solves']} solves) before the region "
-                   f"converged: the volume {vol['volume_m3'] * 1e6:.0f} cm³ is close to a lower bound and its error "
-                   f"(± {vol['error_m3'] * 1e6:.0f} cm³) {why}; raise --budget for a measurement")
-    for label, d, name in (("FSW", summary, "fsw.ply"), ("realisable region", summary["realisable"],
-                                                         "fsw_realisable.ply")):
-        if d["dimension"] < 3 and d["points"]:
-            extents = ", ".join(f"{e:.2g}" for e in d["volume"]["dimension"]["extents_m"])
-            out.append(f"the {label}'s tips span {d['dimension']} dimension{'s' * (d['dimension'] != 1)} at the "
+    search, fsw, vol = summary.boundary_search, summary.fsw, summary.fsw.volume
+    if search is not None and search.stop == "budget" and fsw.points and fsw.dimension == 3:
+        why = _error_words(vol.search_m3, vol.error_m3)
+        out.append(f"the boundary search stopped at its budget ({search.solves} solves) before the region "
+                   f"converged: the volume {vol.volume_m3 * 1e6:.0f} cm³ is close to a lower bound and its error "
+                   f"(± {vol.error_m3 * 1e6:.0f} cm³) {why}; raise --budget for a measurement")
+    for label, d, name in (("FSW", fsw, "fsw.ply"), ("realisable region", summary.realisable,
+                                                     "fsw_realisable.ply")):
+        if d.dimension < 3 and d.points:
+            extents = ", ".join(f"{e:.2g}" for e in (d.volume.dimension.extents_m if d.volume.dimension else ()))
+            out.append(f"the {label}'s tips span {d.dimension} dimension{'s' * (d.dimension != 1)} at the "
                        f"voxel's resolution (extents {extents} m along their principal axes): it is "
                        f"{format_measure_of(d)}; {name} is not written")
-        elif d["mesh"] is None:
-            plural = "s" * (d["points"] != 1)
-            out.append(f"the {label} holds {d['points']} feasible sample{plural} "
-                       f"({feasible_words(summary['stability_test'])}), fewer than "
+        elif d.mesh is None:
+            plural = "s" * (d.points != 1)
+            out.append(f"the {label} holds {d.points} feasible sample{plural} "
+                       f"({feasible_words(summary.stability_test)}), fewer than "
                        f"the {Region.MIN_MESH_POINTS} a boundary needs: {name} is not written and its volume is "
                        f"that of "
                        f"the occupied voxels alone")
@@ -232,16 +226,13 @@ def _case(name: str, robot: Robot, loads: Loads, bounds: TensionBounds, settings
           model: str | Model, options: Any, hooks: WorkspaceHooks) -> WorkspaceCase:
     """Compute one load case (:func:`pytdcr.workspace.workspace_study`) and its summary."""
     ws = workspace_study(robot, loads, bounds, settings, model=model, options=options, hooks=hooks)
-    numbers = ws.to_dict()
-    summary = _with_mesh(numbers, "fsw.ply")
-    summary["realisable"] = _with_mesh(numbers["realisable"], "fsw_realisable.ply")
-    summary["inputs"] = inputs_record(robot, loads, bounds=bounds.to_dict(), n=settings.n, seed=settings.seed,
-                                      solver=options_record(ws.model, ws.options), warm_starts=settings.warm,
-                                      boundary_search=settings.search, search_budget=settings.budget,
-                                      directions=_directions_record(settings), equilibria=settings.equilibria,
-                                      multistability=settings.multistability, search_folds=settings.folds)
-    summary["warnings"] = _warnings(summary)
-    return WorkspaceCase(name, loads, ws, summary)
+    summary = ws.summary.with_meshes("fsw.ply", "fsw_realisable.ply")
+    inputs = inputs_record(robot, loads, bounds=bounds.to_dict(), n=settings.n, seed=settings.seed,
+                           solver=options_record(ws.model, ws.options), warm_starts=settings.warm,
+                           boundary_search=settings.search, search_budget=settings.budget,
+                           directions=_directions_record(settings), equilibria=settings.equilibria,
+                           multistability=settings.multistability, search_folds=settings.folds)
+    return WorkspaceCase(name, loads, ws, summary, inputs, tuple(_warnings(summary)))
 
 
 def _save_samples(out: Path, s: RegionSamples) -> None:
@@ -280,8 +271,8 @@ def _write_case(out: Path, case: WorkspaceCase, robot: Robot, command: str) -> l
     """Every file of one case in ``out``: meshes, samples, h(d), figures, HTML, report, JSON."""
     wr, s = case.region, case.region.samples
     files = []
-    meshed = {"fsw.ply": case.summary["mesh"] is not None,
-              "fsw_realisable.ply": case.summary["realisable"]["mesh"] is not None}
+    meshed = {"fsw.ply": case.summary.fsw.mesh is not None,
+              "fsw_realisable.ply": case.summary.realisable.mesh is not None}
     for name, reg in (("fsw.ply", wr.fsw_region), ("fsw_realisable.ply", wr.realisable_region)):
         if not meshed[name]:
             continue
@@ -318,8 +309,8 @@ def _write_case(out: Path, case: WorkspaceCase, robot: Robot, command: str) -> l
     write_region_html(out / "workspace.html", meshes, {"feasible tips": s.tip_position[s.feasible]}, pose,
                       f"robot '{robot.name}': feasible static workspace, {case.name}")
     files.append("workspace.html")
-    atomic_write_text(out / "report.md", _report(case.summary, command))
-    write_json(out / "workspace.json", {**case.summary, "files": [*files, "report.md", "workspace.json"]})
+    atomic_write_text(out / "report.md", _report(case, robot.name, command))
+    write_json(out / "workspace.json", {**case.record(), "files": [*files, "report.md", "workspace.json"]})
     return [*files, "report.md", "workspace.json"]
 
 
@@ -340,94 +331,95 @@ def run_workspace(robot: Robot, loads: Loads, bounds: TensionBounds, settings: W
         case = _case("as given", robot, loads, bounds, settings, model, options, hooks)
         with saving():
             files = _write_case(run.staging, case, robot, how.command)
-    return WorkspaceRun([case], case.summary, files)
+    return WorkspaceRun([case], case.record(), files)
 
 
-def _report(summary: dict[str, Any], command: str) -> str:
-    f, r, c = summary, summary["realisable"], summary["counts"]
+def _report(case: WorkspaceCase, robot_name: str, command: str) -> str:
+    """One case's ``report.md``: the regions' table, the notes on the reach, the stability and the equilibria,
+    the convergence, the boundary search, the samples and h(d)."""
+    summary = case.summary
+    f, r, c = summary.fsw, summary.realisable, summary.counts
 
-    def pct(d: dict[str, Any]) -> str:
-        return f" ({d['volume_err_m3'] / d['volume_m3']:.0%})" if d["volume_m3"] else ""
+    def pct(d: RegionNumbers) -> str:
+        return f" ({d.volume_err_m3 / d.volume_m3:.0%})" if d.volume_m3 else ""
 
-    lines = [f"# Feasible static workspace of robot '{summary['inputs']['robot']['name']}'", "",
-             f"Made by `{command}`.", "", *[f"**Warning:** {w}." for w in summary.get("warnings", [])],
-             *([""] if summary.get("warnings") else []),
+    lines = [f"# Feasible static workspace of robot '{robot_name}'", "",
+             f"Made by `{command}`.", "", *[f"**Warning:** {w}." for w in case.warnings],
+             *([""] if case.warnings else []),
              "| region | volume [cm³] | error [cm³] | largest reach [m] | points |", "|---|---|---|---|---|",
-             f"| FSW ({feasible_words(summary['stability_test'])}) | {f['volume_m3'] * 1e6:.0f} | "
-             f"{f['volume_err_m3'] * 1e6:.0f}{pct(f)} | "
-             f"{_cell(f['largest_reach_m'])} | {f['points']} |",
-             f"| realisable (no disk below the base, no disks touching) | {r['volume_m3'] * 1e6:.0f} | "
-             f"{r['volume_err_m3'] * 1e6:.0f}{pct(r)} | {_cell(r['largest_reach_m'])} | {r['points']} |", "",
-             _reach_note(f, r), "", *_untested_note(summary),
+             f"| FSW ({feasible_words(summary.stability_test)}) | {f.volume_m3 * 1e6:.0f} | "
+             f"{f.volume_err_m3 * 1e6:.0f}{pct(f)} | "
+             f"{_cell(f.largest_reach_m)} | {f.points} |",
+             f"| realisable (no disk below the base, no disks touching) | {r.volume_m3 * 1e6:.0f} | "
+             f"{r.volume_err_m3 * 1e6:.0f}{pct(r)} | {_cell(r.largest_reach_m)} | {r.points} |", "",
+             _reach_note(f, r), "", *_untested_note(summary, case.study.model.name),
              "Convergence with the base samples (FSW): "
-             + ", ".join(f"n = {s['n_base']}: {s['estimate_m3'] * 1e6:.0f} cm³" for s in f["volume"]["scales"])
+             + ", ".join(f"n = {s['n_base']}: {s['estimate_m3'] * 1e6:.0f} cm³" for s in f.volume.scales)
              + ".", ""]
-    search = summary.get("boundary_search")
-    if search:
+    search = summary.boundary_search
+    if search is not None:
         sizes = ("n/4", "n/2", "n")
-        ran = sorted({x["stage"] for x in search["rounds"]})
-        tail = f["volume"]["search_m3"]
+        ran = sorted({x.stage for x in search.rounds})
+        tail = f.volume.search_m3
         lines[-1:-1] = [f"The boundary search ran at {', '.join(sizes[k] for k in ran) or 'no size'}"
                         + ("" if len(ran) == 3 else " only (its budget ran out): a larger size adds its base "
                            "samples to the smaller sizes' search points, unsearched")
                         + (f". The error includes {tail * 1e6:.0f} cm³ of growth the last rounds point to (the "
                            "budget stopped the search)." if tail else ".")]
-    if search:
-        lines += [f"Boundary search: {search['solves']} extra solves in {len(search['rounds'])} rounds; stopped: "
+        lines += [f"Boundary search: {search.solves} extra solves in {len(search.rounds)} rounds; stopped: "
                   f"{search_stop_words(search)}.", "",
                   "| stage | round | faces tried | solves | FSW voxels | realisable voxels |",
                   "|---|---|---|---|---|---|"]
-        lines += [f"| {x['stage']} | {x['round']} | {x['faces']} | {x['steps']} | {x['voxels']} | "
-                  f"{x['voxels_realisable']} |" for x in search["rounds"]]
+        lines += [f"| {x.stage} | {x.round} | {x.faces} | {x.steps} | {x.voxels} | "
+                  f"{x.voxels_realisable} |" for x in search.rounds]
         lines.append("")
-    lines += [f"Samples: {c['solved']} solved ({c['by_source']}), {c['converged']} converged, "
-              f"{stability_words(c, summary['stability_test'])}; of the converged, "
-              f"{c['fraction_below_base']:.1%} have a disk below the base plane, "
-              f"{c['fraction_disks_touch']:.1%} two disks touching; {c['fraction_realisable']:.1%} are realisable.",
+    lines += [f"Samples: {c.solved} solved ({c.by_source}), {c.converged} converged, "
+              f"{summary.stability_words()}; of the converged, "
+              f"{c.fraction_below_base:.1%} have a disk below the base plane, "
+              f"{c.fraction_disks_touch:.1%} two disks touching; {c.fraction_realisable:.1%} are realisable.",
               "", _equilibria_note(summary), "",
               "Boundary voxels holding a sample, by source: "
-              + ", ".join(f"{k} {v:.0%}" for k, v in summary["boundary_sources"].items()) + ".", ""]
-    sup = summary.get("support")
-    if sup:
-        h = np.asarray(sup["h"])
+              + ", ".join(f"{k} {v:.0%}" for k, v in summary.boundary_sources.items()) + ".", ""]
+    sup = summary.support
+    if sup is not None:
+        h = sup.h
         lines += [f"Support function over {h.size} directions: h(d) from {h.min() * 1e3:.1f} to {h.max() * 1e3:.1f} mm "
                   "(support.csv, support_map.png).", ""]
     return "\n".join(lines)
 
 
-def _untested_note(summary: dict[str, Any]) -> list[str]:
-    """For a run whose model has no static stability test, what its regions then hold (no line otherwise)."""
-    if summary["stability_test"] != "untested":
+def _untested_note(summary: WorkspaceSummary, model: str) -> list[str]:
+    """For a run whose ``model`` has no static stability test, what its regions then hold (no line otherwise)."""
+    if summary.stability_test != "untested":
         return []
-    model = summary["inputs"]["solver"]["model"]
-    root = " (its root too)" if summary.get("root") == "stability untested" else ""
+    root = " (its root too)" if summary.root == "stability untested" else ""
     return [f"Stability untested: model '{model}' has no static stability test, so both regions hold every "
             f"converged sample{root} and none is known stable or unstable.", ""]
 
 
-def _equilibria_note(summary: dict[str, Any]) -> str:
+def _equilibria_note(summary: WorkspaceSummary) -> str:
     """Which equilibria the region holds, how its samples were solved and how often the history mattered."""
-    w, ms = summary["warm_start"], summary.get("multistability")
-    if summary["equilibria"] == "continuation":
+    w, ms = summary.warm_start, summary.multistability
+    if summary.equilibria == "continuation":
         text = ("Equilibria: each sample continued from a solved parent (the robot's own history of quasi-static "
                 "tension changes from rest; samples.npz holds each sample's parent).")
     else:
         text = (f"Equilibria: each sample solved from rest with every load ramped together (the loading path); "
-                f"warm starts: {w['mode']} ({w['agreed']} of {w['checked']} checked warm starts agreed with the "
-                f"loading path; {w['required']:.1%} required).")
-    if ms and ms["checked"]:
-        text += (f" Multistability: {ms['distinct']} of {ms['checked']} checked samples ({ms['fraction']:.1%}) reach "
-                 f"another equilibrium by the {ms['other']} (multistability.png).")
+                f"warm starts: {w.mode} ({w.agreed} of {w.checked} checked warm starts agreed with the "
+                f"loading path; {w.required:.1%} required).")
+    if ms is not None and ms.checked:
+        text += (f" Multistability: {ms.distinct} of {ms.checked} checked samples ({ms.fraction:.1%}) reach "
+                 f"another equilibrium by the {ms.other} (multistability.png).")
     return text
 
 
-def _reach_note(fsw: dict[str, Any], real: dict[str, Any]) -> str:
+def _reach_note(fsw: RegionNumbers, real: RegionNumbers) -> str:
     """What each region's largest reach is (``reach_rule``): the realisable region's is a sample, never searched,
     and can be below the FSW's even where the FSW's optimum is realisable."""
-    text = f"Largest reach: the FSW's is {fsw['reach_rule']}; the realisable region's is {real['reach_rule']}"
-    fsw_sample = fsw["reach_rule"].startswith("the farthest feasible sample")  # then both are samples: compared
-    if (fsw["largest_reach_m"] is not None and real["largest_reach_m"] is not None and not fsw_sample
-            and real["largest_reach_m"] < fsw["largest_reach_m"]):
+    text = f"Largest reach: the FSW's is {fsw.reach_rule}; the realisable region's is {real.reach_rule}"
+    fsw_sample = fsw.reach_rule.startswith("the farthest feasible sample")  # then both are samples: compared
+    if (fsw.largest_reach_m is not None and real.largest_reach_m is not None and not fsw_sample
+            and real.largest_reach_m < fsw.largest_reach_m):
         text += (", so it may be below the FSW's even where the FSW's farthest tip is realisable (whether it is "
                  "was not checked)")
     return text + "."
@@ -456,18 +448,18 @@ def _comparison(cases: list[WorkspaceCase]) -> list[dict[str, Any]]:
     if not cases:
         return []
     ref = cases[0]
-    v0, c0 = ref.summary["volume_m3"], _centroid(ref.region.fsw_region)
+    v0, c0 = ref.summary.fsw.volume_m3, _centroid(ref.region.fsw_region)
     rows = []
     for c in cases:
-        s = c.summary
+        s, f = c.summary, c.summary.fsw
         shift = _centroid(c.region.fsw_region) - c0
-        rows.append({"case": c.name, "model": c.study.model.name, "equilibria": s["equilibria"],
-                     "stability_test": s["stability_test"],
-                     "volume_m3": s["volume_m3"], "volume_err_m3": s["volume_err_m3"],
-                     "realisable_m3": s["realisable"]["volume_m3"],
-                     "realisable_err_m3": s["realisable"]["volume_err_m3"],
-                     "largest_reach_m": s["largest_reach_m"], "reach_rule": s["reach_rule"],
-                     "volume_ratio": s["volume_m3"] / v0 if v0 else None,
+        rows.append({"case": c.name, "model": c.study.model.name, "equilibria": s.equilibria,
+                     "stability_test": s.stability_test,
+                     "volume_m3": f.volume_m3, "volume_err_m3": f.volume_err_m3,
+                     "realisable_m3": s.realisable.volume_m3,
+                     "realisable_err_m3": s.realisable.volume_err_m3,
+                     "largest_reach_m": f.largest_reach_m, "reach_rule": f.reach_rule,
+                     "volume_ratio": f.volume_m3 / v0 if v0 else None,
                      "centroid_m": _centroid(c.region.fsw_region).tolist(), "centroid_shift_m": shift.tolist(),
                      "folder": _slug(c.name)})
     return rows
@@ -510,7 +502,8 @@ def _compare_report(rows: list[dict[str, Any]], cases: list[WorkspaceCase], comm
     rules = dict.fromkeys(r["reach_rule"] for r in rows)
     lines += ["", "Largest reach: the FSW's, " + ("; ".join(f"{r['case']}: {r['reach_rule']}" for r in rows)
                                                   if len(rules) > 1 else next(iter(rules))) + "."]
-    short = [c.name for c in cases if c.summary["boundary_search"] and c.summary["boundary_search"]["stop"] == "budget"]
+    short = [c.name for c in cases
+             if c.summary.boundary_search is not None and c.summary.boundary_search.stop == "budget"]
     if short:
         lines += ["", f"**Warning:** the boundary search ran out of budget before the region converged under "
                   f"{', '.join(short)}: those volumes are close to lower bounds with large errors, and their "

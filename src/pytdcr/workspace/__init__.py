@@ -6,7 +6,10 @@ one :class:`WorkspaceSettings`; it returns a :class:`WorkspaceStudy` whose parts
 (:class:`WorkspaceRegion`: its samples, its :class:`Region` with a :class:`VolumeEstimate`, the
 :class:`BoundarySearch` that grew it), :class:`SupportFunction`, :class:`LargestReach` and
 :class:`Multistability`. :func:`workspace_estimate` says beforehand what a study will cost, and
-:func:`region_overlap` compares two regions. :func:`sample_workspace` is the paper's plain random sampling.
+:func:`region_overlap` compares two regions. Its numbers, read by attribute wherever they are reported, are one
+:class:`WorkspaceSummary` (:attr:`WorkspaceStudy.summary`; ``workspace.json`` through its ``to_json`` and
+``from_json``), whose parts are :class:`RegionNumbers`, :class:`SampleCounts` and
+:class:`MultistabilityCounts` beside the study's own. :func:`sample_workspace` is the paper's plain random sampling.
 ``tdcr workspace`` runs the study and writes it out (:mod:`pytdcr.runs`).
 """
 
@@ -14,12 +17,13 @@ from ._compute import WorkspaceRegion, check_workspace
 from ._estimate import Estimate, workspace_estimate
 from ._frontier import FOLD_RULES, BoundarySearch, SearchRound
 from ._grid import Region
-from ._history import Multistability
+from ._history import Multistability, MultistabilityCounts
 from ._overlap import RegionOverlap, region_overlap
 from ._sampling import SamplingConfig, SamplingInterrupted, WorkspaceSamples, sample_workspace
 from ._settings import WorkspaceHooks, WorkspaceSettings
 from ._solve import EQUILIBRIA, RegionSamples, equilibria_for
 from ._study import Reach, WorkspaceStudy, workspace_study
+from ._summary import RegionNumbers, SampleCounts, WorkspaceSummary
 from ._support import LargestReach, SupportFunction
 from ._volume import VolumeEstimate
 
@@ -30,10 +34,13 @@ __all__ = [
     "Estimate",
     "LargestReach",
     "Multistability",
+    "MultistabilityCounts",
     "Reach",
     "Region",
+    "RegionNumbers",
     "RegionOverlap",
     "RegionSamples",
+    "SampleCounts",
     "SamplingConfig",
     "SamplingInterrupted",
     "SearchRound",
@@ -44,6 +51,7 @@ __all__ = [
     "WorkspaceSamples",
     "WorkspaceSettings",
     "WorkspaceStudy",
+    "WorkspaceSummary",
     "check_workspace",
     "equilibria_for",
     "region_overlap",

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import MISSING, asdict, dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
@@ -164,6 +164,18 @@ class BoundarySearch:
                 "warm_checked": sum(r.checked for r in self.rounds), "warm_agreement": self.warm_agreement,
                 "at_fold": sum(r.at_fold for r in self.rounds),
                 "rounds": [asdict(r) for r in self.rounds]}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> BoundarySearch:
+        """The search :meth:`to_dict` wrote (its totals over the rounds are derived from them); KeyError naming a
+        missing key. A round's keys with defaults may be absent (older files), and its ``seconds`` (a record
+        with its times dropped: read 0)."""
+        def one(r: dict[str, Any]) -> SearchRound:
+            kw = {f.name: r[f.name] for f in fields(SearchRound)
+                  if f.name in r or (f.default is MISSING and f.name != "seconds")}
+            return SearchRound(**{"seconds": 0.0, **kw})
+
+        return cls(tuple(one(r) for r in d["rounds"]), d["solves"], d["stop"], d["tol"], d["budget"])
 
 
 def _voxel_keys(tip: np.ndarray, voxel: float) -> np.ndarray:

@@ -67,6 +67,11 @@ class Region:
             mesh.invert()
         return mesh
 
+    def contains(self, points: np.ndarray) -> np.ndarray:
+        """Whether each point (..., 3) [m] lies in an occupied voxel: "can the robot hold its tip here under
+        this load?", to the region's resolution. Shape (...,) of bool; a non-finite point is outside."""
+        return inside(self, points)
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (not the voxels)."""
         return {"origin_m": self.origin.tolist(), "voxel_m": self.voxel, "shape": list(self.occupied.shape),

@@ -18,7 +18,7 @@ import numpy as np
 
 from ._solve import EQUILIBRIA, RegionSamples, _Solver, same_tip
 
-__all__ = ["FROM_REST", "FROM_ROOT", "Multistability", "measure_multistability"]
+__all__ = ["FROM_REST", "FROM_ROOT", "Multistability", "MultistabilityCounts", "measure_multistability"]
 
 #: the second history of a continued region's samples
 FROM_REST = "loading path from rest"
@@ -74,14 +74,62 @@ class Multistability:
         """distinct / checked (None when nothing was checked)."""
         return float(self.distinct.sum()) / self.checked if self.checked else None
 
+    def counts(self) -> MultistabilityCounts:
+        """Its numbers (what ``workspace.json`` keeps of it)."""
+        return MultistabilityCounts(self.equilibria, self.other, self.checked, int(self.distinct.sum()),
+                                    self.fraction, int(np.sum(~self.other_converged)),
+                                    int(np.sum(self.distinct & ~self.other_stable)) if self.tested else None,
+                                    self.seconds)
+
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary (``checked``, ``distinct``, ``fraction``, and what the second history did;
-        ``distinct_unstable`` is None where the model has no stability test)."""
+        """JSON-ready summary (:meth:`MultistabilityCounts.to_json`)."""
+        return self.counts().to_json()
+
+
+@dataclass(frozen=True)
+class MultistabilityCounts:
+    """The numbers of a :class:`Multistability` check, as ``workspace.json`` keeps them (its arrays are not kept:
+    a file read back gives these).
+
+    Attributes
+    ----------
+    equilibria, other : str
+        The region's equilibria and the second history (:class:`Multistability`).
+    checked : int
+        Samples checked.
+    distinct : int
+        Of those, how many reached another equilibrium by the second history.
+    fraction : float or None
+        ``distinct / checked`` (None when nothing was checked).
+    other_not_converged : int
+        Checked samples whose second history did not converge.
+    distinct_unstable : int or None
+        Distinct ones whose other equilibrium is unstable; None (unknown) where the model has no stability test.
+    seconds : float
+        Wall time of the second solves [s] (0 read from a record with its times dropped).
+    """
+
+    equilibria: str
+    other: str
+    checked: int
+    distinct: int
+    fraction: float | None
+    other_not_converged: int
+    distinct_unstable: int | None
+    seconds: float = 0.0
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready form: ``checked``, ``distinct``, ``fraction``, and what the second history did."""
         return {"equilibria": self.equilibria, "other": self.other, "checked": self.checked,
-                "distinct": int(self.distinct.sum()), "fraction": self.fraction,
-                "other_not_converged": int(np.sum(~self.other_converged)),
-                "distinct_unstable": int(np.sum(self.distinct & ~self.other_stable)) if self.tested else None,
+                "distinct": self.distinct, "fraction": self.fraction,
+                "other_not_converged": self.other_not_converged, "distinct_unstable": self.distinct_unstable,
                 "seconds": self.seconds}
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> MultistabilityCounts:
+        """The numbers :meth:`to_json` wrote; KeyError naming a missing key."""
+        return cls(d["equilibria"], d["other"], d["checked"], d["distinct"], d["fraction"],
+                   d["other_not_converged"], d["distinct_unstable"], d.get("seconds", 0.0))
 
 
 def measure_multistability(solver: _Solver, samples: RegionSamples, count: int, *, seed: int = 0) -> Multistability:

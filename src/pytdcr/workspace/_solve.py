@@ -17,8 +17,7 @@ from ..limits import check_memory
 from ..loads import Loads
 from ..results import BatchSolution
 from ..robot import Robot
-from ..statics import Model, check_resources, resolve, solve_batch
-from ..statics.options import PATH_FOLD, PATH_NAMES
+from ..statics import Model, SolvePath, check_resources, resolve, solve_batch
 from ..validate import SettingsError, check_count
 from ._plan import SOURCES, TensionPlan
 
@@ -114,11 +113,23 @@ class WarmStartCheck:
         """agreed / checked (None when nothing was checked)."""
         return self.agreed / self.checked if self.checked else None
 
+    @property
+    def required(self) -> float:
+        """The agreement the check requires (:data:`AGREEMENT_REQUIRED`)."""
+        return AGREEMENT_REQUIRED
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form, with the required agreement."""
         return {"mode": self.mode, "anchors": self.anchors, "checked": self.checked, "agreed": self.agreed,
-                "agreement": self.agreement, "required": AGREEMENT_REQUIRED,
+                "agreement": self.agreement, "required": self.required,
                 "seconds_warm": self.seconds_warm, "seconds_cold": self.seconds_cold}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> WarmStartCheck:
+        """The check :meth:`to_dict` wrote (``agreement`` and ``required`` are derived; times absent from a record
+        with its times dropped read 0); KeyError naming a missing key."""
+        return cls(d["mode"], d["anchors"], d["checked"], d["agreed"], d.get("seconds_warm", 0.0),
+                   d.get("seconds_cold", 0.0))
 
 
 @dataclass(frozen=True, eq=False)
@@ -277,8 +288,8 @@ class _Solver:
         kappa[~ok] = np.nan
         atol = np.full(ok.shape, np.nan) if b.atol is None else np.asarray(b.atol, dtype=float)
         return {"tip_position": b.tip_position, "converged": ok, "stable": stable, "q": q, "curvature": kappa,
-                "plain": np.asarray(b.path == "loading", dtype=bool), "residual": np.asarray(b.residual, float),
-                "at_fold": np.asarray(b.path == PATH_NAMES[PATH_FOLD], dtype=bool),
+                "plain": np.asarray(b.path == SolvePath.LOADING, dtype=bool), "residual": np.asarray(b.residual, float),
+                "at_fold": np.asarray(b.path == SolvePath.FOLD, dtype=bool),
                 "atol": atol,
                 "below_base": disks_below_base(pos, rot, r) & ok, "disks_touch": disks_touch(pos, rot, r) & ok}
 

@@ -4,24 +4,22 @@ the numbers ``tdcr workspace``, ``tdcr reproduce`` and ``tdcr designs`` report."
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
 from typing import Any
 
 import numpy as np
-from scipy import ndimage
 
 from ..bounds import TensionBounds
 from ..loads import Loads
 from ..optimize import ReachProblem
 from ..robot import Robot
 from ..runtime import end_stage
-from ..statics import Model, stability_counts, stability_test
+from ..statics import Model, stability_test
 from ._compute import WorkspaceRegion, check_workspace, workspace_region
-from ._grid import Region
-from ._plan import SOURCES
 from ._settings import WorkspaceHooks, WorkspaceSettings
 from ._solve import RegionSamples
+from ._summary import WorkspaceSummary, summarise
 from ._support import LargestReach, SampleStates, SupportFunction, largest_reach, support_function
-from ._volume import VolumeEstimate
 
 __all__ = ["Reach", "WorkspaceStudy", "workspace_study"]
 
@@ -49,39 +47,6 @@ class Reach:
     source: str
 
 
-def _counts(samples: RegionSamples, test: str) -> dict[str, Any]:
-    """How many samples were solved, converged, and of the converged unstable, untested and stable
-    (:func:`stability_counts`: None for stable and unstable when the stability ``test`` is ``"untested"``),
-    below the base, touching, realisable, by source."""
-    ok = samples.converged
-    n_ok = max(int(ok.sum()), 1)
-    states = stability_counts(ok, samples.stable, test)
-    return {"solved": int(ok.size), "converged": int(ok.sum()), "not_converged": int((~ok).sum()),
-            "unstable": states["unstable"], "stability_untested": states["untested"], "stable": states["stable"],
-            "below_base": int(samples.below_base.sum()), "disks_touch": int(samples.disks_touch.sum()),
-            "fraction_below_base": float(samples.below_base.sum() / n_ok),
-            "fraction_disks_touch": float(samples.disks_touch.sum() / n_ok),
-            "fraction_realisable": float(samples.realisable.sum() / n_ok),
-            "by_source": {name: int(np.sum(samples.source == k)) for k, name in enumerate(SOURCES)}}
-
-
-def _boundary_sources(region: Region, samples: RegionSamples, mask: np.ndarray) -> dict[str, float]:
-    """Of the region's boundary voxels (occupied, with an empty face neighbour), the share holding a sample
-    from each source (a voxel can hold several)."""
-    occ = region.occupied
-    boundary = occ & ~ndimage.binary_erosion(occ, structure=ndimage.generate_binary_structure(3, 1))
-    total = int(boundary.sum())
-    idx = np.floor((samples.tip_position[mask] - region.origin) / region.voxel).astype(np.int64)
-    src = samples.source[mask]
-    shares = {}
-    for k, name in enumerate(SOURCES):
-        hit = np.zeros_like(occ)
-        i = idx[src == k]
-        hit[i[:, 0], i[:, 1], i[:, 2]] = True
-        shares[name] = float((hit & boundary).sum() / total) if total else 0.0
-    return shares
-
-
 def _farthest_sample(samples: RegionSamples, mask: np.ndarray) -> Reach:
     """The farthest of the ``mask`` samples from the base (the first of equals), or none."""
     if not np.any(mask):
@@ -105,34 +70,6 @@ def _by_rule(rule: str, far: Reach, support: SupportFunction | None, search: Lar
     if search is not None and rule == "farthest" and search.reach >= best.reach:
         best = Reach(float(search.reach), search.tensions, search.tip_position, "search")
     return best
-
-
-def _reach_rule(source: str, searched: bool, region: str = "feasible") -> str:
-    """What a region's largest reach is, in words (``workspace.json``'s ``reach_rule``): from its
-    :attr:`Reach.source`, whether the reach search ran (``searched``) and the samples it is taken from
-    (``region``: ``"feasible"`` or ``"realisable"``). Only ``"search"`` is a searched optimum."""
-    if source == "none":
-        return f"none: no {region} sample"
-    if source == "search":
-        return "the reach search's optimum"
-    what = "the farthest tip attaining h(d)" if source == "support" else f"the farthest {region} sample"
-    return what + (", farther than the reach search's optimum" if searched else " (not searched)")
-
-
-def _region_numbers(est: VolumeEstimate, mask: np.ndarray, reach: float | None, rule: str) -> dict[str, Any]:
-    """A region's numbers: its volume (0 below three dimensions), the dimension and the measure that applies
-    (with its value: ``area_m2`` or ``length_m`` and their errors, for a 2- or 1-D region), largest reach and
-    what it is (``rule``: :func:`_reach_rule`), points and the whole estimate."""
-    dim = est.dimension
-    out: dict[str, Any] = {"volume_m3": est.volume_m3, "volume_err_m3": est.error_m3,
-                           "dimension": 3 if dim is None else dim.dimension,
-                           "measure": "volume" if dim is None else dim.measure}
-    if dim is not None and dim.dimension == 2:
-        out.update(area_m2=dim.area_m2, area_err_m2=dim.area_err_m2)
-    if dim is not None and dim.dimension == 1:
-        out.update(length_m=dim.length_m, length_err_m=dim.length_err_m)
-    return {**out, "largest_reach_m": reach, "reach_rule": rule, "points": int(mask.sum()),
-            "volume": est.to_dict()}
 
 
 @dataclass(frozen=True, eq=False)
@@ -173,27 +110,20 @@ class WorkspaceStudy:
         """Every solved tension vector (``region.samples``)."""
         return self.region.samples
 
+    @cached_property
+    def summary(self) -> WorkspaceSummary:
+        """The numbers (:class:`WorkspaceSummary`), assembled once: the FSW's volume, error, largest reach and
+        what it is, points and estimate, the realisable region's (its largest reach is the farthest realisable
+        sample, not searched); the voxel, the samples' counts, the warm starts, the boundary voxels' sources,
+        the boundary search, h(d), the reach search, the sampling time, which equilibria the region holds and
+        its multistability."""
+        return summarise(self.region, self.support, self.reach_search,
+                         (self.largest_reach.reach, self.largest_reach.source), self.realisable_reach,
+                         stability_test(self.model))
+
     def to_dict(self) -> dict[str, Any]:
-        """The numbers, JSON-ready: the FSW's volume, error, largest reach and what it is (``reach_rule``),
-        points and estimate at the top level, the realisable region's under ``realisable`` (its largest reach is
-        the farthest realisable sample, not searched); the voxel, the samples' counts, the warm starts, the
-        boundary voxels' sources, the boundary search, h(d), the reach search, the sampling time, which
-        equilibria the region holds and its multistability."""
-        wr, s = self.region, self.region.samples
-        searched = self.reach_search is not None
-        real = "none" if self.realisable_reach is None else "samples"
-        return {**_region_numbers(wr.fsw, s.feasible, self.largest_reach.reach,
-                                  _reach_rule(self.largest_reach.source, searched)),
-                "realisable": _region_numbers(wr.realisable, s.realisable, self.realisable_reach,
-                                              _reach_rule(real, False, "realisable")),
-                "voxel_m": wr.voxel, "counts": _counts(s, stability_test(self.model)), "warm_start": s.warm.to_dict(),
-                "boundary_sources": _boundary_sources(wr.fsw_region, s, s.feasible) if np.any(s.feasible) else {},
-                "boundary_search": wr.search.to_dict() if wr.search is not None else None,
-                "support": self.support.to_dict() if self.support is not None else None,
-                "largest_reach": self.reach_search.to_dict() if self.reach_search is not None else None,
-                "seconds_sampling": s.seconds, "equilibria": wr.equilibria, "root": s.root,
-                "stability_test": stability_test(self.model),
-                "multistability": wr.multistability.to_dict() if wr.multistability is not None else None}
+        """The numbers, JSON-ready (:meth:`WorkspaceSummary.to_json` of :attr:`summary`)."""
+        return self.summary.to_json()
 
 
 def _parents_as_rows(support: SupportFunction | None, search: LargestReach | None,

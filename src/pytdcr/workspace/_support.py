@@ -173,6 +173,26 @@ class SupportFunction:
                             "evaluations_median": float(np.median(self.evaluations)) if gain.size else 0.0,
                             "evaluations_total": int(np.sum(self.evaluations))}}
 
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> SupportFunction:
+        """The support function :meth:`to_dict` wrote (its ``summary`` is derived; ``stable``'s None read as NaN,
+        untested; ``settings`` kept as the record it is; a time absent from a record with its times dropped reads
+        0); KeyError naming a missing key."""
+        h = np.asarray(d["h"], dtype=float).reshape(-1)
+        k = h.size
+
+        def rows(key: str) -> np.ndarray:
+            a = np.asarray(d[key], dtype=float)
+            return a.reshape(k, -1) if k else a.reshape(0, 0)
+
+        stable = np.array([np.nan if x is None else float(x) for x in d["stable"]], dtype=float)
+        parent = d["parent"]
+        return cls(rows("directions"), h, rows("tensions"), rows("tips"), np.asarray(d["sample_h"], dtype=float),
+                   np.asarray(d["from_sample"], dtype=bool), np.asarray(d["exchanged"], dtype=bool),
+                   np.asarray(d["evaluations"], dtype=np.int64), np.asarray(d["starts"], dtype=np.int64),
+                   d.get("seconds", 0.0), dict(d["settings"]), stable,
+                   None if parent is None else np.asarray(parent, dtype=np.int64))
+
 
 @dataclass(frozen=True, eq=False)
 class LargestReach:
@@ -217,6 +237,14 @@ class LargestReach:
                 "sample_reach": self.sample_reach, "from_sample": self.from_sample,
                 "evaluations": self.evaluations, "starts": self.starts, "seconds": self.seconds,
                 "parent": self.parent}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> LargestReach:
+        """The reach :meth:`to_dict` wrote (a time absent from a record with its times dropped reads 0); KeyError
+        naming a missing key."""
+        return cls(np.asarray(d["tensions"], dtype=float), np.asarray(d["tip"], dtype=float), d["reach"],
+                   d["sample_reach"], d["from_sample"], d["evaluations"], d["starts"], d.get("seconds", 0.0),
+                   d["parent"])
 
 
 @dataclass(frozen=True)

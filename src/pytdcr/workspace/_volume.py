@@ -61,6 +61,14 @@ class RegionDimension:
                 "axes": [list(a) for a in self.axes], "length_m": self.length_m, "length_err_m": self.length_err_m,
                 "area_m2": self.area_m2, "area_err_m2": self.area_err_m2}
 
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> RegionDimension:
+        """The dimension :meth:`to_dict` wrote (``measure`` is derived from ``dimension``); KeyError naming a
+        missing key."""
+        ext = tuple(float(x) for x in d["extents_m"])
+        return cls(int(d["dimension"]), (ext[0], ext[1], ext[2]), tuple(tuple(float(x) for x in a) for a in d["axes"]),
+                   d["length_m"], d["length_err_m"], d["area_m2"], d["area_err_m2"])
+
 
 def _plane_area(coords: np.ndarray, voxel: float, closing: int) -> tuple[float, float]:
     """Area [m^2] of the region of the 2-D points ``coords`` (K, 2) on pixels of edge ``voxel``, closed as the
@@ -176,6 +184,15 @@ class VolumeEstimate:
                 "sampling_m3": self.sampling_m3, "search_m3": self.search_m3, "ratio": self.ratio,
                 "scales": list(self.scales),
                 "dimension": None if self.dimension is None else self.dimension.to_dict()}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> VolumeEstimate:
+        """The estimate :meth:`to_dict` wrote (``scales`` as its dicts, ``dimension`` None when absent); KeyError
+        naming a missing key."""
+        dim = d.get("dimension")
+        return cls(d["volume_m3"], d["error_m3"], d["discretisation_m3"], d["sampling_m3"], d["ratio"],
+                   tuple(dict(x) for x in d["scales"]), d.get("search_m3", 0.0),
+                   None if dim is None else RegionDimension.from_dict(dim))
 
 
 def _both(region: Region) -> tuple[float, float]:
