@@ -18,7 +18,7 @@ MODULES = sorted(p for p in SRC.rglob("*.py"))
 #: layers, lowest first: a module may import only from its own layer or lower ones
 LAYERS = [
     {"__init__", "_version"},  # the top-level package re-exports; checked apart below
-    {"validate", "limits", "runtime"},  # shared infrastructure: numbers and files, memory, threads and folders
+    {"validate", "limits", "runtime", "records"},  # shared: numbers, files, result records, memory, threads
     {"robot", "loads", "bounds", "paper", "kinematics", "contact", "results", "io"},
     {"statics"},
     {"workspace", "optimize", "compare", "accuracy"},
@@ -103,6 +103,60 @@ def test_no_module_imports_a_private_module_of_another_package(path):
             if part.startswith("_") and not part.startswith("__"):
                 owner = tuple(parts[:k])
                 assert mine[: len(owner)] == owner, f"{me} imports the private module {mod} of package {owner}"
+
+
+def _public_names(package: str) -> set[str] | None:
+    """The names a package's ``__init__.py`` lists in ``__all__`` (read from the source), or None without one."""
+    init = SRC / Path(*package.split(".")) / "__init__.py"
+    if not init.exists():
+        return None
+    for node in ast.parse(init.read_text()).body:
+        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "__all__" for t in node.targets):
+            return {e.value for e in node.value.elts if isinstance(e, ast.Constant)}
+    return None
+
+
+def _imported_names(path: Path):
+    """(package, name, line) of every ``from <pytdcr package> import name`` in ``path``, relative ones resolved."""
+    pkg = [] if _name(path) == "__init__" else _name(path).split(".")
+    if path.name != "__init__.py":
+        pkg = pkg[:-1]
+    for node in ast.walk(ast.parse(path.read_text())):
+        if not isinstance(node, ast.ImportFrom):
+            continue
+        if node.level:
+            base = pkg[: len(pkg) - node.level + 1]
+            mod = ".".join([*base, node.module] if node.module else base)
+        elif node.module and node.module.startswith("pytdcr"):
+            mod = node.module.removeprefix("pytdcr").lstrip(".")
+        else:
+            continue
+        for alias in node.names:
+            yield mod, alias.name, node.lineno
+
+
+@pytest.mark.parametrize("path", MODULES, ids=[_name(p) for p in MODULES])
+def test_no_module_imports_a_name_another_package_keeps_private(path):
+    """From another package a module takes only the names that package lists in ``__all__`` (or its public
+    submodules): the workspace package's ~20 public names, not its internals, are what the rest of the code and
+    users build on."""
+    me = _name(path)
+    mine = _package_of(me, path.name == "__init__.py") if me != "__init__" else ()
+    for mod, name, line in _imported_names(path):
+        if not mod or tuple(mod.split(".")) == mine[: len(mod.split("."))]:
+            continue  # the module's own package or one that holds it
+        public = _public_names(mod)
+        if public is None or _is_module(f"{mod}.{name}") or name == "__version__":
+            continue
+        assert name in public, f"{me} line {line} imports {name} from {mod}, which does not list it in __all__"
+
+
+def test_the_workspace_package_keeps_its_public_list_short():
+    """The workspace package offers the study, its settings, its result and the result's parts: about two dozen
+    names, where the region alone offered 63."""
+    public = _public_names("workspace")
+    assert public is not None and len(public) <= 30, sorted(public or ())
+    assert not any(n.startswith("_") for n in public)
 
 
 @pytest.mark.parametrize("path", MODULES, ids=[_name(p) for p in MODULES])

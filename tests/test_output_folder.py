@@ -182,7 +182,7 @@ def test_live_lock_refused_and_stale_lock_taken_over(tmp_path):
 
 def _interrupt_third_block(monkeypatch) -> None:
     """Make the third block of a sampling run raise KeyboardInterrupt (as Ctrl-C would)."""
-    import pytdcr.workspace as ws
+    import pytdcr.workspace._sampling as ws
 
     calls = {"n": 0}
     real = ws.solve_batch

@@ -392,7 +392,7 @@ def test_the_sample_shapes_are_named_by_their_rows(copy, capsys):
     s = _samples(copy)
     _npz_with(copy, converged=np.stack([s["converged"]] * 2))
     line = _inverse_refuses(copy, capsys, "samples.npz: converged", "not (M,)")
-    assert "-1" not in line
+    assert "-1" not in line.split("samples.npz: ", 1)[1]  # the tmp folder's name may hold "-1"
     _npz_with(copy, converged=s["converged"], tensions=s["tensions"][:, :7])
     _inverse_refuses(copy, capsys, "samples.npz: tensions", "not (M, 8)")
 

@@ -91,7 +91,7 @@ def test_settings_hold_their_defaults_and_refuse_wrong_types():
     assert (s.n, s.seed, s.n_shapes, s.model.name, s.robot.robot) == (100, 0, 10, "pcc", "paper")
     b = s.bounds.build(s.robot.build())
     assert b.lower.tolist() == [0.0] * 8 and b.upper.tolist() == [20.0] * 8
-    with pytest.raises(TypeError, match=r"robot must be a pytdcr\.study\.RobotSpec"):
+    with pytest.raises(TypeError, match=r"robot must be a pytdcr\.runs\.RobotSpec"):
         SampleSettings(robot="paper")
     with pytest.raises(SettingsError, match=r"seed = 4294967296: must be an integer in \[0, 4,294,967,295\]"):
         SampleSettings(seed=2**32)

@@ -14,7 +14,6 @@ import hashlib
 import json
 import math
 import os
-import platform
 import shutil
 import signal
 import stat
@@ -42,6 +41,7 @@ from ..runtime import (
     process_pool,
     regular_file_bytes,
     resumable_folder,
+    versions_record,
     write_json,
 )
 from ..statics import check_cancelled, mark_saving
@@ -574,15 +574,8 @@ def _write_best(out: Path, study: DesignStudy, robot: Robot, table: Any, records
     return best
 
 
-def _versions() -> dict[str, str]:
-    import dask
-    import numba
-    import pymoo
-    import scipy
-
-    return {"pytdcr": __version__, "python": platform.python_version(), "numpy": np.__version__,
-            "scipy": scipy.__version__, "numba": numba.__version__, "dask": dask.__version__,
-            "pymoo": pymoo.__version__}
+#: the libraries whose versions a design study's summary records
+_LIBRARIES = ("numpy", "scipy", "numba", "dask", "pymoo")
 
 
 def _finish(out: Path, study: DesignStudy, robot: Robot, records: dict[int, dict[str, Any]],
@@ -735,7 +728,8 @@ def run_designs(study: DesignStudy, robot: Robot, out: str | Path, *, study_text
                    ("failed" if runner.records[-1]["status"] == "failed" else "ok"),
                    "load_cases": list(study.load_cases(robot)),
                    "executor": runner.executor.name if runner.executor is not None else "none (every design reused)",
-                   "seconds": time.perf_counter() - t0, "inputs": inputs["study"], "versions": _versions(),
+                   "seconds": time.perf_counter() - t0, "inputs": inputs["study"],
+                   "versions": versions_record(_LIBRARIES),
                    "measures": measures_for(study.model)}
         table = _finish(run.path, study, robot, runner.records, generation_of, summary, how.figures)
     return DesignsRun(table, summary, run.path)

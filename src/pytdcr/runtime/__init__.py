@@ -41,6 +41,7 @@ from ._folders import (
     library_versions,
     output_folder,
     resumable_folder,
+    versions_record,
 )
 from ._lifeline import LIFELINE_POLL_S, PARENT_GONE_EXIT, hold_lifeline, process_pool
 from ._readback import MAX_JSON_BYTES, RunDoc, RunFolder, regular_file_bytes
@@ -89,6 +90,7 @@ __all__ = [
     "single_threaded_blas",
     "submit_in_context",
     "to_jsonable",
+    "versions_record",
     "worker_pool",
     "writable_file",
     "write_arrays",

@@ -82,17 +82,25 @@ class RunInterrupted(KeyboardInterrupt):
 RESULT_LIBRARIES = ("numpy", "scipy", "numba", "llvmlite", "pymoo")
 
 
-def library_versions() -> dict[str, str]:
-    """The installed versions of :data:`RESULT_LIBRARIES`, read from the packages' metadata (nothing imported)."""
+def library_versions(libraries: tuple[str, ...] = RESULT_LIBRARIES) -> dict[str, str]:
+    """The installed versions of ``libraries`` (default :data:`RESULT_LIBRARIES`), read from the packages'
+    metadata (nothing imported); ``"not installed"`` for one that is not."""
     from importlib.metadata import PackageNotFoundError, version
 
     out = {}
-    for name in RESULT_LIBRARIES:
+    for name in libraries:
         try:
             out[name] = version(name)
-        except PackageNotFoundError:  # pragma: no cover - every one is installed with pytdcr
+        except PackageNotFoundError:
             out[name] = "not installed"
     return out
+
+
+def versions_record(libraries: tuple[str, ...] = RESULT_LIBRARIES) -> dict[str, str]:
+    """What a result file records of the software that made it: pytdcr's and Python's versions, then
+    :func:`library_versions` of ``libraries``; the one version collector of every manifest and summary."""
+    return {"pytdcr": __version__, "python": platform.python_version(), **library_versions(libraries)}
+
 
 def _lock_path(path: Path) -> Path:
     return path.parent / f".{path.name}.lock"
