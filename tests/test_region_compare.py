@@ -8,6 +8,7 @@ import json
 import numpy as np
 import pytest
 
+from pytdcr.runs._workspace_records import WorkspaceComparison
 from pytdcr.workspace import region_overlap
 from pytdcr.workspace._grid import region_from_points
 
@@ -80,6 +81,9 @@ def test_tdcr_workspace_compare_models(capsys, tmp_path):
     assert 0 <= pair["hausdorff_m"] < 0.05 and 0 < pair["a_in_b"] <= 1 and 0 < pair["b_in_a"] <= 1
     assert max(pair["a_to_b_m"], pair["b_to_a_m"]) == pair["hausdorff_m"] and pair["voxels_a"] > 0
     assert "Hausdorff" in (out / "comparison.md").read_text()
+    record = WorkspaceComparison.from_json(data)  # the file, typed: the same numbers by attribute
+    assert record.to_json() == data and record.pairs[0].overlap.hausdorff_m == pair["hausdorff_m"]
+    assert [c.case for c in record.cases] == ["pcc", "pcc2"] and record.failed == ()
     for bad, says in ((["--compare-models", "pcc,pcc"], "two or more distinct"),
                       (["--compare-models", "pcc,nope"], "two or more distinct"),
                       (["--compare-models", "pcc"], "two or more distinct"),

@@ -158,9 +158,9 @@ def test_an_unstable_root_leaves_the_continued_region_empty_and_says_so(paper, t
     assert not solve(robot, loads).stable
     settings = WorkspaceSettings(n=32, seed=1, search=False, directions=0, multistability=0, reach="samples")
     run = run_workspace(robot, loads, paper_bounds(), settings, tmp_path / "ws")
-    s = run.summary
-    assert s["equilibria"] == "continuation" and s["root"] == "unstable"
-    assert s["points"] == 0 and s["largest_reach_m"] is None
-    assert any("not stable at zero tension" in w for w in s["warnings"])
+    s = run.record
+    assert s.summary.equilibria == "continuation" and s.summary.root == "unstable"
+    assert s.summary.fsw.points == 0 and s.summary.fsw.largest_reach_m is None
+    assert any(w.code == "root-missing" and "not stable at zero tension" in w.text for w in s.warnings)
     samples = run.cases[0].region.samples
     assert not samples.converged.any() and np.all(samples.parent == -2)

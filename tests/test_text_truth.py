@@ -25,7 +25,9 @@ def _summary(stop: str, volume_cm3: float, error_cm3: float, growth_cm3: float) 
 
 @pytest.mark.parametrize(("error", "growth"), [(533, 0), (533, 100), (533, 300), (98990, 96730), (10, 10)])
 def test_the_budget_warning_says_what_its_error_holds(error, growth):
-    text = " ".join(_warnings(_summary("budget", 1816, error, growth)))
+    (warning,) = _warnings(_summary("budget", 1816, error, growth))
+    text = warning.text
+    assert warning.code == "search-budget"
     assert "stopped at its budget (1500 solves)" in text
     said = re.search(r"its error \(± (\d+) cm³\) (.*?); raise --budget", text)
     assert said and int(said.group(1)) == error
@@ -40,7 +42,7 @@ def test_the_budget_warning_says_what_its_error_holds(error, growth):
 
 
 def test_a_converged_search_gets_no_budget_warning():
-    assert not any("budget" in w for w in _warnings(_summary("converged", 1816, 533, 0)))
+    assert not any("budget" in w.text for w in _warnings(_summary("converged", 1816, 533, 0)))
 
 
 @pytest.mark.parametrize("stop", ["converged", "budget", "no boundary left", "rounds"])
@@ -61,3 +63,27 @@ def test_an_optimums_stability_is_worded_as_flagged(stable, cell, words):
     assert _stable_cell(stable) == cell and words in _stability(stable)
     if stable:
         assert "unstable" not in _stability(stable) and "untested" not in _stability(stable)
+
+
+def test_every_warning_has_a_code_its_text_gives_back():
+    """A warning is written as its text alone; read back, the text gives its code again (what a script tests)."""
+    from dataclasses import replace
+
+    from pytdcr.records import RunWarning
+    from pytdcr.runs._workspace_records import WARNING_KINDS
+    from pytdcr.workspace._volume import RegionDimension
+
+    s = _summary("budget", 1816, 533, 100)
+    flat = RegionDimension(2, (0.3, 0.2, 0.0), ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)), None, None,
+                           0.05, 0.004)
+    planar = RegionNumbers.of(VolumeEstimate(0.0, 0.0, 0.0, 0.0, 1.0, (), 0.0, flat), 500, 0.2, "a rule")
+    few = replace(s.realisable, points=3, mesh=None)
+    cases = {"search-budget": s, "root-missing": replace(s, root="unstable"),
+             "low-dimension": replace(s, realisable=planar), "too-few-points": replace(s, realisable=few)}
+    for code, summary in cases.items():
+        said = {w.code: w for w in _warnings(summary)}
+        assert code in said, code
+        assert RunWarning.from_text(said[code].text, WARNING_KINDS).code == code
+        assert str(said[code]) == said[code].text
+    assert set(cases) == set(WARNING_KINDS)
+    assert RunWarning.from_text("a warning of another version", WARNING_KINDS).code == "other"

@@ -10,21 +10,27 @@ and meanings of the file the run writes, plus ``schema_version``) and reads itse
   :class:`RecordKeyError`, and an object that is not one as a ValueError;
 - :func:`optional_part` does the same for a part that may be absent or null.
 
+:class:`RunWarning` is a run's warning as an object: a code a script can test and the text a person reads.
+
 A reader never trusts a file to be well-formed: a missing key, a part of the wrong kind or another schema
 version raises a ValueError naming the file and the key, never a bare ``KeyError`` or ``TypeError``.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Mapping
-from typing import Any, TypeVar
+from dataclasses import dataclass
+from typing import TypeVar
 
-__all__ = ["RecordKeyError", "check_schema", "optional_part", "part"]
+__all__ = ["JsonDict", "JsonObject", "RecordKeyError", "RunWarning", "check_schema", "optional_part", "part"]
 
 _T = TypeVar("_T")
 
-#: the keys of a JSON object
-JsonObject = Mapping[str, Any]
+#: a JSON object read from a file: its values are of any JSON type until a reader has checked them
+JsonObject = Mapping[str, object]
+#: a JSON-ready object, as a record's ``to_json`` returns it
+JsonDict = dict[str, object]
 
 
 class RecordKeyError(ValueError):
@@ -45,7 +51,7 @@ def check_schema(d: JsonObject, file: str, version: int) -> None:
         raise ValueError(f"{file}: schema_version {found!r}: this version of pytdcr reads {version}")
 
 
-def part(file: str, where: str, read: Callable[[JsonObject], _T], d: Any) -> _T:
+def part(file: str, where: str, read: Callable[[JsonObject], _T], d: object) -> _T:
     """``read(d)``, where ``d`` is the part of ``file`` at the key path ``where`` (``""`` for the whole file).
 
     Raises
@@ -70,3 +76,26 @@ def optional_part(file: str, key: str, read: Callable[[JsonObject], _T], d: Json
     """The part at ``key`` of ``d`` (an object of ``file``) read by ``read``, None when absent or null."""
     value = d.get(key)
     return None if value is None else part(file, key, read, value)
+
+
+@dataclass(frozen=True)
+class RunWarning:
+    """One warning of a run: a stable ``code`` a script can test (``"search-budget"``) and the ``text`` the run
+    prints and writes (a file's ``warnings`` list holds the texts alone, as before codes existed).
+
+    ``str(warning)`` is its text."""
+
+    code: str
+    text: str
+
+    def __str__(self) -> str:
+        return self.text
+
+    @classmethod
+    def from_text(cls, text: str, kinds: Mapping[str, str]) -> RunWarning:
+        """The warning whose text is ``text``: its code is the first of ``kinds`` (code → regular expression
+        matched at the start of the text) that matches, ``"other"`` when none does (a text of another version)."""
+        for code, pattern in kinds.items():
+            if re.match(pattern, text):
+                return cls(code, text)
+        return cls("other", text)

@@ -23,6 +23,7 @@ from ..plotting import (
     save_figure,
     write_region_html,
 )
+from ..records import RunWarning
 from ..results import NotConvergedError
 from ..robot import Robot
 from ..runtime import atomic_write, atomic_write_text, output_folder, write_csv, write_json
@@ -48,6 +49,7 @@ from ..workspace import (
     workspace_study,
 )
 from ._output import inputs_record
+from ._workspace_records import CaseComparison, FailedCase, PairComparison, WorkspaceComparison, WorkspaceRecord
 
 __all__ = [
     "WorkspaceCase",
@@ -99,18 +101,18 @@ class WorkspaceCaseSpec(NamedTuple):
 class WorkspaceCase:
     """One load case's workspace: the study (regions, support function, largest reach), its numbers with the
     meshes' names (``summary``), the inputs' record and the warnings; :meth:`record` is its ``workspace.json``
-    but for the files."""
+    (:class:`WorkspaceRecord`) but for the files."""
 
     name: str
     loads: Loads
     study: WorkspaceStudy
     summary: WorkspaceSummary
     inputs: dict[str, Any]
-    warnings: tuple[str, ...]
+    warnings: tuple[RunWarning, ...]
 
-    def record(self) -> dict[str, Any]:
-        """``workspace.json`` but for its ``files``: the numbers with the meshes, the inputs, the warnings."""
-        return {**self.summary.to_json(meshes=True), "inputs": self.inputs, "warnings": list(self.warnings)}
+    def record(self, files: tuple[str, ...] = ()) -> WorkspaceRecord:
+        """``workspace.json``: the numbers with the meshes, the inputs, the warnings and the ``files``."""
+        return WorkspaceRecord(self.summary, self.inputs, self.warnings, files)
 
     @property
     def region(self) -> WorkspaceRegion:
@@ -130,11 +132,13 @@ class WorkspaceCase:
 
 @dataclass(frozen=True, eq=False)
 class WorkspaceRun:
-    """What :func:`run_workspace` or :func:`run_workspace_compare` produced: the cases finished and the files,
-    and the cases that failed while running (name → the error, one line; their finished neighbours are kept)."""
+    """What :func:`run_workspace` or :func:`run_workspace_compare` produced: the cases finished, the record
+    written (``workspace.json``'s :class:`WorkspaceRecord` for one case, ``comparison.json``'s
+    :class:`WorkspaceComparison` for several), the files, and the cases that failed while running (name → the
+    error, one line; their finished neighbours are kept)."""
 
     cases: list[WorkspaceCase]
-    summary: dict[str, Any]
+    record: WorkspaceRecord | WorkspaceComparison
     files: list[str]
     failed: dict[str, str] = field(default_factory=dict)
 
@@ -183,7 +187,7 @@ def search_stop_words(search: BoundarySearch) -> str:
     return str(search.stop)
 
 
-def _warnings(summary: WorkspaceSummary) -> list[str]:
+def _warnings(summary: WorkspaceSummary) -> list[RunWarning]:
     """One line per region with too few points to mesh (what was not written, and why), and one when the
     boundary search ran out of budget before the region converged (the volume is then a lower bound).
     ``summary`` holds the meshes' names (:meth:`WorkspaceSummary.with_meshes`)."""
@@ -192,28 +196,29 @@ def _warnings(summary: WorkspaceSummary) -> list[str]:
     if root is not None and root not in ("stable", "stability untested"):
         why = ("is not stable at zero tension under this load (an axial load past buckling?)" if root == "unstable"
                else "did not converge at zero tension under this load")
-        out.append(f"the robot {why}: the root every continued sample is reached from is missing, no sample has a "
-                   "stable parent and the region is empty; --equilibria loading-path solves each sample from rest")
+        out.append(RunWarning("root-missing", f"the robot {why}: the root every continued sample is reached from "
+                              "is missing, no sample has a stable parent and the region is empty; --equilibria "
+                              "loading-path solves each sample from rest"))
     search, fsw, vol = summary.boundary_search, summary.fsw, summary.fsw.volume
     if search is not None and search.stop == "budget" and fsw.points and fsw.dimension == 3:
         why = _error_words(vol.search_m3, vol.error_m3)
-        out.append(f"the boundary search stopped at its budget ({search.solves} solves) before the region "
-                   f"converged: the volume {vol.volume_m3 * 1e6:.0f} cm³ is close to a lower bound and its error "
-                   f"(± {vol.error_m3 * 1e6:.0f} cm³) {why}; raise --budget for a measurement")
+        out.append(RunWarning("search-budget", f"the boundary search stopped at its budget ({search.solves} "
+                              f"solves) before the region converged: the volume {vol.volume_m3 * 1e6:.0f} cm³ is "
+                              f"close to a lower bound and its error (± {vol.error_m3 * 1e6:.0f} cm³) {why}; raise "
+                              "--budget for a measurement"))
     for label, d, name in (("FSW", fsw, "fsw.ply"), ("realisable region", summary.realisable,
                                                      "fsw_realisable.ply")):
         if d.dimension < 3 and d.points:
             extents = ", ".join(f"{e:.2g}" for e in (d.volume.dimension.extents_m if d.volume.dimension else ()))
-            out.append(f"the {label}'s tips span {d.dimension} dimension{'s' * (d.dimension != 1)} at the "
-                       f"voxel's resolution (extents {extents} m along their principal axes): it is "
-                       f"{format_measure_of(d)}; {name} is not written")
+            out.append(RunWarning("low-dimension", f"the {label}'s tips span {d.dimension} dimension"
+                                  f"{'s' * (d.dimension != 1)} at the voxel's resolution (extents {extents} m along "
+                                  f"their principal axes): it is {format_measure_of(d)}; {name} is not written"))
         elif d.mesh is None:
             plural = "s" * (d.points != 1)
-            out.append(f"the {label} holds {d.points} feasible sample{plural} "
-                       f"({feasible_words(summary.stability_test)}), fewer than "
-                       f"the {Region.MIN_MESH_POINTS} a boundary needs: {name} is not written and its volume is "
-                       f"that of "
-                       f"the occupied voxels alone")
+            out.append(RunWarning("too-few-points", f"the {label} holds {d.points} feasible sample{plural} "
+                                  f"({feasible_words(summary.stability_test)}), fewer than the "
+                                  f"{Region.MIN_MESH_POINTS} a boundary needs: {name} is not written and its "
+                                  f"volume is that of the occupied voxels alone"))
     return out
 
 
@@ -310,7 +315,7 @@ def _write_case(out: Path, case: WorkspaceCase, robot: Robot, command: str) -> l
                       f"robot '{robot.name}': feasible static workspace, {case.name}")
     files.append("workspace.html")
     atomic_write_text(out / "report.md", _report(case, robot.name, command))
-    write_json(out / "workspace.json", {**case.record(), "files": [*files, "report.md", "workspace.json"]})
+    write_json(out / "workspace.json", case.record((*files, "report.md", "workspace.json")).to_json())
     return [*files, "report.md", "workspace.json"]
 
 
@@ -331,7 +336,7 @@ def run_workspace(robot: Robot, loads: Loads, bounds: TensionBounds, settings: W
         case = _case("as given", robot, loads, bounds, settings, model, options, hooks)
         with saving():
             files = _write_case(run.staging, case, robot, how.command)
-    return WorkspaceRun([case], case.record(), files)
+    return WorkspaceRun([case], case.record(tuple(files)), files)
 
 
 def _report(case: WorkspaceCase, robot_name: str, command: str) -> str:
@@ -437,13 +442,13 @@ def _centroid(region: Region) -> np.ndarray:
     return region.origin + (idx.mean(axis=0) + 0.5) * region.voxel
 
 
-def _pairs(cases: list[WorkspaceCase]) -> list[dict[str, Any]]:
+def _pairs(cases: list[WorkspaceCase]) -> list[PairComparison]:
     """Per pair of cases (a before b): how their FSWs differ (:func:`pytdcr.workspace.region_overlap`)."""
-    return [{"a": a.name, "b": b.name, **region_overlap(a.region.fsw_region, b.region.fsw_region).to_dict()}
+    return [PairComparison(a.name, b.name, region_overlap(a.region.fsw_region, b.region.fsw_region))
             for i, a in enumerate(cases) for b in cases[i + 1:]]
 
 
-def _comparison(cases: list[WorkspaceCase]) -> list[dict[str, Any]]:
+def _comparison(cases: list[WorkspaceCase]) -> list[CaseComparison]:
     """Per case: volumes, largest reach, and how far the region shrank and shifted from the first case."""
     if not cases:
         return []
@@ -453,19 +458,15 @@ def _comparison(cases: list[WorkspaceCase]) -> list[dict[str, Any]]:
     for c in cases:
         s, f = c.summary, c.summary.fsw
         shift = _centroid(c.region.fsw_region) - c0
-        rows.append({"case": c.name, "model": c.study.model.name, "equilibria": s.equilibria,
-                     "stability_test": s.stability_test,
-                     "volume_m3": f.volume_m3, "volume_err_m3": f.volume_err_m3,
-                     "realisable_m3": s.realisable.volume_m3,
-                     "realisable_err_m3": s.realisable.volume_err_m3,
-                     "largest_reach_m": f.largest_reach_m, "reach_rule": f.reach_rule,
-                     "volume_ratio": f.volume_m3 / v0 if v0 else None,
-                     "centroid_m": _centroid(c.region.fsw_region).tolist(), "centroid_shift_m": shift.tolist(),
-                     "folder": _slug(c.name)})
+        rows.append(CaseComparison(c.name, c.study.model.name, s.equilibria, s.stability_test, f.volume_m3,
+                                   f.volume_err_m3, s.realisable.volume_m3, s.realisable.volume_err_m3,
+                                   f.largest_reach_m, f.reach_rule, f.volume_m3 / v0 if v0 else None,
+                                   tuple(_centroid(c.region.fsw_region).tolist()), tuple(shift.tolist()),
+                                   _slug(c.name)))
     return rows
 
 
-def _pairs_lines(pairs: list[dict[str, Any]]) -> list[str]:
+def _pairs_lines(pairs: list[PairComparison]) -> list[str]:
     """The pairs' table: Hausdorff distance between the boundaries, and the share of each FSW inside the other."""
     def pct(x: float | None) -> str:
         return "—" if x is None else f"{100 * x:.1f} %"
@@ -474,33 +475,34 @@ def _pairs_lines(pairs: list[dict[str, Any]]) -> list[str]:
              "point of either lies from the other, to about half a voxel) and the share of each region's voxels "
              "inside the other's:", "", "| a | b | Hausdorff [mm] | a in b | b in a |", "|---|---|---|---|---|"]
     for p in pairs:
-        h = "—" if p["hausdorff_m"] is None else f"{p['hausdorff_m'] * 1e3:.0f}"
-        lines.append(f"| {p['a']} | {p['b']} | {h} | {pct(p['a_in_b'])} | {pct(p['b_in_a'])} |")
+        o = p.overlap
+        h = "—" if o.hausdorff_m is None else f"{o.hausdorff_m * 1e3:.0f}"
+        lines.append(f"| {p.a} | {p.b} | {h} | {pct(o.a_in_b)} | {pct(o.b_in_a)} |")
     return lines
 
 
-def _compare_report(rows: list[dict[str, Any]], cases: list[WorkspaceCase], command: str,
-                    pairs: list[dict[str, Any]]) -> str:
+def _compare_report(rows: list[CaseComparison], cases: list[WorkspaceCase], command: str,
+                    pairs: list[PairComparison]) -> str:
     lines = ["# Feasible static workspaces compared", "", f"Made by `{command}`. Each case's folder "
              "holds its own workspace.json, meshes, figures and report.", "",
              "| case | FSW [cm³] | ± | realisable [cm³] | ± | largest reach [m] | FSW / first | centroid shift "
              "[mm] |", "|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        sh = np.asarray(r["centroid_shift_m"]) * 1e3
-        lines.append(f"| {r['case']} | {r['volume_m3'] * 1e6:.0f} | {r['volume_err_m3'] * 1e6:.0f} | "
-                     f"{r['realisable_m3'] * 1e6:.0f} | {r['realisable_err_m3'] * 1e6:.0f} | "
-                     f"{_cell(r['largest_reach_m'])} | {_cell(r['volume_ratio'], '.2f')} | "
+        sh = np.asarray(r.centroid_shift_m) * 1e3
+        lines.append(f"| {r.case} | {r.volume_m3 * 1e6:.0f} | {r.volume_err_m3 * 1e6:.0f} | "
+                     f"{r.realisable_m3 * 1e6:.0f} | {r.realisable_err_m3 * 1e6:.0f} | "
+                     f"{_cell(r.largest_reach_m)} | {_cell(r.volume_ratio, '.2f')} | "
                      + ("—" if not np.all(np.isfinite(sh)) else f"({sh[0]:.0f}, {sh[1]:.0f}, {sh[2]:.0f})") + " |")
-    lines += ["", "Models and equilibria: " + "; ".join(f"{r['case']}: {r['model']}, {r['equilibria']}"
+    lines += ["", "Models and equilibria: " + "; ".join(f"{r.case}: {r.model}, {r.equilibria}"
                                                        for r in rows) + "."]
-    untested = [r["case"] for r in rows if r["stability_test"] == "untested"]
+    untested = [r.case for r in rows if r.stability_test == "untested"]
     if untested:
         lines += ["", f"Stability untested under {', '.join(untested)}: their models have no static stability "
                   f"test, so their FSWs hold every converged sample ({feasible_words('untested')}); the others' "
                   f"hold the converged samples not found unstable ({feasible_words('run')})."]
     lines += _pairs_lines(pairs)
-    rules = dict.fromkeys(r["reach_rule"] for r in rows)
-    lines += ["", "Largest reach: the FSW's, " + ("; ".join(f"{r['case']}: {r['reach_rule']}" for r in rows)
+    rules = dict.fromkeys(r.reach_rule for r in rows)
+    lines += ["", "Largest reach: the FSW's, " + ("; ".join(f"{r.case}: {r.reach_rule}" for r in rows)
                                                   if len(rules) > 1 else next(iter(rules))) + "."]
     short = [c.name for c in cases
              if c.summary.boundary_search is not None and c.summary.boundary_search.stop == "budget"]
@@ -629,7 +631,9 @@ def run_workspace_compare(robot: Robot, cases: dict[str, tuple[Any, ...]], bound
             files += _write_comparison(run.staging, done, robot, how.command, pairs, failed)
     if bug is not None:  # what finished is saved (finished work is never lost); the bug goes on up, as it was
         raise bug
-    return WorkspaceRun(done, {"cases": _comparison(done), "pairs": pairs, "failed": failed}, files, failed)
+    record = WorkspaceComparison(tuple(_comparison(done)), tuple(pairs),
+                                 tuple(FailedCase(k, v) for k, v in failed.items()), tuple(files))
+    return WorkspaceRun(done, record, files, failed)
 
 
 def _named(progress: Any, name: str) -> Any:
@@ -640,19 +644,19 @@ def _named(progress: Any, name: str) -> Any:
 
 
 def _write_comparison(out: Path, cases: list[WorkspaceCase], robot: Robot, command: str,
-                      pairs: list[dict[str, Any]], failed: dict[str, str] | None = None) -> list[str]:
+                      pairs: list[PairComparison], failed: dict[str, str] | None = None) -> list[str]:
     """The comparison of the finished ``cases`` in ``out`` (figures, HTML, CSV, ``comparison.md`` and
     ``comparison.json``) and the cases that ``failed`` (name → why); with no finished case, the report and the
     JSON alone."""
     failed = failed or {}
     rows = _comparison(cases)
-    record = [{"case": k, "error": v} for k, v in failed.items()]
+    record = tuple(FailedCase(k, v) for k, v in failed.items())
     if not cases:
         text = "\n".join(["# Feasible static workspaces compared", "", f"Made by `{command}`.", "",
                           *_failed_lines(failed), ""])
         atomic_write_text(out / "comparison.md", text)
-        write_json(out / "comparison.json", {"cases": [], "pairs": [], "failed": record,
-                                             "files": ["comparison.md", "comparison.json"]})
+        write_json(out / "comparison.json",
+                   WorkspaceComparison((), (), record, ("comparison.md", "comparison.json")).to_json())
         return ["comparison.md", "comparison.json"]
     files = save_figure(plot_region_slices({c.name: c.region.fsw_region for c in cases}, robot.length,
                                            f"robot '{robot.name}': FSW of each case"), out, "slices_compare")
@@ -668,8 +672,8 @@ def _write_comparison(out: Path, cases: list[WorkspaceCase], robot: Robot, comma
         files.append("support_compare.csv")
     atomic_write_text(out / "comparison.md", "\n".join([_compare_report(rows, cases, command, pairs),
                                                           *_failed_lines(failed)]))
-    write_json(out / "comparison.json", {"cases": rows, "pairs": pairs, "failed": record,
-                                         "files": [*files, "comparison.md", "comparison.json"]})
+    write_json(out / "comparison.json", WorkspaceComparison(tuple(rows), tuple(pairs), record,
+                                                            (*files, "comparison.md", "comparison.json")).to_json())
     return [*files, "comparison.md", "comparison.json"]
 
 

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from ..bounds import TensionBounds
+from ..records import JsonDict, JsonObject
 from ..validate import check_count
 from ._grid import region_from_points
 from ._plan import SOURCES
@@ -157,7 +158,7 @@ class BoundarySearch:
         checked = sum(r.checked for r in self.rounds)
         return sum(r.agreed for r in self.rounds) / checked if checked else None
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """JSON-ready form."""
         return {"solves": self.solves, "stop": self.stop, "tol": self.tol, "budget": self.budget,
                 "warm_rounds": sum(r.warm == "warm" for r in self.rounds),
@@ -166,7 +167,7 @@ class BoundarySearch:
                 "rounds": [asdict(r) for r in self.rounds]}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> BoundarySearch:
+    def from_dict(cls, d: JsonObject) -> BoundarySearch:
         """The search :meth:`to_dict` wrote (its totals over the rounds are derived from them); KeyError naming a
         missing key. A round's keys with defaults may be absent (older files), and its ``seconds`` (a record
         with its times dropped: read 0)."""

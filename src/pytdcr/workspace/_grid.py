@@ -8,6 +8,8 @@ from typing import Any, ClassVar
 import numpy as np
 from scipy import ndimage
 
+from ..records import JsonDict
+
 __all__ = ["MESH_LEVEL", "MIN_MESH_POINTS", "Region", "inside", "region_from_points"]
 
 #: the occupancy level of the boundary surface (see :meth:`Region.mesh`)
@@ -72,7 +74,7 @@ class Region:
         this load?", to the region's resolution. Shape (...,) of bool; a non-finite point is outside."""
         return inside(self, points)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """JSON-ready summary (not the voxels)."""
         return {"origin_m": self.origin.tolist(), "voxel_m": self.voxel, "shape": list(self.occupied.shape),
                 "occupied_voxels": int(self.occupied.sum()), "closing": self.closing, "points": self.points}

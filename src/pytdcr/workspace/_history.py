@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
+from ..records import JsonDict, JsonObject
 from ._solve import EQUILIBRIA, RegionSamples, _Solver, same_tip
 
 __all__ = ["FROM_REST", "FROM_ROOT", "Multistability", "MultistabilityCounts", "measure_multistability"]
@@ -81,7 +81,7 @@ class Multistability:
                                     int(np.sum(self.distinct & ~self.other_stable)) if self.tested else None,
                                     self.seconds)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """JSON-ready summary (:meth:`MultistabilityCounts.to_json`)."""
         return self.counts().to_json()
 
@@ -118,7 +118,7 @@ class MultistabilityCounts:
     distinct_unstable: int | None
     seconds: float = 0.0
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """JSON-ready form: ``checked``, ``distinct``, ``fraction``, and what the second history did."""
         return {"equilibria": self.equilibria, "other": self.other, "checked": self.checked,
                 "distinct": self.distinct, "fraction": self.fraction,
@@ -126,7 +126,7 @@ class MultistabilityCounts:
                 "seconds": self.seconds}
 
     @classmethod
-    def from_json(cls, d: dict[str, Any]) -> MultistabilityCounts:
+    def from_json(cls, d: JsonObject) -> MultistabilityCounts:
         """The numbers :meth:`to_json` wrote; KeyError naming a missing key."""
         return cls(d["equilibria"], d["other"], d["checked"], d["distinct"], d["fraction"],
                    d["other_not_converged"], d["distinct_unstable"], d.get("seconds", 0.0))

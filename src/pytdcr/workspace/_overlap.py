@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
-from typing import Any
 
 import numpy as np
 from scipy.spatial.distance import directed_hausdorff
 
+from ..records import JsonDict
 from ._grid import Region, inside
 
 __all__ = ["RegionOverlap", "region_overlap"]
@@ -39,7 +39,7 @@ class RegionOverlap:
     voxels_a: int
     voxels_b: int
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """JSON-ready form."""
         return asdict(self)
 

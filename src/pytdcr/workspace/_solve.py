@@ -15,6 +15,7 @@ from ..bounds import TensionBounds
 from ..contact import bending_curvature, disks_below_base, disks_touch
 from ..limits import check_memory
 from ..loads import Loads
+from ..records import JsonDict, JsonObject
 from ..results import BatchSolution
 from ..robot import Robot
 from ..statics import Model, SolvePath, check_resources, resolve, solve_batch
@@ -118,14 +119,14 @@ class WarmStartCheck:
         """The agreement the check requires (:data:`AGREEMENT_REQUIRED`)."""
         return AGREEMENT_REQUIRED
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """JSON-ready form, with the required agreement."""
         return {"mode": self.mode, "anchors": self.anchors, "checked": self.checked, "agreed": self.agreed,
                 "agreement": self.agreement, "required": self.required,
                 "seconds_warm": self.seconds_warm, "seconds_cold": self.seconds_cold}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> WarmStartCheck:
+    def from_dict(cls, d: JsonObject) -> WarmStartCheck:
         """The check :meth:`to_dict` wrote (``agreement`` and ``required`` are derived; times absent from a record
         with its times dropped read 0); KeyError naming a missing key."""
         return cls(d["mode"], d["anchors"], d["checked"], d["agreed"], d.get("seconds_warm", 0.0),

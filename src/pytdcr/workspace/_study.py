@@ -12,6 +12,7 @@ import numpy as np
 from ..bounds import TensionBounds
 from ..loads import Loads
 from ..optimize import ReachProblem
+from ..records import JsonDict
 from ..robot import Robot
 from ..runtime import end_stage
 from ..statics import Model, stability_test
@@ -121,7 +122,7 @@ class WorkspaceStudy:
                          (self.largest_reach.reach, self.largest_reach.source), self.realisable_reach,
                          stability_test(self.model))
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """The numbers, JSON-ready (:meth:`WorkspaceSummary.to_json` of :attr:`summary`)."""
         return self.summary.to_json()
 

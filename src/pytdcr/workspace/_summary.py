@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from scipy import ndimage
 
-from ..records import check_schema, optional_part, part
+from ..records import JsonDict, JsonObject, check_schema, optional_part, part
 from ..statics import stability_counts, stability_words
 from ._compute import WorkspaceRegion
 from ._frontier import BoundarySearch
@@ -124,7 +124,7 @@ class RegionNumbers:
             return f"a segment (dimension 1, volume 0): length {length:.4f} ± {err:.4f} m"
         return "a point or nothing (dimension 0, volume 0)"
 
-    def to_json(self, mesh: bool = False) -> dict[str, Any]:
+    def to_json(self, mesh: bool = False) -> JsonDict:
         """JSON-ready form: volume, error, dimension, measure (area or length with error when 2- or 1-D),
         largest reach, with ``mesh`` its mesh's name, the reach's rule, points and the whole estimate."""
         out: dict[str, Any] = {"volume_m3": self.volume_m3, "volume_err_m3": self.volume_err_m3,
@@ -139,7 +139,7 @@ class RegionNumbers:
         return {**out, "reach_rule": self.reach_rule, "points": self.points, "volume": self.volume.to_dict()}
 
     @classmethod
-    def from_json(cls, d: dict[str, Any]) -> RegionNumbers:
+    def from_json(cls, d: JsonObject) -> RegionNumbers:
         """The numbers :meth:`to_json` wrote; KeyError naming a missing key."""
         dim = int(d["dimension"])
         two, one = dim == 2, dim == 1
@@ -197,7 +197,7 @@ class SampleCounts:
         """The converged samples' stability in words (:func:`pytdcr.statics.stability_words`)."""
         return stability_words(self.to_json(), test)
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """JSON-ready form."""
         return {"solved": self.solved, "converged": self.converged, "not_converged": self.not_converged,
                 "unstable": self.unstable, "stability_untested": self.stability_untested, "stable": self.stable,
@@ -206,7 +206,7 @@ class SampleCounts:
                 "fraction_realisable": self.fraction_realisable, "by_source": dict(self.by_source)}
 
     @classmethod
-    def from_json(cls, d: dict[str, Any]) -> SampleCounts:
+    def from_json(cls, d: JsonObject) -> SampleCounts:
         """The counts :meth:`to_json` wrote; KeyError naming a missing key."""
         return cls(d["solved"], d["converged"], d["not_converged"], d["unstable"], d["stability_untested"],
                    d["stable"], d["below_base"], d["disks_touch"], d["fraction_below_base"],
@@ -305,7 +305,7 @@ class WorkspaceSummary:
         return replace(self, fsw=replace(self.fsw, mesh=fsw if self.fsw.meshable else None),
                        realisable=replace(self.realisable, mesh=realisable if self.realisable.meshable else None))
 
-    def to_json(self, meshes: bool = False) -> dict[str, Any]:
+    def to_json(self, meshes: bool = False) -> JsonDict:
         """JSON-ready form: the FSW's numbers at the top level, the realisable region's under ``realisable``,
         then the voxel, the counts, the warm starts, the boundary voxels' sources, the boundary search, h(d),
         the reach search, the sampling time, the equilibria, the root, the stability test and the
@@ -322,7 +322,7 @@ class WorkspaceSummary:
                 "multistability": self.multistability.to_json() if self.multistability is not None else None}
 
     @classmethod
-    def from_json(cls, d: dict[str, Any]) -> WorkspaceSummary:
+    def from_json(cls, d: JsonObject) -> WorkspaceSummary:
         """The numbers of a ``workspace.json`` (or of :meth:`to_json`), ignoring what a run adds (``inputs``,
         ``warnings``, ``files``). :class:`~pytdcr.records.RecordKeyError` naming the path of a missing key;
         ValueError for a part that is not a JSON object or another ``schema_version`` than

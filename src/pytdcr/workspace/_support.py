@@ -36,6 +36,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from ..optimize import ReachProblem, SearchFailed, polish_reach
+from ..records import JsonDict, JsonObject
 from ..results import StaticSolution
 from ..runtime import default_threads, worker_pool
 from ..statics import TIGHT_ATOL
@@ -157,7 +158,7 @@ class SupportFunction:
         """Row k's stability: True (known stable) or None (untested)."""
         return None if self.stable is None or not np.isfinite(self.stable[k]) else bool(self.stable[k])
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """JSON-ready form: the arrays as lists, and a summary."""
         gain = self.gain
         return {"directions": self.directions.tolist(), "h": self.h.tolist(), "tensions": self.tensions.tolist(),
@@ -174,7 +175,7 @@ class SupportFunction:
                             "evaluations_total": int(np.sum(self.evaluations))}}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> SupportFunction:
+    def from_dict(cls, d: JsonObject) -> SupportFunction:
         """The support function :meth:`to_dict` wrote (its ``summary`` is derived; ``stable``'s None read as NaN,
         untested; ``settings`` kept as the record it is; a time absent from a record with its times dropped reads
         0); KeyError naming a missing key."""
@@ -231,7 +232,7 @@ class LargestReach:
     seconds: float
     parent: int = -1
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """JSON-ready form."""
         return {"tensions": self.tensions.tolist(), "tip": self.tip_position.tolist(), "reach": self.reach,
                 "sample_reach": self.sample_reach, "from_sample": self.from_sample,
@@ -239,7 +240,7 @@ class LargestReach:
                 "parent": self.parent}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> LargestReach:
+    def from_dict(cls, d: JsonObject) -> LargestReach:
         """The reach :meth:`to_dict` wrote (a time absent from a record with its times dropped reads 0); KeyError
         naming a missing key."""
         return cls(np.asarray(d["tensions"], dtype=float), np.asarray(d["tip"], dtype=float), d["reach"],

@@ -4,11 +4,11 @@ region's dimension, so that a flat region is measured by its area, not given a v
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from scipy import ndimage
 
+from ..records import JsonDict, JsonObject
 from ._grid import Region, region_from_points
 
 __all__ = ["MEASURES", "RegionDimension", "VolumeEstimate", "estimate_volume", "nested_stages", "region_dimension"]
@@ -55,14 +55,14 @@ class RegionDimension:
         """``"volume"``, ``"area"``, ``"length"`` or ``"none"``: what measures a region of this dimension."""
         return MEASURES[self.dimension]
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """JSON-ready form."""
         return {"dimension": self.dimension, "measure": self.measure, "extents_m": list(self.extents_m),
                 "axes": [list(a) for a in self.axes], "length_m": self.length_m, "length_err_m": self.length_err_m,
                 "area_m2": self.area_m2, "area_err_m2": self.area_err_m2}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> RegionDimension:
+    def from_dict(cls, d: JsonObject) -> RegionDimension:
         """The dimension :meth:`to_dict` wrote (``measure`` is derived from ``dimension``); KeyError naming a
         missing key."""
         ext = tuple(float(x) for x in d["extents_m"])
@@ -178,7 +178,7 @@ class VolumeEstimate:
         return VolumeEstimate(self.volume_m3, self.error_m3 + tail_m3, self.discretisation_m3, self.sampling_m3,
                               self.ratio, self.scales, tail_m3, self.dimension)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """JSON-ready form."""
         return {"volume_m3": self.volume_m3, "error_m3": self.error_m3, "discretisation_m3": self.discretisation_m3,
                 "sampling_m3": self.sampling_m3, "search_m3": self.search_m3, "ratio": self.ratio,
@@ -186,7 +186,7 @@ class VolumeEstimate:
                 "dimension": None if self.dimension is None else self.dimension.to_dict()}
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> VolumeEstimate:
+    def from_dict(cls, d: JsonObject) -> VolumeEstimate:
         """The estimate :meth:`to_dict` wrote (``scales`` as its dicts, ``dimension`` None when absent); KeyError
         naming a missing key."""
         dim = d.get("dimension")
