@@ -19,13 +19,16 @@ import time
 import webbrowser
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from ..robot import Robot
 from ..runtime import check_cancelled
 from ..validate import SettingsError
 from ._session import Explorer
 from ._workspace import WorkspaceView, read_workspace
+
+if TYPE_CHECKING:
+    from dash import Dash
 
 __all__ = ["HOST", "Explorer", "PortError", "WorkspaceView", "check_port", "create_app", "read_workspace", "serve"]
 
@@ -34,7 +37,7 @@ HOST = "127.0.0.1"
 
 
 def create_app(robot: Robot | None = None, *, workspace: str | Path | None = None, model: str | None = "pcc",
-               port: int | None = None) -> Any:
+               port: int | None = None) -> Dash:
     """The explorer's Dash app (for tests and notebooks; :func:`serve` runs it).
 
     Its server (``app.server``, a WSGI app) answers only requests that name 127.0.0.1 or localhost as their host,
@@ -119,7 +122,7 @@ def serve(robot: Robot | None = None, *, workspace: str | Path | None = None, po
     class Quiet(WSGIRequestHandler):
         """No line per request on stderr."""
 
-        def log_request(self, *args: Any) -> None:
+        def log_request(self, *args: object) -> None:
             pass
 
     _check_free(check_port(port))

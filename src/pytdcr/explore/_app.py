@@ -16,7 +16,7 @@ import re
 import sys
 import traceback
 import uuid
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from dash import Dash, Input, Output, Patch, State, ctx, dcc, html, no_update
@@ -28,6 +28,11 @@ from ._figure import MM, MOVING, REST, base_figure, pose_data, rest_data, target
 from ._guard import MAX_BODY_BYTES, Guard
 from ._session import FRICTIONS, Action, Controls, Explorer, Outcome, same_equilibrium
 from ._target import INVERSE, SEARCH, show_distance
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from dash.development.base_component import Component
 
 __all__ = ["TARGET_SPAN", "build_app"]
 
@@ -79,7 +84,7 @@ function(n) {
 """
 
 
-def _tension_rows(ex: Explorer) -> list[Any]:
+def _tension_rows(ex: Explorer) -> list[Component]:
     """One row per tendon: its label, a slider over its bounds [N] and a number box."""
     rows = []
     for k, t in enumerate(ex.robot.tendons):
@@ -98,12 +103,12 @@ def _tension_rows(ex: Explorer) -> list[Any]:
     return rows
 
 
-def _load_rows(ex: Explorer) -> list[Any]:
+def _load_rows(ex: Explorer) -> list[Component]:
     """Tip force [N], tip moment [N m], payload [kg], gravity, friction and model."""
     d = ex.defaults
     values = [*d.tip_force.tolist(), *d.tip_moment.tolist(), d.payload_kg]
 
-    def box(i: int) -> Any:
+    def box(i: int) -> Component:
         return dcc.Input(id=_WRENCH[i], type="number", step="any", value=values[i], debounce=True, style=_SMALL,
                          min=0 if _WRENCH[i] == "payload" else None)
 
@@ -129,7 +134,7 @@ def _load_rows(ex: Explorer) -> list[Any]:
     ]
 
 
-def _target_rows(ex: Explorer) -> list[Any]:
+def _target_rows(ex: Explorer) -> list[Component]:
     """The target point x, y, z [mm] (base frame), "Reach target" and "Clear"."""
     boxes = [dcc.Input(id=i, type="number", step="any", value=None, placeholder=i[-1], debounce=True, style=_SMALL)
              for i in _TARGET]
@@ -158,11 +163,11 @@ def _workspace_text(ex: Explorer) -> str:
     return text
 
 
-def _layout(ex: Explorer) -> Any:
+def _layout(ex: Explorer) -> Callable[[], Component]:
     """The page: controls on the left, status and figure on the right; a fresh session id per page load."""
     r = ex.robot
 
-    def layout() -> Any:
+    def layout() -> Component:
         controls = html.Div([
             html.H3("pytdcr explore", style={"margin": "4px 0"}),
             html.Div(f"robot '{r.name}': {len(r.segments)} segments, {r.n_tendons} tendons, {r.n_disks} disks, "
@@ -184,7 +189,7 @@ def _layout(ex: Explorer) -> Any:
     return layout
 
 
-def _controls(ex: Explorer, tensions: Any, wrench: Any, options: Any) -> Controls | str:
+def _controls(ex: Explorer, tensions: object, wrench: object, options: object) -> Controls | str:
     """The controls read from the page, or what is wrong with them (naming the control and what it takes).
 
     Every value is checked for its type and range here: a request may carry anything in any field (each number by
@@ -216,7 +221,7 @@ def _controls(ex: Explorer, tensions: Any, wrench: Any, options: Any) -> Control
                     bool(gravity), options["friction"], options["model"])
 
 
-def _target_point(ex: Explorer, aim: Any) -> np.ndarray | str:
+def _target_point(ex: Explorer, aim: object) -> np.ndarray | str:
     """The target boxes [mm] as a point [m], or what is wrong with them (each coordinate within
     :data:`TARGET_SPAN` robot lengths of the base)."""
     aim = aim if isinstance(aim, (list, tuple)) and len(aim) == 3 else [None] * 3
@@ -230,7 +235,7 @@ def _target_point(ex: Explorer, aim: Any) -> np.ndarray | str:
     return np.array([float(v) for v in aim], dtype=float) / MM
 
 
-def _session_id(sid: Any) -> str | None:
+def _session_id(sid: object) -> str | None:
     """``sid`` when it has the form of an id the page issues (:func:`uuid.uuid4`'s 32 hex digits), else None."""
     return sid if isinstance(sid, str) and _SID.fullmatch(sid) else None
 
@@ -240,7 +245,7 @@ def _stability(sol: StaticSolution) -> str:
     return {True: "stable", False: "UNSTABLE", None: "stability untested"}[sol.stable]
 
 
-def _status(out: Outcome) -> tuple[list[Any], str]:
+def _status(out: Outcome) -> tuple[list[Component | str], str]:
     """The status line's parts and the tip text (metres, 9 decimals; "not converged" without an equilibrium)."""
     if out.error:
         return [html.Span(f"not solved: {out.error}", style=_RED)], "not solved"
@@ -256,7 +261,7 @@ def _status(out: Outcome) -> tuple[list[Any], str]:
     if out.answer is not None:
         return _answer_text(out), text
     aim = "" if out.target is None else f" · target {show_distance(float(np.linalg.norm(tip - out.target)))} away"
-    parts: list[Any] = [
+    parts: list[Component | str] = [
         html.Span("converged", style=_GREEN), " · ", _stability_span(sol),
         f" · path {sol.path} · tip ({tip[0] * MM:.3f}, {tip[1] * MM:.3f}, {tip[2] * MM:.3f}) mm{aim} · "
         f"{out.seconds * 1e3:.1f} ms", html.Br(), out.note]
@@ -265,12 +270,12 @@ def _status(out: Outcome) -> tuple[list[Any], str]:
     return parts, text
 
 
-def _stability_span(sol: StaticSolution) -> Any:
+def _stability_span(sol: StaticSolution) -> Component:
     """The equilibrium's stability, said in the colour of what it means (:func:`_stability`)."""
     return html.Span(_stability(sol), style={True: {}, False: _RED, None: _AMBER}[sol.stable])
 
 
-def _answer_text(out: Outcome) -> list[Any]:
+def _answer_text(out: Outcome) -> list[Component | str]:
     """The status line of a target answered (a converged equilibrium drawn); a reached target is called so
     without a qualifier only for an equilibrium tested stable."""
     a = out.answer
@@ -294,7 +299,7 @@ def _answer_text(out: Outcome) -> list[Any]:
             *([html.Br(), a.note] if a.note else [])]
 
 
-def _rest_text(out: Outcome) -> Any:
+def _rest_text(out: Outcome) -> Component:
     """How the loading path from rest compares with the equilibrium shown."""
     rest, sol = out.rest, out.solution
     if not rest.converged:
@@ -308,7 +313,7 @@ def _rest_text(out: Outcome) -> Any:
                      style={"color": "#b9770e" if same else "#c0392b", "fontWeight": "normal" if same else "bold"})
 
 
-def _patch(out: Outcome | None) -> Any:
+def _patch(out: Outcome | None) -> Patch:
     """The figure's moving traces for ``out`` (the pose's empty when there is no equilibrium); with ``out``
     None, only the target's, emptied."""
     p = Patch()
@@ -323,14 +328,14 @@ def _patch(out: Outcome | None) -> Any:
     return p
 
 
-def _refused(text: str, keep: dict[str, Any]) -> dict[str, Any]:
+def _refused(text: str, keep: dict[str, object]) -> dict[str, object]:
     """The callback's answer to controls it cannot solve: the status says which control and what it takes."""
     return {"figure": no_update, "status": html.Span(f"not solved: {text}", style={"color": "#c0392b"}),
             "tip": no_update, **keep}
 
 
-def _respond(ex: Explorer, action: Action, tensions: Any, wrench: Any, options: Any, aim: Any,
-             sid: Any) -> dict[str, Any]:
+def _respond(ex: Explorer, action: Action, tensions: object, wrench: object, options: object, aim: object,
+             sid: object) -> dict[str, object]:
     """The page's answer to one request: the controls checked, then solved (continued from session ``sid``'s
     last equilibrium) or the target answered, and the figure's moving traces, the status and the tip."""
     n = ex.robot.n_tendons
@@ -396,7 +401,7 @@ def build_app(ex: Explorer, *, port: int | None = None) -> Dash:
                             "model": Input("model", "value")},
                 "clicks": [Input(i, "n_clicks") for i in _ACTIONS],
                 "aim": [State(i, "value") for i in _TARGET], "sid": State("session", "data")})
-    def on_change(tensions: list, wrench: list, options: dict, clicks: list, aim: list, sid: str) -> dict[str, Any]:
+    def on_change(tensions: list, wrench: list, options: dict, clicks: list, aim: list, sid: str) -> dict[str, object]:
         """Solve the controls (continued from the session's last equilibrium), or answer the target, and redraw."""
         action = _ACTIONS.get(ctx.triggered_id, Action.CHANGE) if isinstance(ctx.triggered_id, str) \
             else Action.CHANGE

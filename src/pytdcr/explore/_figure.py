@@ -6,11 +6,10 @@ sent as a partial update. Lengths are drawn in millimetres.
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from ..loads import Loads
+from ..records import JsonDict
 from ..results import StaticSolution
 from ..robot import Robot
 from ..validate import direction_or_none
@@ -58,7 +57,7 @@ TARGET_NAME = "target"
 _RING = 24  # points on a disk's circle
 
 
-def _line(name: str, colour: str, width: float, **extra: Any) -> dict[str, Any]:
+def _line(name: str, colour: str, width: float, **extra: object) -> JsonDict:
     return {"type": "scatter3d", "mode": "lines", "name": name, "x": [], "y": [], "z": [],
             "line": {"color": colour, "width": width}, "hoverinfo": "skip", **extra}
 
@@ -78,7 +77,7 @@ def _broken(parts: list[np.ndarray]) -> np.ndarray:
     return np.vstack(out) if out else np.zeros((0, 3))
 
 
-def base_figure(robot: Robot, workspace: WorkspaceView | None) -> dict[str, Any]:
+def base_figure(robot: Robot, workspace: WorkspaceView | None) -> JsonDict:
     """The figure of ``robot`` with no pose drawn yet (its traces empty), the workspace run's boundary and
     largest-reach pose when given; axes span the robot's length around the base [mm]."""
     data = [_line("backbone", "#1f3b73", 8), _line("disks", "#7f8c8d", 3), _line("tendons", "#c0392b", 2),
@@ -104,9 +103,9 @@ def base_figure(robot: Robot, workspace: WorkspaceView | None) -> dict[str, Any]
     return {"data": data, "layout": layout}
 
 
-def _workspace_traces(ws: WorkspaceView) -> list[dict[str, Any]]:
+def _workspace_traces(ws: WorkspaceView) -> list[JsonDict]:
     """The boundary (translucent) and the largest-reach pose of a workspace run."""
-    out: list[dict[str, Any]] = []
+    out: list[JsonDict] = []
     if ws.vertices is not None and ws.faces is not None and len(ws.faces):
         v, f = np.round(ws.vertices * MM, 3), ws.faces
         out.append({"type": "mesh3d", "name": WORKSPACE_NAME, "x": v[:, 0].tolist(), "y": v[:, 1].tolist(),
@@ -147,7 +146,7 @@ def _arrow(origin: np.ndarray, vector: np.ndarray, length: float, heads: int = 1
     return _broken(parts)
 
 
-def pose_data(robot: Robot, sol: StaticSolution | None, loads: Loads | None) -> dict[int, dict[str, Any]]:
+def pose_data(robot: Robot, sol: StaticSolution | None, loads: Loads | None) -> dict[int, JsonDict]:
     """The data of the pose's traces (by index, those before :data:`TARGET`) for a converged ``sol`` under
     ``loads``; with ``sol`` None (no equilibrium), every one empty, so that nothing is drawn as if it were one."""
     empty = {"x": [], "y": [], "z": []}
@@ -178,10 +177,10 @@ def backbone_name(sol: StaticSolution) -> str:
     return {True: "backbone", False: "backbone (UNSTABLE)", None: "backbone (stability untested)"}[sol.stable]
 
 
-def target_data(target: np.ndarray | None, sol: StaticSolution | None) -> dict[int, dict[str, Any]]:
+def target_data(target: np.ndarray | None, sol: StaticSolution | None) -> dict[int, JsonDict]:
     """The data of the target marker and of the dashed line from the tip of a converged ``sol`` to it (both
     empty without a target [m]; the line empty without an equilibrium)."""
-    empty: dict[str, Any] = {"x": [], "y": [], "z": []}
+    empty: JsonDict = {"x": [], "y": [], "z": []}
     if target is None:
         return {TARGET: {**empty, "hovertext": []}, MISS: empty}
     t = np.asarray(target, dtype=float)
@@ -192,7 +191,7 @@ def target_data(target: np.ndarray | None, sol: StaticSolution | None) -> dict[i
     return {TARGET: marker, MISS: _columns(np.vstack([sol.tip_position, t]))}
 
 
-def rest_data(robot: Robot, rest: StaticSolution | None) -> dict[str, Any]:
+def rest_data(robot: Robot, rest: StaticSolution | None) -> JsonDict:
     """The loading path's backbone trace data (empty when there is none or it did not converge)."""
     if rest is None or not rest.converged:
         return {"x": [], "y": [], "z": []}

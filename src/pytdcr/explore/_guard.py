@@ -23,10 +23,16 @@ import io
 import json
 import re
 from collections.abc import Callable, Iterable
-from typing import Any
+from typing import TYPE_CHECKING, TypedDict
 
 from ..io import nesting_depth
+from ..records import JsonDict
 from ..validate import show
+
+if TYPE_CHECKING:
+    from _typeshed import OptExcInfo
+    from _typeshed.wsgi import StartResponse, WSGIEnvironment
+    from _typeshed.wsgi import WSGIApplication as WSGIApp
 
 __all__ = ["LOOPBACK_NAMES", "MAX_BODY_BYTES", "MAX_DEPTH", "Guard", "Refused", "callback_request"]
 
@@ -47,7 +53,21 @@ _HEADERS = (("X-Frame-Options", "DENY"), ("Content-Security-Policy", "frame-ance
             ("Cross-Origin-Resource-Policy", "same-origin"), ("X-Content-Type-Options", "nosniff"))
 _LENGTH = re.compile("[0-9]{1,20}")  # ASCII digits only (str.isdigit takes "²", which int() does not)
 
-WSGIApp = Callable[[dict[str, Any], Callable[..., Any]], Iterable[bytes]]
+
+class DashDependency(TypedDict):
+    """One input or state of a callback as Dash's callback table holds it: the component's id (Dash writes a
+    pattern-matching id as its JSON text) and the property."""
+
+    id: str
+    property: str
+
+
+class DashCallback(TypedDict):
+    """What the guard reads of one entry of Dash's callback table (``app.callback_map``, which holds more keys):
+    the callback's inputs and states."""
+
+    inputs: list[DashDependency]
+    state: list[DashDependency]
 
 
 class Refused(Exception):
@@ -79,7 +99,7 @@ class Guard:
         The path of callback requests.
     """
 
-    def __init__(self, app: WSGIApp, *, port: int | None = None, callbacks: dict[str, Any] | None = None,
+    def __init__(self, app: WSGIApp, *, port: int | None = None, callbacks: dict[str, DashCallback] | None = None,
                  update_path: str = "/_dash-update-component") -> None:
         self.app, self.port, self.callbacks, self.update_path = app, port, callbacks, update_path
 
@@ -98,7 +118,7 @@ class Guard:
             return m.group(2) is None or 1 <= int(m.group(2)) <= 65535
         return int(m.group(2)) == self.port if m.group(2) is not None else self.port == 80
 
-    def _check_headers(self, environ: dict[str, Any]) -> None:
+    def _check_headers(self, environ: WSGIEnvironment) -> None:
         """:class:`Refused` for a foreign host, a method the page does not use, a POST from another site or not
         of JSON, or a body declared too long."""
         if not self.host_allowed(environ.get("HTTP_HOST")):
@@ -124,7 +144,7 @@ class Guard:
         if mime != "application/json":
             raise Refused(415, "refused: a change is sent as application/json")
 
-    def _body(self, environ: dict[str, Any]) -> bytes:
+    def _body(self, environ: WSGIEnvironment) -> bytes:
         """The request's body, at most :data:`MAX_BODY_BYTES` (:class:`Refused` 413 beyond; 400 when it cannot be
         read: a malformed chunked body, a connection cut short)."""
         stream = environ.get("wsgi.input")
@@ -154,7 +174,7 @@ class Guard:
         return json.dumps(callback_request(body, self.callbacks or {})).encode()
 
     # ------------------------------------------------------------------ WSGI
-    def __call__(self, environ: dict[str, Any], start_response: Callable[..., Any]) -> Iterable[bytes]:
+    def __call__(self, environ: WSGIEnvironment, start_response: StartResponse) -> Iterable[bytes]:
         try:
             self._check_headers(environ)
             if environ.get("REQUEST_METHOD") == "POST":
@@ -172,7 +192,8 @@ class Guard:
                             *_HEADERS])
             return [text]
 
-        def own_page_only(status: str, headers: list[tuple[str, str]], exc_info: Any = None) -> Any:
+        def own_page_only(status: str, headers: list[tuple[str, str]],
+                          exc_info: OptExcInfo | None = None) -> Callable[[bytes], object]:
             names = {h.lower() for h, _ in _HEADERS}
             return start_response(status, [*(h for h in headers if h[0].lower() not in names), *_HEADERS],
                                   exc_info)
@@ -180,9 +201,9 @@ class Guard:
         return self.app(environ, own_page_only)
 
 
-def _values(items: Any) -> dict[tuple[str, str], Any]:
+def _values(items: object) -> dict[tuple[str, str], object]:
     """The values a request gives, by (id, property); the first of each, entries of another form ignored."""
-    found: dict[tuple[str, str], Any] = {}
+    found: dict[tuple[str, str], object] = {}
     if isinstance(items, dict):
         items = [items]
     for it in items if isinstance(items, list) else ():
@@ -192,7 +213,7 @@ def _values(items: Any) -> dict[tuple[str, str], Any]:
     return found
 
 
-def _filled(specs: list[dict[str, Any]], items: Any) -> list[dict[str, Any]]:
+def _filled(specs: list[DashDependency], items: object) -> list[JsonDict]:
     """One entry per dependency the callback declares (``specs``), with the request's value for it if any."""
     got = _values(items)
     out = []
@@ -204,7 +225,7 @@ def _filled(specs: list[dict[str, Any]], items: Any) -> list[dict[str, Any]]:
     return out
 
 
-def _outputs(key: str) -> Any:
+def _outputs(key: str) -> JsonDict | list[JsonDict]:
     """The outputs of the callback of id ``key`` (Dash's own form of a callback's id: ``..a.b...c.d..`` for
     several, ``a.b`` for one), as the page sends them."""
     if key.startswith(".."):
@@ -213,7 +234,7 @@ def _outputs(key: str) -> Any:
     return {"id": id_, "property": prop}
 
 
-def callback_request(body: Any, callbacks: dict[str, Any]) -> dict[str, Any]:
+def callback_request(body: object, callbacks: dict[str, DashCallback]) -> JsonDict:
     """A callback request rebuilt from the app's callback table: the callback named by ``body["output"]`` (one
     of ``callbacks``, else :class:`Refused` 400), its outputs as the table has them, each of its inputs and
     states with the request's value (by id and property; none where the request has none) and the inputs
