@@ -346,8 +346,8 @@ def test_the_largest_reach_follows_its_rule():
     assert numbers["largest_reach_m"] == far.largest_reach.reach
     assert numbers["largest_reach"] == far.reach_search.to_dict() and numbers["voxel_m"] == robot.length / 8
     assert numbers["dimension"] == 3 and numbers["measure"] == "volume"
-    assert set(numbers) == {"schema_version", "volume_m3", "volume_err_m3", "dimension", "measure", "largest_reach_m", "reach_rule",
-                            "points", "volume", "realisable",
+    assert set(numbers) == {"schema_version", "volume_m3", "volume_err_m3", "dimension", "measure",
+                            "largest_reach_m", "reach_rule", "points", "volume", "realisable",
                             "voxel_m", "counts", "warm_start", "boundary_sources", "boundary_search", "support",
                             "largest_reach", "seconds_sampling", "equilibria", "multistability", "root",
                             "stability_test"}

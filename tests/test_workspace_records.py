@@ -76,3 +76,32 @@ def test_a_missing_key_of_a_comparison_is_named_by_its_path(edit, named):
 def test_a_workspace_json_that_is_not_an_object_is_refused_in_one_line():
     with pytest.raises(ValueError, match=r"workspace\.json: the file must be a JSON object, got list"):
         WorkspaceRecord.from_json([1, 2])
+
+
+@pytest.mark.parametrize("name", ["reproduce", "reproduce_demo"])
+def test_the_golden_reproduce_workspace_sections_read_and_write_back(name):
+    from pathlib import Path
+
+    from pytdcr.runs._workspace_records import WorkspaceSection
+
+    golden = Path(__file__).resolve().parent / "golden" / f"{name}.json"
+    section = json.loads(golden.read_text())["data"]["files"]["reproduce.json"]["summary"]["workspace"]
+    typed = WorkspaceSection.from_json(section)
+    assert typed.to_json() == section
+    assert [c.case for c in typed.cases] == ["no load", "paper wrench"]
+    assert typed.cases[0].volume_m3 == section["cases"][0]["volume_m3"] and typed.budget == section["budget"]
+
+
+def test_a_workspace_section_with_models_round_trips():
+    from pytdcr.runs._workspace_records import ModelsSection, WorkspaceSection
+
+    c = _comparison()
+    section = WorkspaceSection(32, 0.04, 200, c.cases, ModelsSection(16, 0.05, c.cases, c.pairs))
+    text = json.dumps(section.to_json(), allow_nan=True)
+    back = WorkspaceSection.from_json(json.loads(text))
+    assert json.dumps(back.to_json(), allow_nan=True) == text and back.models is not None
+    broken = json.loads(text)
+    del broken["models"]["pairs"][0]["a_in_b"]
+    with pytest.raises(RecordKeyError) as info:
+        WorkspaceSection.from_json(broken)
+    assert info.value.key == "models.pairs[0].a_in_b" and info.value.file == "reproduce.json"

@@ -37,6 +37,7 @@ from ._runs import sample_into, write_optimize
 from ._settings import SampleSettings
 from ._survival import ModelVerdict, model_verdicts, verdict_text
 from ._workspace import section_check, section_estimate, workspace_section, workspace_text
+from ._workspace_records import WorkspaceSection
 
 __all__ = ["ReproduceRun", "ReproduceSettings", "check_reproduce", "reproduce_estimate", "run_reproduce"]
 
@@ -154,7 +155,7 @@ class ReproduceRun:
     files: list[str]
     sampling: dict[str, Any]
     passive: dict[str, Any]
-    workspace: dict[str, Any]
+    workspace: WorkspaceSection
     seconds: float
     ga: dict[int, ReachResult]
     payload: ReachResult
@@ -164,7 +165,7 @@ class ReproduceRun:
     def summary(self) -> dict[str, Any]:
         """Seed, files, sampling, passive solve and workspace section (``reproduce.json``'s ``summary``)."""
         return {"seed": self.seed, "files": list(self.files), "sampling": self.sampling, "passive": self.passive,
-                "workspace": self.workspace}
+                "workspace": self.workspace.to_json()}
 
     def to_dict(self) -> dict[str, Any]:
         """:meth:`summary` and the run's time [s]."""

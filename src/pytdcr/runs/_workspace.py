@@ -49,7 +49,15 @@ from ..workspace import (
     workspace_study,
 )
 from ._output import inputs_record
-from ._workspace_records import CaseComparison, FailedCase, PairComparison, WorkspaceComparison, WorkspaceRecord
+from ._workspace_records import (
+    CaseComparison,
+    FailedCase,
+    ModelsSection,
+    PairComparison,
+    WorkspaceComparison,
+    WorkspaceRecord,
+    WorkspaceSection,
+)
 
 __all__ = [
     "WorkspaceCase",
@@ -726,7 +734,7 @@ def section_estimate(robot: Robot, bounds: TensionBounds, s: Any, *, seed: int =
 
 
 def workspace_section(robot: Robot, bounds: TensionBounds, s: Any, out: Path, files: list[str], *,
-                      seed: int = 0, progress: Any = None) -> dict[str, Any]:
+                      seed: int = 0, progress: Any = None) -> WorkspaceSection:
     """``tdcr reproduce``'s workspace section: the FSW under the paper's tip wrench next to no load, at the
     budget of ``s`` (:class:`~pytdcr.runs.ReproduceSettings`); writes ``workspace_slices`` (PNG, PDF) and the
     two boundaries (``workspace_fsw_paper.ply``, ``workspace_fsw_no_load.ply``), appends them to ``files``.
@@ -749,15 +757,12 @@ def workspace_section(robot: Robot, bounds: TensionBounds, s: Any, out: Path, fi
     files += save_figure(plot_region_slices({c.name: c.region.fsw_region for c in done}, robot.length,
                                             f"robot '{robot.name}': FSW, no load and the paper's wrench"),
                          out, "workspace_slices")
-    section = {"n": s.workspace_n, "voxel_m": cases["no load"][2].voxel, "budget": s.workspace_budget,
-               "cases": _comparison(done)}
-    if models:
-        section["models"] = _models_section(robot, models, bounds, s, out, files, hooks)
-    return section
+    return WorkspaceSection(s.workspace_n, cases["no load"][2].voxel, s.workspace_budget, tuple(_comparison(done)),
+                            _models_section(robot, models, bounds, s, out, files, hooks) if models else None)
 
 
 def _models_section(robot: Robot, models: dict[str, tuple[Any, ...]], bounds: TensionBounds, s: Any, out: Path,
-                    files: list[str], hooks: Callable[[str], WorkspaceHooks]) -> dict[str, Any]:
+                    files: list[str], hooks: Callable[[str], WorkspaceHooks]) -> ModelsSection:
     """The FSWs of ``models`` (name → robot, loads, settings, model: the paper's wrench, each model's own
     equilibria, continued where it can, at ``s.models_n`` samples and ``s.models_voxels`` voxels per length),
     compared: per model its volume with its error, per pair the Hausdorff distance and the share of each inside
@@ -768,32 +773,31 @@ def _models_section(robot: Robot, models: dict[str, tuple[Any, ...]], bounds: Te
                                             f"robot '{robot.name}': FSW under the paper's wrench, by model"),
                          out, "workspace_models_slices")
     voxel = next(iter(models.values()))[2].voxel
-    return {"n": s.models_n, "voxel_m": voxel, "cases": _comparison(done), "pairs": _pairs(done)}
+    return ModelsSection(s.models_n, voxel, tuple(_comparison(done)), tuple(_pairs(done)))
 
 
-def workspace_text(ws: dict[str, Any], s: Any) -> list[str]:
+def workspace_text(ws: WorkspaceSection, s: Any) -> list[str]:
     """The report's workspace section."""
     lines = ["## The feasible static workspace as a region", "",
-             f"Base samples n = {ws['n']} (scrambled Sobol, with the tension box's corners and edges), voxels of "
-             f"{ws['voxel_m'] * 1e3:.1f} mm, boundary search within {ws['budget']} solves, "
+             f"Base samples n = {ws.n} (scrambled Sobol, with the tension box's corners and edges), voxels of "
+             f"{ws.voxel_m * 1e3:.1f} mm, boundary search within {ws.budget} solves, "
              f"{s.workspace_directions} support directions"
              + ("" if s.workspace_directions else " (the largest reach is the farthest sample's)")
              + ": a modest budget for the demo, whose error is wide (`tdcr reproduce --full` or `tdcr workspace "
              "--compare-loads` for the full one). Slices: workspace_slices.png.", "",
              "| load | FSW volume [cm³] | ± | realisable [cm³] | ± | largest reach [m] |", "|---|---|---|---|---|---|"]
-    for r in ws["cases"]:
-        lines.append(f"| {r['case']} | {r['volume_m3'] * 1e6:.0f} | {r['volume_err_m3'] * 1e6:.0f} | "
-                     f"{r['realisable_m3'] * 1e6:.0f} | {r['realisable_err_m3'] * 1e6:.0f} | "
-                     f"{_cell(r['largest_reach_m'])} |")
-    models = ws.get("models")
+    for r in ws.cases:
+        lines.append(f"| {r.case} | {r.volume_m3 * 1e6:.0f} | {r.volume_err_m3 * 1e6:.0f} | "
+                     f"{r.realisable_m3 * 1e6:.0f} | {r.realisable_err_m3 * 1e6:.0f} | {_cell(r.largest_reach_m)} |")
+    models = ws.models
     if models:
         lines += ["", "### The workspace by model", "",
-                  f"The FSW under the paper's wrench by each model (n = {models['n']}, voxels of "
-                  f"{models['voxel_m'] * 1e3:.1f} mm, each model's own equilibria; sscr, the subsegment Cosserat "
+                  f"The FSW under the paper's wrench by each model (n = {models.n}, voxels of "
+                  f"{models.voxel_m * 1e3:.1f} mm, each model's own equilibria; sscr, the subsegment Cosserat "
                   "rod, is the reference): how much of the paper's workspace is its model's error. Slices: "
                   "workspace_models_slices.png.", "",
                   "| model | FSW volume [cm³] | ± | FSW / pcc's |", "|---|---|---|---|"]
-        lines += [f"| {r['model']} | {r['volume_m3'] * 1e6:.0f} | {r['volume_err_m3'] * 1e6:.0f} | "
-                  f"{_cell(r['volume_ratio'], '.2f')} |" for r in models["cases"]]
-        lines += _pairs_lines(models["pairs"])
+        lines += [f"| {r.model} | {r.volume_m3 * 1e6:.0f} | {r.volume_err_m3 * 1e6:.0f} | "
+                  f"{_cell(r.volume_ratio, '.2f')} |" for r in models.cases]
+        lines += _pairs_lines(list(models.pairs))
     return [*lines, ""]

@@ -1,8 +1,9 @@
 """The files of a workspace run as typed records: ``workspace.json`` (:class:`WorkspaceRecord`) and, for
 ``tdcr workspace --compare-loads``/``--compare-models``/``--equilibria both``, ``comparison.json``
 (:class:`WorkspaceComparison`, its rows :class:`CaseComparison`, :class:`PairComparison` and
-:class:`FailedCase`). Each writes today's keys (``to_json``) with a ``schema_version`` and reads back any file a
-run wrote (``from_json``; a file without ``schema_version`` is version 1), a missing key named by its path
+:class:`FailedCase`), and ``tdcr reproduce``'s workspace section (:class:`WorkspaceSection`). Each writes today's
+keys (``to_json``) with a ``schema_version`` where it is a file, and reads back any file a run wrote
+(``from_json``; a file without ``schema_version`` is version 1), a missing key named by its path
 (:class:`~pytdcr.records.RecordKeyError`).
 """
 
@@ -15,8 +16,8 @@ from typing import TypeVar
 from ..records import JsonDict, JsonObject, RunWarning, check_schema, part
 from ..workspace import RegionOverlap, WorkspaceSummary
 
-__all__ = ["SCHEMA_VERSION", "WARNING_KINDS", "CaseComparison", "FailedCase", "PairComparison",
-           "WorkspaceComparison", "WorkspaceRecord"]
+__all__ = ["SCHEMA_VERSION", "WARNING_KINDS", "CaseComparison", "FailedCase", "ModelsSection", "PairComparison",
+           "WorkspaceComparison", "WorkspaceRecord", "WorkspaceSection"]
 
 #: the layout of ``workspace.json`` and ``comparison.json`` these records write and read
 SCHEMA_VERSION = 1
@@ -31,7 +32,7 @@ WARNING_KINDS = {
 
 _R = TypeVar("_R")
 
-_WORKSPACE, _COMPARISON = "workspace.json", "comparison.json"
+_WORKSPACE, _COMPARISON, _REPRODUCE = "workspace.json", "comparison.json", "reproduce.json"
 
 
 @dataclass(frozen=True, eq=False)
@@ -181,12 +182,65 @@ class WorkspaceComparison:
     @classmethod
     def from_json(cls, d: JsonObject) -> WorkspaceComparison:
         """The comparison of a ``comparison.json`` (any a run wrote); RecordKeyError naming a missing key."""
-        def rows(key: str, read: Callable[[JsonObject], _R], d: JsonObject) -> tuple[_R, ...]:
-            return tuple(part(_COMPARISON, f"{key}[{k}]", read, row) for k, row in enumerate(d[key]))
-
         def read(d: JsonObject) -> WorkspaceComparison:
             check_schema(d, _COMPARISON, SCHEMA_VERSION)
-            return cls(rows("cases", CaseComparison.from_json, d), rows("pairs", PairComparison.from_json, d),
-                       rows("failed", FailedCase.from_json, d), tuple(str(f) for f in d.get("files", ())))
+            return cls(_rows(_COMPARISON, "cases", CaseComparison.from_json, d),
+                       _rows(_COMPARISON, "pairs", PairComparison.from_json, d),
+                       _rows(_COMPARISON, "failed", FailedCase.from_json, d), tuple(str(f) for f in d.get("files", ())))
 
         return part(_COMPARISON, "", read, d)
+
+
+def _rows(file: str, key: str, read: Callable[[JsonObject], _R], d: JsonObject) -> tuple[_R, ...]:
+    """The rows of the list at ``key`` of ``d`` (an object of ``file``), each read by ``read``; a missing key is
+    named with the row's index (``cases[1].volume_m3``)."""
+    return tuple(part(file, f"{key}[{k}]", read, row) for k, row in enumerate(d[key]))
+
+
+@dataclass(frozen=True)
+class ModelsSection:
+    """``tdcr reproduce``'s FSWs of several models under the paper's wrench (``workspace.models`` of
+    ``reproduce.json``): base samples ``n``, the voxel [m], a row per model, a row per pair."""
+
+    n: int
+    voxel_m: float
+    cases: tuple[CaseComparison, ...]
+    pairs: tuple[PairComparison, ...]
+
+    def to_json(self) -> JsonDict:
+        """``{"n", "voxel_m", "cases", "pairs"}``."""
+        return {"n": self.n, "voxel_m": self.voxel_m, "cases": [c.to_json() for c in self.cases],
+                "pairs": [p.to_json() for p in self.pairs]}
+
+    @classmethod
+    def from_json(cls, d: JsonObject) -> ModelsSection:
+        """The section :meth:`to_json` wrote; KeyError naming a missing key."""
+        return cls(int(d["n"]), float(d["voxel_m"]), _rows(_REPRODUCE, "cases", CaseComparison.from_json, d),
+                   _rows(_REPRODUCE, "pairs", PairComparison.from_json, d))
+
+
+@dataclass(frozen=True)
+class WorkspaceSection:
+    """``tdcr reproduce``'s workspace section (``workspace`` of ``reproduce.json``'s ``summary``): the FSW under
+    the paper's wrench next to no load at the demo's budget (base samples ``n``, the voxel [m], the boundary
+    search's ``budget`` in solves), a row per load case, and the models' comparison when asked for."""
+
+    n: int
+    voxel_m: float
+    budget: int
+    cases: tuple[CaseComparison, ...]
+    models: ModelsSection | None = None
+
+    def to_json(self) -> JsonDict:
+        """``{"n", "voxel_m", "budget", "cases"}``, and ``"models"`` when compared."""
+        out: JsonDict = {"n": self.n, "voxel_m": self.voxel_m, "budget": self.budget,
+                         "cases": [c.to_json() for c in self.cases]}
+        return out if self.models is None else {**out, "models": self.models.to_json()}
+
+    @classmethod
+    def from_json(cls, d: JsonObject) -> WorkspaceSection:
+        """The section :meth:`to_json` wrote; KeyError naming a missing key."""
+        models = d.get("models")
+        return cls(int(d["n"]), float(d["voxel_m"]), int(d["budget"]),
+                   _rows(_REPRODUCE, "cases", CaseComparison.from_json, d),
+                   None if models is None else part(_REPRODUCE, "models", ModelsSection.from_json, models))
