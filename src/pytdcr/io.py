@@ -33,12 +33,12 @@ from __future__ import annotations
 import math
 import sys
 from pathlib import Path
-from typing import Any
 
 import tomli_w
 from pydantic import ValidationError
 
 from .paper import BUILTIN_ROBOTS
+from .records import JsonDict, JsonObject
 from .robot import Robot
 from .runtime import atomic_write_text, to_jsonable
 from .validate import escape_controls, is_integer, read_text_file, show, show_path
@@ -113,7 +113,7 @@ def format_validation_error(err: ValidationError) -> str:
     return "; ".join(parts)
 
 
-def _drop_none(obj: Any) -> Any:
+def _drop_none(obj: object) -> object:
     if isinstance(obj, dict):
         return {k: _drop_none(v) for k, v in obj.items() if v is not None}
     if isinstance(obj, (list, tuple)):
@@ -121,13 +121,13 @@ def _drop_none(obj: Any) -> Any:
     return obj
 
 
-def robot_to_dict(robot: Robot) -> dict[str, Any]:
+def robot_to_dict(robot: Robot) -> JsonDict:
     """Plain dictionary of ``robot`` with ``schema_version`` (TOML-ready: no None)."""
     return {"schema_version": SCHEMA_VERSION, **_drop_none(robot.model_dump())}
 
 
-def robot_from_dict(data: dict[str, Any], source: str = "robot") -> Robot:
-    """Validate a dictionary (as read from TOML) into a :class:`Robot`.
+def robot_from_dict(data: object, source: str = "robot") -> Robot:
+    """Validate ``data``, a dictionary as read from TOML (anything else is refused), into a :class:`Robot`.
 
     Raises
     ------
@@ -150,7 +150,7 @@ def robot_from_dict(data: dict[str, Any], source: str = "robot") -> Robot:
 MAX_NESTING = 32
 
 
-def nesting_depth(data: Any, most: int = MAX_NESTING) -> int:
+def nesting_depth(data: object, most: int = MAX_NESTING) -> int:
     """How deeply dicts and lists (a file's tables and arrays, a JSON body's objects and lists) nest in ``data``
     (0 for a scalar, 1 for ``[]``), counted without recursion, so any depth is measured; the count stops once it
     passes ``most`` (the answer is then some depth beyond ``most``).
@@ -177,10 +177,10 @@ def nesting_depth(data: Any, most: int = MAX_NESTING) -> int:
 _INT64 = (-(2**63), 2**63 - 1)
 
 
-def _bad_number(data: Any) -> tuple[str, Any] | None:
+def _bad_number(data: object) -> tuple[str, object] | None:
     """The first number in ``data`` (nested tables and arrays) that no pytdcr field takes: an integer beyond 64 bits
     or a float that is not finite (TOML's ``inf``, ``nan``, or ``1e400`` read as inf); its key path and value."""
-    stack: list[tuple[str, Any]] = [("", data)]
+    stack: list[tuple[str, object]] = [("", data)]
     while stack:
         key, obj = stack.pop()
         if isinstance(obj, dict):
@@ -193,7 +193,7 @@ def _bad_number(data: Any) -> tuple[str, Any] | None:
     return None
 
 
-def read_toml(path: str | Path, what: str) -> dict[str, Any]:
+def read_toml(path: str | Path, what: str) -> JsonObject:
     """A small TOML file as a dict; ValueError naming the file if it cannot be read, is too large, binary, not
     TOML, nests tables and arrays deeper than :data:`MAX_NESTING`, or holds a number no field takes (an integer
     beyond 64 bits, a float that is not finite: ``inf``, ``nan``, ``1e400``), naming its key."""

@@ -8,7 +8,7 @@ the backend is never changed here (the command line alone picks Agg).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -20,8 +20,15 @@ from .robot import Robot
 from .runtime import atomic_write
 
 if TYPE_CHECKING:
+    from types import ModuleType
+
     from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
     from mpl_toolkits.mplot3d.axes3d import Axes3D
+    from trimesh import Trimesh
+
+    from .accuracy import OrderStudy
+    from .workspace import Region
 
 __all__ = [
     "RobotStyle",
@@ -44,7 +51,7 @@ __all__ = [
 ]
 
 
-def pyplot() -> Any:
+def pyplot() -> ModuleType:
     """``matplotlib.pyplot``, imported on first use."""
     import matplotlib.pyplot as plt
 
@@ -78,7 +85,7 @@ def set_equal_aspect(ax: Axes3D, points: np.ndarray, margin: float = 0.05) -> No
     ax.set_box_aspect((1.0, 1.0, 1.0))
 
 
-def save_figure(fig: Any, out: Path, stem: str) -> list[str]:
+def save_figure(fig: Figure, out: Path, stem: str) -> list[str]:
     """Write ``fig`` as ``stem``.png and ``stem``.pdf in the folder ``out`` (each whole or absent) and close it.
 
     Returns
@@ -102,7 +109,7 @@ def save_figure(fig: Any, out: Path, stem: str) -> list[str]:
     return names
 
 
-def save_figure_as(fig: Any, path: Path) -> Path:
+def save_figure_as(fig: Figure, path: Path) -> Path:
     """Write ``fig`` to ``path`` in the format its suffix names (.png, .pdf, .svg), whole or absent, and close
     it."""
     try:
@@ -322,7 +329,7 @@ def plot_convergence(best: Sequence[float], mean: Sequence[float], ax: Axes | No
     return ax
 
 
-def plot_order(studies: Sequence[Any], ax: Axes | None = None, **kwargs: Any) -> Axes:
+def plot_order(studies: Sequence[OrderStudy], ax: Axes | None = None, **kwargs: Any) -> Axes:
     """Tip error against disk spacing on log-log axes, one line per model and load group, with fitted orders.
 
     Parameters
@@ -347,7 +354,7 @@ def plot_order(studies: Sequence[Any], ax: Axes | None = None, **kwargs: Any) ->
     return ax
 
 
-def plot_region_slices(regions: dict[str, Any], length: float, title: str = "") -> Any:
+def plot_region_slices(regions: dict[str, Region], length: float, title: str = "") -> Figure:
     """Slices of workspace regions (:class:`pytdcr.workspace.Region`), overlaid (a line style each, so that equal
     boundaries stay visible): the xz plane (y = 0), the yz plane (x = 0) and the xy plane at 1/4, 1/2 and 3/4
     of ``length`` [m]. Returns the figure."""
@@ -376,7 +383,7 @@ def plot_region_slices(regions: dict[str, Any], length: float, title: str = "") 
 
 
 def plot_multistability(tips: np.ndarray, checked: np.ndarray, other: np.ndarray, distinct: np.ndarray,
-                        length: float, labels: tuple[str, str], title: str = "") -> Any:
+                        length: float, labels: tuple[str, str], title: str = "") -> Figure:
     """Where a region's equilibria depend on the robot's history: the region's tips ``tips`` (M, 3) [m] in grey,
     the checked ones ``checked`` (K, 3) [m], and where the other history reaches another equilibrium
     (``distinct`` (K,) of bool) both tips joined by a line, ``other`` (K, 3) [m] the other history's.
@@ -406,7 +413,7 @@ def plot_multistability(tips: np.ndarray, checked: np.ndarray, other: np.ndarray
     return fig
 
 
-def _slice_contour(ax: Axes, region: Any, axis: int, at: float, colour: str, style: str) -> None:
+def _slice_contour(ax: Axes, region: Region, axis: int, at: float, colour: str, style: str) -> None:
     """The boundary of ``region`` in the plane ``coordinate[axis] = at``, as a contour line."""
     i = int(np.floor((at - region.origin[axis]) / region.voxel))
     if not (0 <= i < region.occupied.shape[axis]):
@@ -424,15 +431,15 @@ def _colours() -> list[str]:
     return list(pyplot().rcParams["axes.prop_cycle"].by_key()["color"])
 
 
-def _decimated(mesh: Any, faces: int) -> tuple[np.ndarray, np.ndarray]:
+def _decimated(mesh: Trimesh, faces: int) -> tuple[np.ndarray, np.ndarray]:
     """Vertices and at most ``faces`` faces of a trimesh mesh (every k-th face: a drawing aid, not geometry)."""
     f = np.asarray(mesh.faces)
     step = max(1, int(np.ceil(f.shape[0] / max(faces, 1))))
     return np.asarray(mesh.vertices), f[::step]
 
 
-def plot_region_3d(meshes: dict[str, Any], robot_positions: np.ndarray | None = None, title: str = "",
-                   max_faces: int = 12_000) -> Any:
+def plot_region_3d(meshes: Mapping[str, Trimesh | None], robot_positions: np.ndarray | None = None, title: str = "",
+                   max_faces: int = 12_000) -> Figure:
     """Workspace boundaries (``trimesh.Trimesh``, base frame, metres) as translucent surfaces, one colour each,
     overlaid; the robot's disk centres ``robot_positions`` (N+1, 3) [m] as a line with markers (its largest-reach
     configuration, say) and the base plane's outline. Big meshes are thinned to ``max_faces`` faces for the
@@ -471,7 +478,7 @@ def plot_region_3d(meshes: dict[str, Any], robot_positions: np.ndarray | None = 
     return ax.figure
 
 
-def plot_support_map(directions: np.ndarray, h: np.ndarray, title: str = "") -> Any:
+def plot_support_map(directions: np.ndarray, h: np.ndarray, title: str = "") -> Figure:
     """The support function h(d) [m] over the sphere of directions ``directions`` (K, 3): azimuth against
     elevation [deg], filled contours in mm (the map wraps at ±180 deg), the directions as dots; directions too
     few to contour (one, or all on one parallel) are drawn as coloured dots. Returns the figure."""
@@ -505,8 +512,9 @@ def plot_support_map(directions: np.ndarray, h: np.ndarray, title: str = "") -> 
     return fig
 
 
-def write_region_html(path: Any, meshes: dict[str, Any], points: dict[str, np.ndarray] | None = None,
-                      robot_positions: np.ndarray | None = None, title: str = "", max_points: int = 20_000) -> None:
+def write_region_html(path: str | Path, meshes: Mapping[str, Trimesh | None],
+                      points: dict[str, np.ndarray] | None = None, robot_positions: np.ndarray | None = None,
+                      title: str = "", max_points: int = 20_000) -> None:
     """A self-contained interactive view (plotly, its script embedded: it opens with no network) of workspace
     boundaries (``trimesh.Trimesh`` [m]), point clouds (K, 3) [m] (every k-th point beyond ``max_points``) and
     the robot's disk centres (N+1, 3) [m]; written whole or not at all."""

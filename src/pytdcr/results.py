@@ -6,31 +6,38 @@ import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property, partial
-from typing import Any
+from typing import TypeVar
 
 import numpy as np
 
 from .kinematics import backbone_curve
 from .loads import Loads
+from .records import JsonDict
 from .robot import Robot
 
 __all__ = ["BatchSolution", "NotConvergedError", "Stability", "StaticSolution"]
+
+_T = TypeVar("_T")
+#: a solution's class: what a pickled solution is rebuilt as
+_Solution = TypeVar("_Solution", "StaticSolution", "BatchSolution")
+#: what ``__reduce__`` returns for a solution (pickle's protocol): the function that rebuilds it and its arguments
+_Reduced = tuple[Callable[[type[_Solution], dict[str, object]], _Solution], tuple[type[_Solution], dict[str, object]]]
 
 
 class NotConvergedError(RuntimeError):
     """Raised when a shape is asked of a solve that did not converge."""
 
 
-def _known(value: Any) -> Any:
+def _known(value: _T) -> _T:
     """A stability test already computed (what a pickled solution carries instead of the test itself)."""
     return value
 
 
-def _rebuild(cls: type, fields: dict[str, Any]) -> Any:
+def _rebuild(cls: type[_Solution], fields: dict[str, object]) -> _Solution:
     return cls(**fields)
 
 
-def _reduce(obj: Any, stability: Any) -> tuple[Any, ...]:
+def _reduce(obj: _Solution, stability: Stability | tuple[Stability | None, ...] | None) -> _Reduced[_Solution]:
     """Pickle a solution: its fields, with the stability test (a closure over the model) replaced by its result,
     computed now; so solutions come back whole from a process pool or a file."""
     fields = {f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)}
@@ -63,7 +70,7 @@ class Stability:
     flutter_pairs: int
     least_damped: complex | None
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """JSON-ready form (the complex eigenvalue as [real, imag])."""
         z = self.least_damped
         return {"stable": self.stable, "min_real_eigenvalue": self.min_real_eigenvalue,
@@ -192,10 +199,10 @@ class StaticSolution:
         s = self.stability
         return None if s is None else s.stable
 
-    def __reduce__(self) -> tuple[Any, ...]:
+    def __reduce__(self) -> _Reduced[StaticSolution]:
         return _reduce(self, self.stability)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """JSON-ready dictionary (what ``tdcr solve --json`` prints).
 
         Not converged: what was not obtained is None (``tip_position``, ``tip_rotation``, ``disk_positions``,
@@ -288,7 +295,7 @@ class BatchSolution:
             return (None,) * len(self.converged)
         return tuple(self._stability_fn())
 
-    def __reduce__(self) -> tuple[Any, ...]:
+    def __reduce__(self) -> _Reduced[BatchSolution]:
         return _reduce(self, self.stability)
 
     def rows(self, index: slice | np.ndarray) -> BatchSolution:

@@ -14,9 +14,9 @@ from __future__ import annotations
 
 import math
 import weakref
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from functools import cached_property
-from typing import Annotated, Any, Literal
+from typing import Annotated, Literal, TypeVar
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -41,7 +41,7 @@ __all__ = [
 _DERIVED: dict[int, dict[str, np.ndarray]] = {}
 
 
-def _derived(robot: Any, name: str, make: Callable[[], np.ndarray]) -> np.ndarray:
+def _derived(robot: Robot, name: str, make: Callable[[], np.ndarray]) -> np.ndarray:
     """``robot``'s derived array ``name``, computed by ``make`` on first use, read-only and shared by every caller."""
     slot = _DERIVED.get(id(robot))
     if slot is None:
@@ -55,10 +55,14 @@ def _derived(robot: Any, name: str, make: Callable[[], np.ndarray]) -> np.ndarra
     return arr
 
 
+#: a model's own class (what :meth:`_Frozen.model_copy` returns)
+_M = TypeVar("_M", bound="_Frozen")
+
+
 class _Frozen(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid", ignored_types=(cached_property,))
 
-    def model_copy(self, *, update: dict[str, Any] | None = None, deep: bool = False) -> Any:
+    def model_copy(self: _M, *, update: Mapping[str, object] | None = None, deep: bool = False) -> _M:
         """A copy; with ``update``, a new object validated like any other (pydantic's own copy skips the checks)."""
         if not update:
             return super().model_copy(deep=deep)

@@ -14,7 +14,7 @@ import numbers
 import re
 from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, TypeGuard
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -54,7 +54,7 @@ def escape_controls(text: str) -> str:
                         text)
 
 
-def show(value: Any, limit: int = 60, *, tail: bool = False) -> str:
+def show(value: object, limit: int = 60, *, tail: bool = False) -> str:
     """``value`` for a message: its repr (strings as typed), control characters escaped, at most ``limit`` chars
     (the end kept when ``tail``, as for a path)."""
     text = escape_controls(value if isinstance(value, str) else repr(value))
@@ -65,7 +65,7 @@ def show(value: Any, limit: int = 60, *, tail: bool = False) -> str:
     return "'..." + text[-(limit - 4):] if tail else text[: limit - 3] + "..."
 
 
-def show_path(path: Any) -> str:
+def show_path(path: object) -> str:
     """A file or folder path for a message: quoted, escaped, its end (the name) kept if it is long."""
     return show(str(path), 160, tail=True)
 
@@ -162,7 +162,7 @@ def in_range(lo: float | None, hi: float | None, unit: str, reason: str = "", *,
     return check
 
 
-def _real(x: Any) -> Any:
+def _real(x: object) -> object:
     """Any real number as a float (NumPy's too); bools, strings, complex numbers go on to be refused."""
     if isinstance(x, numbers.Real) and not isinstance(x, (bool, np.bool_)):
         try:
@@ -172,7 +172,7 @@ def _real(x: Any) -> Any:
     return x
 
 
-def _integer(x: Any) -> Any:
+def _integer(x: object) -> object:
     """Any integer as an int (NumPy's too); bools, floats (even 2.0) and strings go on to be refused."""
     if isinstance(x, numbers.Integral) and not isinstance(x, (bool, np.bool_)):
         return int(x)
@@ -185,12 +185,12 @@ Real = Annotated[float, BeforeValidator(_real), Strict()]
 Count = Annotated[int, BeforeValidator(_integer), Strict()]
 
 
-def is_integer(x: Any) -> bool:
+def is_integer(x: object) -> TypeGuard[numbers.Integral]:
     """True for an integer (Python's or NumPy's), False for a bool, a float (even 2.0) or anything else."""
     return isinstance(x, numbers.Integral) and not isinstance(x, (bool, np.bool_))
 
 
-def check_count(value: Any, name: str, lo: int = 1, hi: int | None = None) -> int:
+def check_count(value: object, name: str, lo: int = 1, hi: int | None = None) -> int:
     """``value`` as an int in [lo, hi]; TypeError for a non-integer (a bool, 2.0), ValueError out of range."""
     if not is_integer(value):
         raise TypeError(f"{name} must be an integer, got {show(value)} ({type(value).__name__})")
@@ -200,8 +200,10 @@ def check_count(value: Any, name: str, lo: int = 1, hi: int | None = None) -> in
     return int(value)
 
 
-def ranged(lo: float | None, hi: float | None, unit: str, reason: str = "", **kw: bool) -> Any:
-    """A strict real field checked to lie in the interval (see :func:`in_range`)."""
+def ranged(lo: float | None, hi: float | None, unit: str, reason: str = "", **kw: bool) -> object:
+    """A strict real field checked to lie in the interval (see :func:`in_range`): the type
+    ``Annotated[float, ...]``, for a pydantic field's annotation (returned as ``object``: a type form is no class,
+    and Python's typing has no annotation for one)."""
     return Annotated[float, BeforeValidator(_real), Strict(), AfterValidator(in_range(lo, hi, unit, reason, **kw))]
 
 
@@ -262,7 +264,7 @@ def parse_numbers(text: str, name: str, count: int | None = None) -> np.ndarray:
     return vals
 
 
-def show_numbers(value: Any, limit: int = 8) -> str:
+def show_numbers(value: object, limit: int = 8) -> str:
     """Numbers for a message: ``[0, 1e+200, -0.5]`` (``%g``, at most ``limit`` of them; not an array's repr);
     anything else as :func:`show` shows it."""
     try:
@@ -280,7 +282,7 @@ def _named_error(name: str, text: str) -> ValueError:
     return ValueError(f"{name}{text}")
 
 
-def check_real(value: Any, name: str, lo: float | None, hi: float | None, unit: str, reason: str = "", *,
+def check_real(value: object, name: str, lo: float | None, hi: float | None, unit: str, reason: str = "", *,
                lo_open: bool = False, hi_open: bool = False) -> float:
     """The safe-range rule for a scalar: ``value`` (a real number, not a bool or a string) as a finite float in
     the interval (:func:`in_range`'s words, with ``unit`` and the ``reason`` of the range), ``-0.0`` as ``0.0``.
@@ -303,7 +305,7 @@ def check_real(value: Any, name: str, lo: float | None, hi: float | None, unit: 
     return x + 0.0
 
 
-def finite_real(value: Any) -> float | None:
+def finite_real(value: object) -> float | None:
     """``value`` as a finite float by :func:`check_real`'s rule (a real number, not a bool, not NaN or infinite,
     not an integer too large for a float), ``-0.0`` as ``0.0``; None for anything else. For input that is
     answered without an exception (a web request's field, a record read back), whose caller words the refusal."""

@@ -8,7 +8,6 @@ import hashlib
 import json
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from scipy.optimize import linprog, lsq_linear
@@ -21,7 +20,7 @@ from ..loads import Loads
 from ..results import StaticSolution
 from ..robot import Robot
 from ..runtime import cache_dir, read_arrays, write_arrays
-from ..statics import Model, equilibrium_jacobians, solve, solve_batch
+from ..statics import Model, ModelOptions, equilibrium_jacobians, solve, solve_batch
 
 __all__ = ["NEAREST", "POOL_SAMPLES", "Point", "Pool", "Search", "Target", "cache_dir", "choose_step", "is_optimal",
            "objective_value",
@@ -62,7 +61,7 @@ class Point:
 class Target:
     """The target, the optional direction, and how equilibria are evaluated against them."""
 
-    def __init__(self, robot: Robot, loads: Loads, m: Model, opts: Any, target: np.ndarray,
+    def __init__(self, robot: Robot, loads: Loads, m: Model, opts: ModelOptions, target: np.ndarray,
                  direction: np.ndarray | None, budget: int) -> None:
         self.robot, self.loads, self.m, self.opts = robot, loads, m, opts
         self.target, self.direction, self.scale = target, direction, robot.length

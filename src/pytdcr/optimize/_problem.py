@@ -3,15 +3,16 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
 from ..bounds import TensionBounds
 from ..loads import Loads
+from ..records import JsonDict
 from ..results import BatchSolution, StaticSolution
 from ..robot import Robot
-from ..statics import TIGHT_ATOL, Model, configure, resolve
+from ..statics import TIGHT_ATOL, Model, ModelOptions, configure, resolve
 from ..validate import SettingsError, unit_vector
 
 __all__ = ["INFEASIBLE_COST", "Evaluated", "ReachProblem"]
@@ -63,14 +64,15 @@ class ReachProblem:
     loads: Loads
     bounds: TensionBounds
     model: Model
-    options: Any
+    options: ModelOptions
     direction: np.ndarray | None = None
     stable_only: bool = False
     anchor: StaticSolution | None = None
 
     @classmethod
     def create(cls, robot: Robot, loads: Loads, bounds: TensionBounds, *, model: str | Model = "pcc",
-               options: Any = None, direction: np.ndarray | None = None, stable_only: bool = False) -> ReachProblem:
+               options: ModelOptions | None = None, direction: np.ndarray | None = None,
+               stable_only: bool = False) -> ReachProblem:
         """Check the inputs and resolve the model; ``direction`` is normalised (:func:`pytdcr.validate.unit_vector`;
         ValueError if zero, not finite or subnormal)."""
         if not isinstance(bounds, TensionBounds):
@@ -182,7 +184,7 @@ class ReachProblem:
         if reach > self.robot.length * (1.0 + 1e-12):
             raise RuntimeError(f"reach {reach} m exceeds the backbone length {self.robot.length} m")
 
-    def describe(self) -> dict[str, Any]:
+    def describe(self) -> JsonDict:
         """JSON-ready settings of the problem."""
         return {"model": self.model.name, "bounds": self.bounds.to_dict(),
                 "objective": "reach" if self.direction is None else "direction",

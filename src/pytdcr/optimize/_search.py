@@ -31,6 +31,7 @@ from scipy.optimize import minimize as sp_minimize
 from scipy.spatial import cKDTree
 
 from ..limits import check_memory
+from ..records import JsonDict
 from ..runtime import default_threads, single_threaded_blas, worker_pool
 from ..statics import TIGHT_ATOL, check_resources
 from ._problem import INFEASIBLE_COST, ReachProblem
@@ -42,7 +43,7 @@ __all__ = ["MemeticGA", "Termination", "maximize_reach", "polish_reach"]
 _DISTINCT = 0.05
 
 
-def _check_int(name: str, value: Any, lowest: int) -> None:
+def _check_int(name: str, value: object, lowest: int) -> None:
     if isinstance(value, bool) or int(value) != value or value < lowest:
         raise ValueError(f"{name} = {value!r}: must be an integer >= {lowest}")
 
@@ -116,7 +117,7 @@ class MemeticGA:
         _check_int("ls_starts", self.ls_starts, 1)
         _check_int("n_polish", self.n_polish, 1)
 
-    def describe(self) -> dict[str, Any]:
+    def describe(self) -> JsonDict:
         """JSON-ready settings."""
         d = asdict(self)
         d["extra_starts"] = [np.asarray(x).tolist() for x in self.extra_starts]
@@ -215,7 +216,7 @@ class _Evaluator(Problem):
         self.archive_T: list[np.ndarray] = []
         self.archive_q: list[np.ndarray] = []
 
-    def _evaluate(self, x: np.ndarray, out: dict, *args: Any, **kwargs: Any) -> None:
+    def _evaluate(self, x: np.ndarray, out: dict, *args: object, **kwargs: object) -> None:
         T = self.reach.full(x)
         q0 = None
         if self.warm_start and self.archive_T:

@@ -17,10 +17,11 @@ import os
 import stat
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any
+from typing import overload
 
 import numpy as np
 
+from ..records import JsonDict
 from ..validate import show_path
 
 __all__ = ["FileRefused", "atomic_write", "atomic_write_text", "dump_json", "to_jsonable", "writable_file",
@@ -106,8 +107,15 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     return atomic_write(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
 
 
-def to_jsonable(obj: Any) -> Any:
-    """Convert NumPy values inside ``obj`` to JSON-ready Python values (non-finite floats become None)."""
+@overload
+def to_jsonable(obj: dict[str, object]) -> JsonDict: ...
+@overload
+def to_jsonable(obj: object) -> object: ...
+
+
+def to_jsonable(obj: object) -> object:
+    """Convert NumPy values inside ``obj`` (any value: its type is checked) to JSON-ready Python values
+    (non-finite floats become None); a dict becomes a dict with string keys."""
     if isinstance(obj, dict):
         return {str(k): to_jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
@@ -124,17 +132,17 @@ def to_jsonable(obj: Any) -> Any:
     return obj
 
 
-def dump_json(obj: Any, indent: int | None = None) -> str:
+def dump_json(obj: object, indent: int | None = None) -> str:
     """Strict JSON text of ``obj`` (non-finite numbers become null)."""
     return json.dumps(to_jsonable(obj), indent=indent, allow_nan=False)
 
 
-def write_json(path: str | Path, data: Any) -> Path:
+def write_json(path: str | Path, data: object) -> Path:
     """Strict JSON (non-finite numbers become null), indented, written atomically."""
     return atomic_write_text(path, dump_json(data, indent=2))
 
 
-def write_csv(path: str | Path, header: list[str], rows: Iterable[Iterable[Any]]) -> Path:
+def write_csv(path: str | Path, header: list[str], rows: Iterable[Iterable[object]]) -> Path:
     """A CSV file with a header row, written atomically."""
     buf = io.StringIO()
     w = csv.writer(buf)

@@ -41,9 +41,9 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 from .._version import __version__
+from ..records import JsonDict, JsonObject
 from ..validate import escape_controls, show, show_path
 from ._cancel import mark_saving
 from ._files import atomic_write_text, to_jsonable
@@ -140,7 +140,7 @@ class _Lock:
         os.close(self.fd)
 
 
-def _holder(fd: int) -> dict[str, Any]:
+def _holder(fd: int) -> JsonObject:
     try:
         raw = os.pread(fd, 4096, 0)
         rec = json.loads(raw.decode("utf-8"))
@@ -149,7 +149,7 @@ def _holder(fd: int) -> dict[str, Any]:
         return {}
 
 
-def _in_use(path: Path, rec: dict[str, Any]) -> FolderError:
+def _in_use(path: Path, rec: JsonObject) -> FolderError:
     who = show(str(rec.get("command", "another run")))[1:-1]
     pid = rec["pid"] if isinstance(rec.get("pid"), int) else "?"  # the record is read back: shown, never trusted
     started = show(str(rec.get("started", "?")), 40)[1:-1]
@@ -243,7 +243,7 @@ def check_output_folder(path: str | Path) -> None:
         os.close(fd)
 
 
-def _read_manifest(path: Path) -> dict[str, Any] | None:
+def _read_manifest(path: Path) -> JsonObject | None:
     """The folder's manifest if it is a tdcr run's, else None: a regular file (never a link, a FIFO or a
     device; at most :data:`~pytdcr.runtime._readback.MAX_JSON_BYTES`) holding a JSON object whose ``command``,
     ``status`` and ``pytdcr`` are strings, whose ``files`` (and ``owned``, when there) are lists of relative
@@ -259,7 +259,7 @@ def _read_manifest(path: Path) -> dict[str, Any] | None:
     return data
 
 
-def _names(value: Any) -> bool:
+def _names(value: object) -> bool:
     """``value`` is a list of relative paths (strings, no absolute path, no ``..``)."""
     return isinstance(value, list) and all(
         isinstance(f, str) and f and not f.startswith("/") and ".." not in f.split("/") for f in value)
@@ -304,7 +304,7 @@ def _foreign(path: Path) -> list[str]:
     return out
 
 
-def _live_lock(folder: Path) -> dict[str, Any] | None:
+def _live_lock(folder: Path) -> JsonObject | None:
     """The lock record of the live run writing ``folder``, or None (no lock, or its process is gone)."""
     try:
         fd = os.open(_lock_path(folder), _PEEK_FLAGS)
@@ -370,7 +370,7 @@ class OutputRun:
 
     path: Path
     staging: Path
-    manifest: dict[str, Any]
+    manifest: JsonDict
     saved: list[str] = field(default_factory=list)
     interrupted_note: str = ""
 
@@ -409,7 +409,7 @@ def _finish(run: OutputRun, status: str) -> Path:
 
 
 @contextmanager
-def output_folder(path: str | Path, command: str, inputs: dict[str, Any] | None = None) -> Iterator[OutputRun]:
+def output_folder(path: str | Path, command: str, inputs: JsonDict | None = None) -> Iterator[OutputRun]:
     """Run a command into ``path`` under the rule above; yields an :class:`OutputRun` to write into.
 
     On KeyboardInterrupt the run is saved with status ``interrupted`` if it wrote any file (``run.saved`` and
@@ -452,7 +452,7 @@ class StudyChanged(FolderError):
 
 
 @contextmanager
-def resumable_folder(path: str | Path, command: str, inputs: dict[str, Any], digest: str,
+def resumable_folder(path: str | Path, command: str, inputs: JsonDict, digest: str,
                      restart: bool = False, layout: tuple[str, ...] = ()) -> Iterator[OutputRun]:
     """The one exception to the rule above (``tdcr designs``): a folder whose run stopped is resumed in place.
 

@@ -24,7 +24,6 @@ import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
-from typing import Any
 
 __all__ = ["LIFELINE_POLL_S", "PARENT_GONE_EXIT", "hold_lifeline", "process_pool"]
 
@@ -82,15 +81,15 @@ def hold_lifeline(parent_pid: int, poll_s: float = LIFELINE_POLL_S) -> None:
     threading.Thread(target=watch, name="pytdcr-lifeline", daemon=True).start()
 
 
-def _start_worker(parent_pid: int, initializer: Callable[..., Any] | None, initargs: tuple[Any, ...]) -> None:
+def _start_worker(parent_pid: int, initializer: Callable[..., object] | None, initargs: tuple[object, ...]) -> None:
     """The initializer of every pool :func:`process_pool` makes: the lifeline, then the caller's initializer."""
     hold_lifeline(parent_pid)
     if initializer is not None:
         initializer(*initargs)
 
 
-def process_pool(max_workers: int, initializer: Callable[..., Any] | None = None,
-                 initargs: tuple[Any, ...] = ()) -> ProcessPoolExecutor:
+def process_pool(max_workers: int, initializer: Callable[..., object] | None = None,
+                 initargs: tuple[object, ...] = ()) -> ProcessPoolExecutor:
     """A pool of worker processes that end with this process (:func:`hold_lifeline`), however it ends.
 
     The workers are spawned (a clean interpreter each, whatever this process holds). Shut the pool down as

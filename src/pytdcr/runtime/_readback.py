@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from ..records import JsonObject
 from ..validate import SettingsError, check_real, is_integer, show, show_path
 
 __all__ = ["MAX_JSON_BYTES", "MAX_RUN_FILE_BYTES", "RunDoc", "RunFolder", "npz_arrays", "read_fd", "regular_file_bytes"]
@@ -250,15 +251,15 @@ class RunDoc:
     """A JSON object read back from a run's folder: its fields read strictly by their path (``"inputs.loads.
     release"``, ``"inputs.loads.point_loads[0].disk"``), each refusal naming the folder, the file and the field."""
 
-    def __init__(self, run: RunFolder, file: str, data: dict[str, Any]) -> None:
+    def __init__(self, run: RunFolder, file: str, data: JsonObject) -> None:
         self.run, self.file, self.data = run, file, data
 
-    def refuse(self, path: str, text: str, value: Any = _MISSING) -> SettingsError:
+    def refuse(self, path: str, text: str, value: object = _MISSING) -> SettingsError:
         """A refusal of the field ``path``: ``FILE: PATH = VALUE: text`` (``FILE: PATH: text`` without a value)."""
         shown = "" if value is _MISSING else f" = {show(value)}"
         return self.run.refuse(f"{self.file}: {path}{shown}: {text}")
 
-    def get(self, path: str, default: Any = _MISSING) -> Any:
+    def get(self, path: str, default: object = _MISSING) -> object:
         """The raw value at ``path``; ``default`` (when given) where it is missing, else refused as missing."""
         node: Any = self.data
         for step in _steps(path):
@@ -326,14 +327,14 @@ class RunDoc:
             raise self.refuse(path, f"must be a list of {size}finite numbers{within}", v) from None
         return np.array(v, dtype=float)
 
-    def read_list(self, path: str, most: int | None = None) -> list[Any]:
+    def read_list(self, path: str, most: int | None = None) -> list[object]:
         """A JSON list (of at most ``most`` items)."""
         v = self.get(path)
         if not isinstance(v, list) or (most is not None and len(v) > most):
             raise self.refuse(path, f"must be a list{'' if most is None else f' of at most {most} items'}", v)
         return v
 
-    def read_dict(self, path: str) -> dict[str, Any]:
+    def read_dict(self, path: str) -> JsonObject:
         """A JSON object."""
         v = self.get(path)
         if not isinstance(v, dict):

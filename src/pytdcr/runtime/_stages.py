@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 __all__ = ["duration", "end_stage"]
 
 
-def end_stage(step: Any) -> None:
+def end_stage(step: object) -> None:
     """End a stage whose progress callback is ``step`` (what ``progress(stage, total, ...)`` returned): calls
     ``step.close()`` where the callback has one (a display then shows the stage whole, at the work done, which
     may be less than its cap), and nothing otherwise or for ``None``."""

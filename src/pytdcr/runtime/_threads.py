@@ -16,7 +16,7 @@ from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
 from functools import cache
-from typing import Any
+from typing import Any, ParamSpec, TypeVar
 
 from threadpoolctl import ThreadpoolController
 
@@ -25,11 +25,15 @@ from ._cancel import cancellable, check_cancelled
 __all__ = ["MAX_CHUNK", "default_threads", "run_in_chunks", "single_threaded_blas", "submit_in_context",
            "worker_pool"]
 
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+
 #: the largest chunk of cases run between two checks for cancellation
 MAX_CHUNK = 16
 
 
-def submit_in_context(pool: ThreadPoolExecutor, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Future:
+def submit_in_context(pool: ThreadPoolExecutor, fn: Callable[_P, _R], *args: _P.args,
+                      **kwargs: _P.kwargs) -> Future[_R]:
     """``pool.submit(fn, *args, **kwargs)`` run in a copy of this thread's context (so it sees the cancellation
     scope)."""
     return pool.submit(contextvars.copy_context().run, fn, *args, **kwargs)
@@ -47,7 +51,7 @@ def worker_pool(max_workers: int) -> Iterator[Callable[..., Future]]:
         pool = ThreadPoolExecutor(max_workers=max(1, int(max_workers)))
         futures: list[Future] = []
 
-        def submit(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Future:
+        def submit(fn: Callable[_P, _R], *args: _P.args, **kwargs: _P.kwargs) -> Future[_R]:
             fut = submit_in_context(pool, fn, *args, **kwargs)
             futures.append(fut)
             return fut

@@ -9,7 +9,7 @@ from ..runtime import Cancelled, CancelScope, cancellable, check_cancelled, mark
 from .base import Capabilities, Model, UnsupportedFeatureError
 from .cosserat import CosseratModel, CosseratShooting
 from .equilibrium import solve, solve_batch, tip_gradient, warmup
-from .options import DEFAULT_ATOL, TIGHT_ATOL, CosseratOptions, SolvePath, SolverOptions, SSCROptions
+from .options import DEFAULT_ATOL, TIGHT_ATOL, CosseratOptions, ModelOptions, SolvePath, SolverOptions, SSCROptions
 from .pcc import PCCEquations, PCCModel
 from .pcc2 import PCC2Model
 from .registry import MODELS, check_resources, configure, get_model, get_models, options_record, resolve
@@ -17,8 +17,8 @@ from .sensitivity import Jacobians, TipCompliance, equilibrium_jacobians, tip_co
 from .sscr import SSCREquations, SSCRModel
 from .stability import STABILITY_TESTS, feasible_words, stability_counts, stability_test, stability_words
 
-__all__ = ["DEFAULT_ATOL", "MODELS", "STABILITY_TESTS", "TIGHT_ATOL", "CancelScope", "Cancelled",
-           "Capabilities", "CosseratModel", "CosseratOptions", "CosseratShooting", "Jacobians", "Model", "PCC2Model",
+__all__ = ["DEFAULT_ATOL", "MODELS", "STABILITY_TESTS", "TIGHT_ATOL", "CancelScope", "Cancelled", "Capabilities",
+           "CosseratModel", "CosseratOptions", "CosseratShooting", "Jacobians", "Model", "ModelOptions", "PCC2Model",
            "PCCEquations", "PCCModel", "SSCREquations", "SSCRModel", "SSCROptions", "SolvePath", "SolverOptions",
            "TipCompliance", "UnsupportedFeatureError", "cancellable", "check_cancelled", "check_resources",
            "configure", "equilibrium_jacobians", "feasible_words", "get_model", "get_models", "mark_saving",

@@ -10,7 +10,7 @@ the feature.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Literal, Protocol, runtime_checkable
 
 if TYPE_CHECKING:
     import numpy as np
@@ -19,6 +19,7 @@ if TYPE_CHECKING:
     from ..loads import Loads
     from ..results import BatchSolution, StaticSolution
     from ..robot import Robot
+    from .options import ModelOptions
 
 __all__ = ["Capabilities", "Model", "UnsupportedFeatureError"]
 
@@ -100,28 +101,28 @@ class Model(Protocol):
     unknowns: str
     iteration_unit: str
 
-    def default_options(self) -> Any:
+    def default_options(self) -> ModelOptions:
         """An ``options_type`` with the model's defaults."""
 
-    def solve(self, robot: Robot, loads: Loads, q0: np.ndarray | None, options: Any) -> StaticSolution:
+    def solve(self, robot: Robot, loads: Loads, q0: np.ndarray | None, options: ModelOptions) -> StaticSolution:
         """One equilibrium (inputs already checked by the registry)."""
 
-    def solve_batch(self, robot: Robot, tensions: np.ndarray, loads: Loads, q0: np.ndarray | None, options: Any,
-                    threads: int | None = None) -> BatchSolution:
+    def solve_batch(self, robot: Robot, tensions: np.ndarray, loads: Loads, q0: np.ndarray | None,
+                    options: ModelOptions, threads: int | None = None) -> BatchSolution:
         """One equilibrium per row of ``tensions`` (B, n_tendons) [N] under ``loads``' external wrenches."""
 
-    def equilibrium_residual(self, robot: Robot, loads: Loads, q: np.ndarray, options: Any) -> float:
+    def equilibrium_residual(self, robot: Robot, loads: Loads, q: np.ndarray, options: ModelOptions) -> float:
         """max |residual| [N m] of the model's equations for ``robot`` under ``loads`` at the unknowns ``q``
         (ValueError when ``q`` has another shape than this robot's unknowns)."""
 
     def tip_gradient(self, robot: Robot, loads: Loads, solution: StaticSolution,
-                     options: Any) -> tuple[np.ndarray, np.ndarray]:
+                     options: ModelOptions) -> tuple[np.ndarray, np.ndarray]:
         """Tip (3,) [m] of a converged equilibrium and its derivative by the tensions (3, n_tendons) [m/N]."""
 
-    def tip_gradients(self, robot: Robot, tensions: np.ndarray, loads: Loads, q: np.ndarray, options: Any,
+    def tip_gradients(self, robot: Robot, tensions: np.ndarray, loads: Loads, q: np.ndarray, options: ModelOptions,
                       threads: int | None = None) -> np.ndarray:
         """:meth:`tip_gradient` at many equilibria ``q`` (B, ...) at ``tensions`` (B, n_tendons) [N]: shape
         (B, 3, n_tendons) [m/N], NaN rows where ``q[b]`` is not finite."""
 
-    def resources(self, robot: Robot, options: Any) -> Resources:
+    def resources(self, robot: Robot, options: ModelOptions) -> Resources:
         """The peak memory and rough time of one solve, for the memory budget (:mod:`pytdcr.limits`)."""

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
-from typing import Any, NamedTuple, Protocol
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, TypeVar
 
 import numpy as np
 
@@ -34,8 +34,15 @@ from .options import (
 from .stability import Stability, conjugate_stiffness, stability_from_eigenvalues, stability_of
 from .tolerance import tolerances
 
+if TYPE_CHECKING:
+    from types import ModuleType
+
+    from .base import Capabilities
+
 __all__ = ["CompiledModel", "Equations", "Evaluation", "PackedEquations", "kernel_settings"]
 
+#: a packed equation set's own class (what :meth:`PackedEquations.with_tensions` returns)
+_P = TypeVar("_P", bound="PackedEquations")
 
 
 class Evaluation(NamedTuple):
@@ -88,7 +95,7 @@ class PackedEquations:
         """The unknowns, ``per_subsegment`` * N."""
         return self.per_subsegment * self.n_disks
 
-    def with_tensions(self, tensions: np.ndarray) -> Any:
+    def with_tensions(self: _P, tensions: np.ndarray) -> _P:
         """The same equations with other actuator tensions [N], shape (n_tendons,)."""
         return replace(self, packed=self.packed._replace(tension=np.asarray(tensions, dtype=float)))
 
@@ -232,13 +239,13 @@ class CompiledModel:
     """
 
     #: the kernel module of :mod:`pytdcr.statics.kernels` that evaluates this model's packed equations
-    kernels: Any
+    kernels: ModuleType
     #: the named-tuple type of the packed equations (the solver dispatches on it when compiling)
     packed_type: type
     name: str
     description: str
     options_type: type
-    capabilities: Any
+    capabilities: Capabilities
     unknowns: str
     iteration_unit = "Newton iterations"
     #: unknowns per disk
@@ -256,21 +263,21 @@ class CompiledModel:
         """Working memory besides the dense matrices [8-byte words]."""
         return robot.n_disks * (300.0 + 60.0 * robot.n_tendons)
 
-    def resources(self, robot: Robot, options: Any) -> Resources:
+    def resources(self, robot: Robot, options: SolverOptions) -> Resources:
         """Peak memory and rough time of one solve (:class:`pytdcr.limits.Resources`)."""
         nq = self.unknowns_per_disk * robot.n_disks
         words = self.peak_matrices * float(nq) ** 2 + self.extra_words(robot, nq)
         return Resources(8.0 * words, self.seconds_per_cubed_unknown * float(nq) ** 3, nq)
 
-    def default_options(self) -> Any:
+    def default_options(self) -> SolverOptions:
         """Default options."""
         return self.options_type()
 
-    def equations(self, robot: Robot, loads: Loads, options: Any) -> Equations:  # pragma: no cover - abstract
+    def equations(self, robot: Robot, loads: Loads, options: SolverOptions) -> Equations:  # pragma: no cover - abstract
         """The packed equations of ``robot`` under ``loads``."""
         raise NotImplementedError
 
-    def solve(self, robot: Robot, loads: Loads, q0: np.ndarray | None, options: Any) -> StaticSolution:
+    def solve(self, robot: Robot, loads: Loads, q0: np.ndarray | None, options: SolverOptions) -> StaticSolution:
         """One equilibrium; see :func:`pytdcr.solve`."""
         check_cancelled()
         eq = self.equations(robot, loads, options)
@@ -281,7 +288,7 @@ class CompiledModel:
         out = _solve_rows(eq, Q0, T, kernel_settings(options, q0 is not None), tols, 1)
         return self._single(robot, eq, out, time.perf_counter() - t0, float(tols[0, 0]))
 
-    def solve_from(self, robot: Robot, loads: Loads, start: StaticSolution, options: Any) -> StaticSolution:
+    def solve_from(self, robot: Robot, loads: Loads, start: StaticSolution, options: SolverOptions) -> StaticSolution:
         """Continue the equilibrium ``start`` (checked by the caller: of this model and robot, under
         ``start.loads``) along its branch to ``loads``; see :func:`pytdcr.solve`."""
         check_cancelled()
@@ -327,7 +334,7 @@ class CompiledModel:
                               _stability_fn=lambda: self.stability_at(eq, q), loads=eq.loads)
 
     def solve_batch(self, robot: Robot, tensions: np.ndarray, loads: Loads, q0: np.ndarray | None,
-                    options: Any, threads: int | None = None) -> BatchSolution:
+                    options: SolverOptions, threads: int | None = None) -> BatchSolution:
         """Every row of ``tensions`` (B, n_tendons) [N], on ``threads`` threads (default: all cores)."""
         eq = self.equations(robot, loads.with_tensions(np.zeros(robot.n_tendons)), options)
         Q0 = _start_points(eq, q0, tensions.shape[0])
@@ -338,7 +345,7 @@ class CompiledModel:
         return self._batch(robot, eq, tensions, out, (time.perf_counter() - t0, tols, threads))
 
     def solve_batch_from(self, robot: Robot, tensions: np.ndarray, loads: Loads, start: BatchSolution,
-                         options: Any, threads: int | None = None) -> BatchSolution:
+                         options: SolverOptions, threads: int | None = None) -> BatchSolution:
         """Continue row b of ``start`` (checked by the caller: this model and robot, the same rows) along its
         branch to the tensions ``tensions[b]`` (B, n_tendons) [N] under ``loads``' external wrenches. Rows whose
         start did not converge are not solved (path ``"no start"``)."""
@@ -360,7 +367,7 @@ class CompiledModel:
             full[rows] = got
         return self._batch(robot, eq, tensions, out, (time.perf_counter() - t0, tols, threads))
 
-    def _chunk(self, robot: Robot, options: Any) -> int:
+    def _chunk(self, robot: Robot, options: SolverOptions) -> int:
         """Cases per chunk of a batch: about :data:`CHUNK_SECONDS` of work by the time estimate."""
         per_solve = self.resources(robot, options).seconds
         return max(1, min(MAX_CHUNK, int(CHUNK_SECONDS / max(per_solve, 1e-9))))
@@ -405,13 +412,13 @@ class CompiledModel:
                              path=paths, model=self.name, _stability_fn=stabilities, disk_positions=pos,
                              disk_rotations=rot, atol=tols[:, 0].copy(), loads=eq.loads)
 
-    def equilibrium_residual(self, robot: Robot, loads: Loads, q: np.ndarray, options: Any) -> float:
+    def equilibrium_residual(self, robot: Robot, loads: Loads, q: np.ndarray, options: SolverOptions) -> float:
         """max |residual| [N m] of ``robot`` under ``loads`` at the unknowns ``q`` (ValueError for a wrong shape)."""
         eq = self.equations(robot, loads, options)
         return float(np.max(np.abs(eq.evaluate(eq.check_q(q)).residual)))
 
     def tip_gradient(self, robot: Robot, loads: Loads, solution: StaticSolution,
-                     options: Any) -> tuple[np.ndarray, np.ndarray]:
+                     options: SolverOptions) -> tuple[np.ndarray, np.ndarray]:
         """Tip position (3,) [m] of an equilibrium and its exact derivative by the tensions (3, n_tendons) [m/N].
 
         Implicit function theorem: ``dq/dT = -J^-1 dr/dT``; the residual is
@@ -421,7 +428,7 @@ class CompiledModel:
         eq = self.equations(robot, loads, options)
         return solution.tip_position, _tip_derivative(eq, eq.check_q(solution.q))
 
-    def tip_gradients(self, robot: Robot, tensions: np.ndarray, loads: Loads, q: np.ndarray, options: Any,
+    def tip_gradients(self, robot: Robot, tensions: np.ndarray, loads: Loads, q: np.ndarray, options: SolverOptions,
                       threads: int | None = None) -> np.ndarray:
         """Derivatives of the tip by the tensions at many equilibria, shape (B, 3, n_tendons) [m/N].
 

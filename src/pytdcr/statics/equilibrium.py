@@ -7,7 +7,6 @@ which checks the request against the model's capabilities before any work.
 from __future__ import annotations
 
 import time
-from typing import Any
 
 import numpy as np
 
@@ -16,14 +15,14 @@ from ..results import BatchSolution, StaticSolution
 from ..robot import Robot
 from ..runtime import default_threads
 from .base import Model
-from .options import SAME_EQUILIBRIUM
+from .options import SAME_EQUILIBRIUM, ModelOptions
 from .registry import MODELS, check_resources, resolve
 
 __all__ = ["SAME_EQUILIBRIUM", "check_solution", "check_start", "solve", "solve_batch", "tip_gradient", "warmup"]
 
 
 def solve(robot: Robot, loads: Loads, *, model: str | Model = "pcc", q0: np.ndarray | None = None,
-          options: Any = None, start: StaticSolution | None = None) -> StaticSolution:
+          options: ModelOptions | None = None, start: StaticSolution | None = None) -> StaticSolution:
     """Static equilibrium of ``robot`` under ``loads``.
 
     Parameters
@@ -76,7 +75,7 @@ def solve(robot: Robot, loads: Loads, *, model: str | Model = "pcc", q0: np.ndar
     return m.solve_from(robot, loads, start, opts)
 
 
-def check_start(model: Model, robot: Robot, loads: Loads, start: StaticSolution, options: Any) -> None:
+def check_start(model: Model, robot: Robot, loads: Loads, start: StaticSolution, options: ModelOptions) -> None:
     """Refuse a ``start`` that cannot be continued to ``loads``: not a converged equilibrium of ``model`` for
     ``robot`` under its own loads (:func:`check_solution`), or with the other friction direction."""
     if not isinstance(start, StaticSolution):
@@ -91,7 +90,7 @@ def check_start(model: Model, robot: Robot, loads: Loads, start: StaticSolution,
 
 
 def solve_batch(robot: Robot, tensions: np.ndarray, loads: Loads | None = None, *, model: str | Model = "pcc",
-                q0: np.ndarray | None = None, options: Any = None, threads: int | None = None,
+                q0: np.ndarray | None = None, options: ModelOptions | None = None, threads: int | None = None,
                 start: BatchSolution | None = None) -> BatchSolution:
     """Solve every row of ``tensions`` (B, n_tendons) [N], on all cores.
 
@@ -154,7 +153,7 @@ def _check_batch_start(model: Model, robot: Robot, loads: Loads, tensions: np.nd
 
 
 def tip_gradient(robot: Robot, loads: Loads, solution: StaticSolution, *, model: str | Model = "pcc",
-                 options: Any = None) -> tuple[np.ndarray, np.ndarray]:
+                 options: ModelOptions | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The tip of a converged equilibrium and its derivative by the actuator tensions.
 
     Returns
@@ -171,7 +170,7 @@ def tip_gradient(robot: Robot, loads: Loads, solution: StaticSolution, *, model:
 
 
 
-def check_solution(model: Model, robot: Robot, loads: Loads, solution: StaticSolution, options: Any,
+def check_solution(model: Model, robot: Robot, loads: Loads, solution: StaticSolution, options: ModelOptions,
                    name: str = "solution") -> None:
     """Refuse a solution that is not an equilibrium of ``model`` for ``robot`` under ``loads``.
 

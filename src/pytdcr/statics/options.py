@@ -22,7 +22,7 @@ from ..validate import check_count, check_real, show_number
 __all__ = ["DEFAULT_ATOL", "FOLDS", "FOLD_ARCLENGTH", "FOLD_RELAX", "FOLD_STOP", "LOAD_STEPPING", "MAX_ATOL",
            "MIN_ATOL", "MIN_STEP_SCALE", "PATH_CONTINUED", "PATH_DIRECT", "PATH_FALLBACK", "PATH_FOLD",
            "PATH_LOADING", "PATH_SNAP", "SAME_EQUILIBRIUM", "STEP_CONTINUE", "TIGHT_ATOL",
-           "CosseratOptions", "SSCROptions", "SolvePath", "SolverOptions", "check_common_options"]
+           "CosseratOptions", "ModelOptions", "SSCROptions", "SolvePath", "SolverOptions", "check_common_options"]
 
 
 class SolvePath(StrEnum):
@@ -270,3 +270,8 @@ class CosseratOptions:
         object.__setattr__(self, "max_eval", check_count(self.max_eval, "max_eval", 4, MAX_EVALUATIONS))
         object.__setattr__(self, "steps_per_subsegment",
                            check_count(self.steps_per_subsegment, "steps_per_subsegment", 1, 1000))
+
+
+#: the options of any registered model: what ``solve``, ``solve_batch``, the registry and the searches take as
+#: ``options`` (each model takes its own class: :attr:`pytdcr.statics.Model.options_type`)
+ModelOptions = SolverOptions | CosseratOptions | SSCROptions

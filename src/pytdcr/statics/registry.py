@@ -13,15 +13,16 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Sequence
-from typing import Any
 
 from ..limits import Resources, check_memory, human_seconds
 from ..loads import Loads
+from ..records import JsonDict
 from ..robot import Robot
 from ..validate import SettingsError
 from .base import Model, UnsupportedFeatureError
 from .cosserat import COSSERAT
 from .kernels.loading_path import register_kernels
+from .options import ModelOptions
 from .pcc import PCC
 from .pcc2 import PCC2
 from .sscr import SSCR
@@ -83,7 +84,7 @@ def get_models(models: Sequence[str | Model], field: str = "models") -> tuple[Mo
     return tuple(get_model(m) for m in models)
 
 
-def configure(model: str | Model, options: Any = None, **overrides: Any) -> Any:
+def configure(model: str | Model, options: ModelOptions | None = None, **overrides: object) -> ModelOptions:
     """``options`` (default: the model's defaults) with ``overrides`` applied.
 
     An override the model's options do not have is a feature the model does
@@ -101,8 +102,9 @@ def configure(model: str | Model, options: Any = None, **overrides: Any) -> Any:
     return dataclasses.replace(opts, **overrides) if overrides else opts
 
 
-def resolve(model: str | Model, robot: Robot, loads: Loads | None = None, options: Any = None, *,
-            gradient: bool = False, stability: bool = False, continuation: bool = False) -> tuple[Model, Any]:
+def resolve(model: str | Model, robot: Robot, loads: Loads | None = None, options: ModelOptions | None = None, *,
+            gradient: bool = False, stability: bool = False,
+            continuation: bool = False) -> tuple[Model, ModelOptions]:
     """Check a request against the model's capabilities; return the model and its options.
 
     Parameters
@@ -152,7 +154,7 @@ def resolve(model: str | Model, robot: Robot, loads: Loads | None = None, option
     return m, opts
 
 
-def check_resources(model: Model, robot: Robot, options: Any, concurrent: int = 1, extra_bytes: float = 0.0,
+def check_resources(model: Model, robot: Robot, options: ModelOptions, concurrent: int = 1, extra_bytes: float = 0.0,
                     what: str = "") -> Resources | None:
     """Refuse work on ``robot`` that needs more memory than the budget (:mod:`pytdcr.limits`).
 
@@ -171,7 +173,7 @@ def check_resources(model: Model, robot: Robot, options: Any, concurrent: int = 
     return res
 
 
-def options_record(model: str | Model, options: Any = None) -> dict[str, Any]:
+def options_record(model: str | Model, options: ModelOptions | None = None) -> JsonDict:
     """The model's name and its options (defaults filled in), JSON-ready."""
     m = get_model(model)
     return {"model": m.name, **dataclasses.asdict(configure(m, options))}

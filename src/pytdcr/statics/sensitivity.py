@@ -12,17 +12,23 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.linalg import lu_factor, lu_solve
 
 from ..loads import Loads
+from ..records import JsonDict
 from ..results import StaticSolution
 from ..robot import Robot
 from .base import Model
 from .equilibrium import check_solution
+from .options import ModelOptions
 from .registry import resolve
+
+if TYPE_CHECKING:
+    from .pcc import PCCEquations
+    from .sscr import SSCREquations
 
 __all__ = ["Jacobians", "TipCompliance", "equilibrium_jacobians", "tip_compliance"]
 
@@ -53,7 +59,7 @@ class Jacobians:
         """The tip's position and axis by T, shape (6, n_tendons): rows [m/N] then [1/N]."""
         return np.vstack([self.tip_position, self.tip_axis])
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """JSON-ready form (nested lists)."""
         return {"tip_position": self.tip_position.tolist(), "tip_rotation": self.tip_rotation.tolist(),
                 "tip_axis": self.tip_axis.tolist(), "disk_positions": self.disk_positions.tolist()}
@@ -94,7 +100,7 @@ class TipCompliance:
         soft, stiff = (1.0 / float(s) if s > 0.0 else math.inf for s in (sv[0], sv[-1]))  # a rigid direction: inf
         return soft, stiff, vt[0], vt[-1]
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """JSON-ready form: the compliance, its position block's stiffness (None where the tip cannot move in some
         direction: infinitely stiff there), and the softest and stiffest directions (:meth:`stiffness_range`;
         an infinite stiffness written as null)."""
@@ -108,8 +114,8 @@ class TipCompliance:
                 "stiffest_direction": stiff.tolist()}
 
 
-def _linearised(m: Model, robot: Robot, loads: Loads, solution: StaticSolution,
-                options: Any) -> tuple[Any, np.ndarray, Any, np.ndarray]:
+def _linearised(m: Model, robot: Robot, loads: Loads, solution: StaticSolution, options: ModelOptions
+                ) -> tuple[PCCEquations | SSCREquations, np.ndarray, tuple[np.ndarray, np.ndarray], np.ndarray]:
     """The equations, the unknowns, the LU factors of the Jacobian and every disk's pose Jacobian (N+1, 6, m)."""
     if m.capabilities.gradient != "exact" or not hasattr(m, "equations"):
         raise ValueError(f"model '{m.name}' has no exact pose derivatives: use pcc, pcc2 or sscr")
@@ -126,7 +132,7 @@ def _rotated_axes(rot_tip: np.ndarray, w: np.ndarray) -> np.ndarray:
 
 
 def equilibrium_jacobians(robot: Robot, loads: Loads, solution: StaticSolution, *, model: str | Model = "pcc",
-                          options: Any = None) -> Jacobians:
+                          options: ModelOptions | None = None) -> Jacobians:
     """Every disk's position and the tip's position, turn and axis by the actuator tensions at the converged
     ``solution`` of ``robot`` under ``loads`` (:class:`Jacobians`; exact, see the module).
 
@@ -149,7 +155,7 @@ def equilibrium_jacobians(robot: Robot, loads: Loads, solution: StaticSolution, 
 
 
 def tip_compliance(robot: Robot, loads: Loads, solution: StaticSolution, *, model: str | Model = "pcc",
-                   options: Any = None) -> TipCompliance:
+                   options: ModelOptions | None = None) -> TipCompliance:
     """The 6x6 compliance of the tip at the converged ``solution`` of ``robot`` under ``loads``, tensions held
     fixed (:class:`TipCompliance`; its ``stiffness`` is the inverse): the tip's displacement and turn per unit
     force and moment added at the tip, all in the base frame, linearised with the exact derivatives.

@@ -16,13 +16,14 @@ unstable here.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..results import Stability
 
 if TYPE_CHECKING:
+    from ..records import JsonObject
     from .base import Model
 
 __all__ = ["STABILITY_TESTS", "Stability", "conjugate_stiffness", "feasible_words", "stability_counts",
@@ -106,7 +107,7 @@ def feasible_words(test: str) -> str:
     return "converged, stable" if _tested(test) else "converged, stability untested"
 
 
-def stability_words(counts: dict[str, Any], test: str) -> str:
+def stability_words(counts: JsonObject, test: str) -> str:
     """The converged samples' stability in words, from a run's counts (``unstable`` and ``stability_untested``
     or ``untested``): "3 unstable" for a tested run (with the untested ones when there are any), "stability
     untested (N samples)" for a run whose model has no stability test."""

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -28,6 +28,9 @@ from ._solve import (
     solves_needed,
 )
 from ._volume import VolumeEstimate, estimate_volume
+
+if TYPE_CHECKING:
+    from ..statics.options import ModelOptions
 
 __all__ = ["VOXELS_PER_LENGTH", "WorkspaceRegion", "check_workspace", "planned_work", "search_budget",
            "workspace_region"]
@@ -103,7 +106,7 @@ def _search(solver: _Solver, samples: RegionSamples, bounds: TensionBounds, voxe
     return samples, BoundarySearch(tuple(rounds), spent, stop, growth.tol, growth.budget)
 
 
-def _sampling(m: Model, bounds: TensionBounds, s: WorkspaceSettings) -> tuple[TensionPlan, str, Any]:
+def _sampling(m: Model, bounds: TensionBounds, s: WorkspaceSettings) -> tuple[TensionPlan, str, WarmStarts | bool]:
     """The sampling of a workspace study: its plan, which equilibria it holds and its warm starts (False: none)."""
     plan = plan_tensions(bounds, s.n, seed=s.seed)
     kind = equilibria_for(m, s.equilibria)
@@ -111,7 +114,8 @@ def _sampling(m: Model, bounds: TensionBounds, s: WorkspaceSettings) -> tuple[Te
 
 
 def check_workspace(robot: Robot, loads: Loads, settings: WorkspaceSettings | None = None, *,
-                    model: str | Model = "pcc", options: Any = None) -> tuple[Model, Any, WorkspaceSettings]:
+                    model: str | Model = "pcc",
+                    options: ModelOptions | None = None) -> tuple[Model, ModelOptions, WorkspaceSettings]:
     """Every capability a workspace study of these inputs asks of ``model``, checked before any solve: the one
     check of :func:`workspace_region` (and of every command that plans several studies, before the first).
 
@@ -141,7 +145,7 @@ def check_workspace(robot: Robot, loads: Loads, settings: WorkspaceSettings | No
 
 
 def planned_work(robot: Robot, loads: Loads, bounds: TensionBounds, settings: WorkspaceSettings | None = None, *,
-                 model: str | Model = "pcc", options: Any = None) -> dict[str, int]:
+                 model: str | Model = "pcc", options: ModelOptions | None = None) -> dict[str, int]:
     """The most work a workspace study (:func:`pytdcr.workspace.workspace_study`) of these inputs plans, by stage,
     before it starts: ``"sampling"`` and ``"boundary search"`` (the budget; the search may converge sooner) and
     ``"multistability"`` in solves, ``"support function h(d)"`` in directions, ``"largest reach search"`` 1
@@ -158,7 +162,7 @@ def planned_work(robot: Robot, loads: Loads, bounds: TensionBounds, settings: Wo
 
 
 def workspace_region(robot: Robot, loads: Loads, bounds: TensionBounds, settings: WorkspaceSettings | None = None,
-                     *, model: str | Model = "pcc", options: Any = None,
+                     *, model: str | Model = "pcc", options: ModelOptions | None = None,
                      hooks: WorkspaceHooks | None = None) -> WorkspaceRegion:
     """The feasible static workspace of ``robot`` under ``loads`` with tensions in ``bounds``, as regions: the
     first stage of :func:`pytdcr.workspace.workspace_study` (``settings.directions`` and ``settings.reach`` are not

@@ -6,7 +6,7 @@ from __future__ import annotations
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.stats import qmc
@@ -15,9 +15,12 @@ from ..bounds import TensionBounds
 from ..loads import Loads
 from ..robot import Robot
 from ..runtime import default_threads, duration
-from ..statics import resolve, solve
+from ..statics import Model, resolve, solve
 from ._compute import planned_work
 from ._settings import WorkspaceSettings
+
+if TYPE_CHECKING:
+    from ..statics.options import ModelOptions
 
 __all__ = ["SOLVES_PER_DIRECTION", "STEP_SOLVES", "Estimate", "solve_seconds", "workspace_estimate"]
 
@@ -63,8 +66,8 @@ class Estimate:
                 f"the searches may stop sooner)")
 
 
-def solve_seconds(robot: Robot, loads: Loads, bounds: TensionBounds, *, model: Any = "pcc", options: Any = None,
-                  k: int = 16, seed: int = 0) -> float:
+def solve_seconds(robot: Robot, loads: Loads, bounds: TensionBounds, *, model: str | Model = "pcc",
+                  options: ModelOptions | None = None, k: int = 16, seed: int = 0) -> float:
     """The median wall time of one solve from rest [s] of ``robot`` under ``loads`` and ``model``, at ``k``
     scrambled Sobol tension vectors in ``bounds`` (the first not counted: it may compile)."""
     m, opts = resolve(model, robot, loads, options)
@@ -85,7 +88,7 @@ def _loaded(loads: Loads) -> bool:
                 or any(np.any(p.force) or np.any(p.moment) for p in loads.point_loads))
 
 
-def workspace_estimate(cases: Sequence[tuple[Robot, Loads, WorkspaceSettings, Any, Any]],
+def workspace_estimate(cases: Sequence[tuple[Robot, Loads, WorkspaceSettings, str | Model, ModelOptions | None]],
                        bounds: TensionBounds) -> Estimate:
     """The expected length of workspace studies of ``cases`` (robot, loads, settings, model, options each, run
     one after the other) with tensions in ``bounds``: each case's planned work in solves

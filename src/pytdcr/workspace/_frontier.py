@@ -15,7 +15,6 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import MISSING, asdict, dataclass, field, fields, replace
-from typing import Any
 
 import numpy as np
 
@@ -171,7 +170,7 @@ class BoundarySearch:
         """The search :meth:`to_dict` wrote (its totals over the rounds are derived from them); KeyError naming a
         missing key. A round's keys with defaults may be absent (older files), and its ``seconds`` (a record
         with its times dropped: read 0)."""
-        def one(r: dict[str, Any]) -> SearchRound:
+        def one(r: JsonObject) -> SearchRound:
             kw = {f.name: r[f.name] for f in fields(SearchRound)
                   if f.name in r or (f.default is MISSING and f.name != "seconds")}
             return SearchRound(**{"seconds": 0.0, **kw})

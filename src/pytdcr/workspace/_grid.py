@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 from scipy import ndimage
 
 from ..records import JsonDict
+
+if TYPE_CHECKING:
+    from trimesh import Trimesh
 
 __all__ = ["MESH_LEVEL", "MIN_MESH_POINTS", "Region", "inside", "region_from_points"]
 
@@ -50,7 +53,7 @@ class Region:
         """The occupied voxels' volume [m^3]."""
         return float(self.occupied.sum()) * self.voxel**3
 
-    def mesh(self) -> Any:
+    def mesh(self) -> Trimesh:
         """The closed boundary surface (``trimesh.Trimesh``, base frame, metres): marching cubes of the
         occupancy, passing halfway between occupied and empty voxel centres. The level is a hair below 1/2
         (:data:`MESH_LEVEL`): voxels that touch only along an edge or at a corner are then joined, where at

@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -16,6 +16,9 @@ from ..results import BatchSolution
 from ..robot import Robot
 from ..statics import Model, check_resources, resolve, solve_batch
 from ..validate import check_count
+
+if TYPE_CHECKING:
+    from ..statics.options import ModelOptions
 
 __all__ = ["SamplingConfig", "SamplingInterrupted", "WorkspaceSamples", "sample_workspace"]
 
@@ -114,7 +117,7 @@ def sample_workspace(
     *,
     seed: int = 0,
     model: str | Model = "pcc",
-    options: Any = None,
+    options: ModelOptions | None = None,
     config: SamplingConfig | None = None,
 ) -> WorkspaceSamples:
     """Solve ``n`` random tension vectors drawn uniformly within ``bounds``.

@@ -7,7 +7,7 @@ import math
 import numbers
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -63,19 +63,19 @@ def search_budget(n: int) -> int:
     return SEARCH_SOLVES_PER_SAMPLE * int(n)
 
 
-def _real(value: Any, name: str) -> float:
+def _real(value: object, name: str) -> float:
     if not isinstance(value, numbers.Real) or isinstance(value, (bool, np.bool_)):
         raise TypeError(f"{name} must be a real number, got {show(value)} ({type(value).__name__})")
     return float(value)
 
 
-def _flag(value: Any, name: str) -> bool:
+def _flag(value: object, name: str) -> bool:
     if not isinstance(value, (bool, np.bool_)):
         raise TypeError(f"{name} must be True or False, got {show(value)} ({type(value).__name__})")
     return bool(value)
 
 
-def _directions(value: Any) -> int | tuple[tuple[float, float, float], ...]:
+def _directions(value: object) -> int | tuple[tuple[float, float, float], ...]:
     """A count of Fibonacci directions in [0, MAX_DIRECTIONS], or K >= 1 finite nonzero 3-vectors as tuples
     (of any scale, not all components subnormal: :func:`~pytdcr.validate.unit_vectors`)."""
     if isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_)):

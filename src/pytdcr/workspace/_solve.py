@@ -6,7 +6,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -21,6 +21,9 @@ from ..robot import Robot
 from ..statics import Model, SolvePath, check_resources, resolve, solve_batch
 from ..validate import SettingsError, check_count
 from ._plan import SOURCES, TensionPlan
+
+if TYPE_CHECKING:
+    from ..statics.options import ModelOptions
 
 __all__ = [
     "AGREEMENT_REQUIRED",
@@ -265,12 +268,12 @@ class _Solver:
     robot: Robot
     loads: Loads
     model: Model
-    options: Any
+    options: ModelOptions
     threads: int | None
     progress: Callable[[int], None] | None
     stability: bool
 
-    def batch(self, tensions: np.ndarray, q0: np.ndarray | None = None, options: Any = None,
+    def batch(self, tensions: np.ndarray, q0: np.ndarray | None = None, options: ModelOptions | None = None,
               start: BatchSolution | None = None) -> BatchSolution:
         """One solve_batch call on ``tensions`` (B, n_tendons), from rest, warm from ``q0`` or continued from
         ``start``'s rows."""
@@ -414,7 +417,7 @@ def _continued(solver: _Solver, T: np.ndarray,
     return {k: v[1:] for k, v in store.items()}, parent, state
 
 
-def _blank(dtype: np.dtype) -> Any:
+def _blank(dtype: np.dtype) -> float | int | bool:
     """What an unsolved row holds: NaN, False or 0."""
     if np.issubdtype(dtype, np.floating):
         return np.nan
@@ -433,7 +436,7 @@ def _batch_of(store: dict[str, np.ndarray], tensions: np.ndarray, rows: np.ndarr
 
 
 def continue_plan(robot: Robot, loads: Loads, plan: TensionPlan, *, model: str | Model = "pcc",
-                  options: Any = None, threads: int | None = None,
+                  options: ModelOptions | None = None, threads: int | None = None,
                   progress: Callable[[int], None] | None = None) -> RegionSamples:
     """Solve every tension vector of ``plan`` under ``loads`` as the robot reaches it from rest by quasi-static
     tension changes (:data:`EQUILIBRIA` ``"continuation"``), and test each equilibrium.
@@ -456,7 +459,7 @@ def continue_plan(robot: Robot, loads: Loads, plan: TensionPlan, *, model: str |
                          got["residual"], got["atol"], root)
 
 
-def _plan_solver(robot: Robot, loads: Loads, plan: TensionPlan, m: Model, opts: Any, threads: int | None,
+def _plan_solver(robot: Robot, loads: Loads, plan: TensionPlan, m: Model, opts: ModelOptions, threads: int | None,
                  progress: Callable[[int], None] | None) -> _Solver:
     """The solver of a plan's rows, once the memory they keep is checked."""
     res = check_resources(m, robot, opts)
@@ -467,8 +470,8 @@ def _plan_solver(robot: Robot, loads: Loads, plan: TensionPlan, m: Model, opts: 
     return _Solver(robot, loads.with_tensions(np.zeros(robot.n_tendons)), m, opts, threads, progress, stability)
 
 
-def solve_plan(robot: Robot, loads: Loads, plan: TensionPlan, *, model: str | Model = "pcc", options: Any = None,
-               threads: int | None = None, warm: bool | WarmStarts = True,
+def solve_plan(robot: Robot, loads: Loads, plan: TensionPlan, *, model: str | Model = "pcc",
+               options: ModelOptions | None = None, threads: int | None = None, warm: bool | WarmStarts = True,
                progress: Callable[[int], None] | None = None) -> RegionSamples:
     """Solve every tension vector of ``plan`` under ``loads`` from rest, every load ramped together (the loading
     path, :data:`EQUILIBRIA` ``"loading-path"``: the paper's), and test each equilibrium (:func:`continue_plan`

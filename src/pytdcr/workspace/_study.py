@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from functools import cached_property
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -21,6 +21,9 @@ from ._settings import WorkspaceHooks, WorkspaceSettings
 from ._solve import RegionSamples
 from ._summary import WorkspaceSummary, summarise
 from ._support import LargestReach, SampleStates, SupportFunction, largest_reach, support_function
+
+if TYPE_CHECKING:
+    from ..statics.options import ModelOptions
 
 __all__ = ["Reach", "WorkspaceStudy", "workspace_study"]
 
@@ -83,7 +86,7 @@ class WorkspaceStudy:
         As given.
     model : Model
         The model that solved it, and ``options`` its options (resolved).
-    options : object
+    options : SolverOptions, CosseratOptions or SSCROptions
     region : WorkspaceRegion
         The samples, both regions and their volumes, the boundary search.
     support : SupportFunction or None
@@ -99,7 +102,7 @@ class WorkspaceStudy:
 
     settings: WorkspaceSettings
     model: Model
-    options: Any
+    options: ModelOptions
     region: WorkspaceRegion
     support: SupportFunction | None
     reach_search: LargestReach | None
@@ -138,7 +141,7 @@ def _parents_as_rows(support: SupportFunction | None, search: LargestReach | Non
 
 
 def workspace_study(robot: Robot, loads: Loads, bounds: TensionBounds, settings: WorkspaceSettings | None = None,
-                    *, model: str | Model = "pcc", options: Any = None,
+                    *, model: str | Model = "pcc", options: ModelOptions | None = None,
                     hooks: WorkspaceHooks | None = None) -> WorkspaceStudy:
     """The feasible static workspace of ``robot`` under ``loads`` with tensions in ``bounds``: the one pipeline
     of ``tdcr workspace``, ``tdcr reproduce`` and ``tdcr designs``.

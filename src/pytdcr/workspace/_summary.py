@@ -24,7 +24,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from functools import partial
-from typing import Any
 
 import numpy as np
 from scipy import ndimage
@@ -127,8 +126,8 @@ class RegionNumbers:
     def to_json(self, mesh: bool = False) -> JsonDict:
         """JSON-ready form: volume, error, dimension, measure (area or length with error when 2- or 1-D),
         largest reach, with ``mesh`` its mesh's name, the reach's rule, points and the whole estimate."""
-        out: dict[str, Any] = {"volume_m3": self.volume_m3, "volume_err_m3": self.volume_err_m3,
-                               "dimension": self.dimension, "measure": self.measure}
+        out: JsonDict = {"volume_m3": self.volume_m3, "volume_err_m3": self.volume_err_m3,
+                         "dimension": self.dimension, "measure": self.measure}
         if self.dimension == 2:
             out.update(area_m2=self.area_m2, area_err_m2=self.area_err_m2)
         if self.dimension == 1:
@@ -327,7 +326,7 @@ class WorkspaceSummary:
         ``warnings``, ``files``). :class:`~pytdcr.records.RecordKeyError` naming the path of a missing key;
         ValueError for a part that is not a JSON object or another ``schema_version`` than
         :data:`SCHEMA_VERSION`."""
-        def read(d: Any) -> WorkspaceSummary:
+        def read(d: JsonObject) -> WorkspaceSummary:
             check_schema(d, _FILE, SCHEMA_VERSION)
             return cls(RegionNumbers.from_json(d), _read("realisable", RegionNumbers.from_json, d["realisable"]),
                        d["voxel_m"], _read("counts", SampleCounts.from_json, d["counts"]),

@@ -145,7 +145,7 @@ class SupportFunction:
         """What the search added to the best sample, ``h - sample_h`` [m], shape (K,)."""
         return self.h - self.sample_h
 
-    def table(self) -> list[dict[str, Any]]:
+    def table(self) -> list[JsonDict]:
         """One row per direction: direction, h and the best sample's [m], the search's gain, tensions, tip."""
         return [{"direction": self.directions[k].tolist(), "h_m": float(self.h[k]),
                  "sample_h_m": float(self.sample_h[k]), "gain_m": float(self.gain[k]),
