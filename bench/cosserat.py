@@ -72,7 +72,7 @@ def main() -> None:
     Tc = np.random.default_rng(args.seed + 1).uniform(0.0, 20.0, size=(100, robot.n_tendons))
     t1 = time.perf_counter()
     cmp = compare_models(robot, Loads(np.zeros(robot.n_tendons)), Tc)
-    result["e_compare_100"] = {"seconds": time.perf_counter() - t1, **cmp.summary()}
+    result["e_compare_100"] = {"seconds": time.perf_counter() - t1, **cmp.summary().to_json()}
     e = result["e_compare_100"]
     print(f"{'e_compare_100':32s} {e['seconds']:.2f} s; both converged {e['all_converged']}/100; tip difference "
           f"median {e['cosserat_difference_median_mm']:.3f} mm, max {e['cosserat_difference_max_mm']:.3f} mm")

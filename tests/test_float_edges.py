@@ -446,11 +446,11 @@ def test_accuracy_never_prints_a_small_error_as_zero_and_keeps_its_columns(monke
     """Errors under half a micrometre once printed 0.000 mm; now 3 significant digits, in the same 9 columns (the
     'mm' after each error at the same place on every line)."""
     import pytdcr.runs
+    from pytdcr.accuracy import AccuracyRow
     from pytdcr.cli import main
 
-    def row(median: float, p95: float) -> dict:
-        return {"group": "tendons only", "model": "pcc", "unsupported": False, "converged": 3,
-                "reference_converged": 3, "median_error_mm": median, "p95_error_mm": p95, "median_ms": 1.0}
+    def row(median: float, p95: float) -> AccuracyRow:
+        return AccuracyRow("pcc", "tendons only", 3, 3, 3, 1.0, median, p95, p95, 1.0)
 
     rows = [row(1.25, 12.5), row(3e-4, 2e-7), row(0.0, 4.9e-4)]
     study = SimpleNamespace(nothing_compared=lambda: None, robot=ROBOT, groups=[1], models=["pcc"], seconds=0.0,

@@ -142,9 +142,10 @@ def test_the_comparisons_typed_summary_is_its_json_summary(rao):
     assert list(per) == ["pcc", "pcc2"] and all(isinstance(s, ModelSummary) for s in per.values())
     assert per["pcc"].difference_median_mm is None and per["pcc2"].difference_max_mm > 0
     summ = cmp.summary()
-    assert summ["all_converged"] == cmp.n_all_converged == 2
-    assert summ["pcc2_difference_median_mm"] == per["pcc2"].difference_median_mm
-    assert summ["pcc_ms_median"] == per["pcc"].ms_median and "pcc_difference_median_mm" not in summ
+    assert summ.all_converged == cmp.n_all_converged == 2 and summ.per_model == tuple(per.values())
+    d = summ.to_json()
+    assert d["pcc2_difference_median_mm"] == per["pcc2"].difference_median_mm
+    assert d["pcc_ms_median"] == per["pcc"].ms_median and "pcc_difference_median_mm" not in d
 
 
 def test_plot_robot_takes_the_robot_first(rao):

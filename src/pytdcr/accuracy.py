@@ -11,6 +11,14 @@ with the reason, not dropped silently. The order study solves the same robot
 with 5, 10, 20 and 40 disks per segment (same lengths, routing and total disk
 mass) and fits the observed order of ``pcc`` and ``pcc2`` against ``sscr`` of
 that same robot: the slope of log(error) against log(disk spacing).
+
+The numbers of a study are one typed result, :class:`AccuracySummary` (an :class:`AccuracyRow` per model and
+group, an :class:`OrderRecord` per order study, each with an :class:`OrderFit` per model), read by attribute;
+JSON at one boundary: :meth:`AccuracySummary.to_json` is ``accuracy.json``'s ``summary``, key for key and in
+order, and :meth:`AccuracySummary.from_json` reads it back (a missing key raises
+:class:`~pytdcr.records.RecordKeyError` naming its path, ``rows[2].max_error_mm``). Non-finite numbers are
+written null (strict JSON) and read back as NaN; a time may be absent (the golden baselines drop times): a
+median time reads as NaN (not recorded), a wall time as 0.
 """
 
 from __future__ import annotations
@@ -18,12 +26,13 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
 from .loads import Loads, check_tensions
 from .paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT, PAYLOAD_MASS, STANDARD_GRAVITY, payload_gravity
+from .records import JsonObject, part
 from .results import StaticSolution
 from .robot import Robot
 from .statics import (
@@ -38,11 +47,27 @@ from .statics import (
 )
 from .validate import SettingsError
 
-__all__ = ["AccuracyStudy", "LoadGroup", "ModelAccuracy", "OrderStudy", "check_accuracy_plan", "default_groups",
-           "model_accuracy", "order_study"]
+__all__ = ["AccuracyRow", "AccuracyStudy", "AccuracySummary", "LoadGroup", "ModelAccuracy", "OrderFit", "OrderRecord",
+           "OrderStudy", "check_accuracy_plan", "default_groups", "model_accuracy", "order_study"]
 
 #: the reference model
 REFERENCE = "sscr"
+#: the file these numbers are read from, as errors name them
+_FILE = "accuracy.json"
+_T = TypeVar("_T")
+
+
+def _number(x: float | None) -> float:
+    """A number of the file: null (a non-finite number, written strict) is NaN."""
+    return float("nan") if x is None else float(x)
+
+
+def _items(where: str, read: Callable[[JsonObject], _T], values: object) -> tuple[_T, ...]:
+    """Each object of the JSON list ``values`` (at ``where``) read by ``read``; a missing key named with its
+    index (``rows[2].max_error_mm``), ValueError for a list that is not one."""
+    if not isinstance(values, list):
+        raise ValueError(f"{_FILE}: {where} must be a JSON list, got {type(values).__name__}")
+    return tuple(part(_FILE, f"{where}[{k}]", read, v) for k, v in enumerate(values))
 
 
 @dataclass(frozen=True)
@@ -167,16 +192,182 @@ class ModelAccuracy:
         """Converged / reference-converged cases."""
         return self.converged / self.reference_converged if self.reference_converged else float("nan")
 
-    def row(self) -> dict[str, Any]:
-        """A CSV/JSON-ready row."""
+    def row(self) -> AccuracyRow:
+        """Its row of the table: counts, error statistics [mm] (NaN without an error), median time [ms]."""
         e = self.errors_mm
+        nan = float("nan")
+        return AccuracyRow(self.model, self.group, self.cases, self.reference_converged, self.converged,
+                           self.converged_fraction, float(np.median(e)) if e.size else nan,
+                           float(np.percentile(e, 95)) if e.size else nan, float(np.max(e)) if e.size else nan,
+                           self.median_ms, self.unsupported)
+
+
+@dataclass(frozen=True)
+class AccuracyRow:
+    """One model under one load group against the reference: a row of ``accuracy.csv`` and of
+    ``accuracy.json``'s ``summary.rows``.
+
+    Attributes
+    ----------
+    model, group : str
+    cases : int
+        Tension vectors solved.
+    reference_converged : int
+        Of them, where the reference converged.
+    converged : int
+        Of those, where this model converged.
+    converged_fraction : float
+        ``converged / reference_converged`` (NaN when the reference converged nowhere).
+    median_error_mm, p95_error_mm, max_error_mm : float
+        The tip error's median, 95th percentile and largest value over the compared cases [mm] (NaN without
+        one).
+    median_ms : float
+        Median time of one of this model's solves [ms] (NaN when unsupported, or not recorded).
+    unsupported : str
+        Why the model could not take this group ("" if it could).
+    """
+
+    model: str
+    group: str
+    cases: int
+    reference_converged: int
+    converged: int
+    converged_fraction: float
+    median_error_mm: float
+    p95_error_mm: float
+    max_error_mm: float
+    median_ms: float
+    unsupported: str = ""
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON- and CSV-ready form, the columns of ``accuracy.csv`` in order (non-finite numbers stay NaN: the
+        JSON writer makes them null)."""
         return {"model": self.model, "group": self.group, "cases": self.cases,
                 "reference_converged": self.reference_converged, "converged": self.converged,
-                "converged_fraction": self.converged_fraction,
-                "median_error_mm": float(np.median(e)) if e.size else float("nan"),
-                "p95_error_mm": float(np.percentile(e, 95)) if e.size else float("nan"),
-                "max_error_mm": float(np.max(e)) if e.size else float("nan"),
-                "median_ms": self.median_ms, "unsupported": self.unsupported}
+                "converged_fraction": self.converged_fraction, "median_error_mm": self.median_error_mm,
+                "p95_error_mm": self.p95_error_mm, "max_error_mm": self.max_error_mm, "median_ms": self.median_ms,
+                "unsupported": self.unsupported}
+
+    @classmethod
+    def from_json(cls, d: JsonObject) -> AccuracyRow:
+        """The row :meth:`to_json` wrote; KeyError naming a missing key (``median_ms`` may be absent: NaN)."""
+        return cls(str(d["model"]), str(d["group"]), int(d["cases"]), int(d["reference_converged"]),
+                   int(d["converged"]), _number(d["converged_fraction"]), _number(d["median_error_mm"]),
+                   _number(d["p95_error_mm"]), _number(d["max_error_mm"]), _number(d.get("median_ms")),
+                   str(d["unsupported"]))
+
+
+@dataclass(frozen=True)
+class OrderFit:
+    """One model in an order study.
+
+    Attributes
+    ----------
+    model : str
+    errors_mm : tuple of float
+        Its median tip error over the cases at each disk count [mm] (NaN where nothing converged).
+    order : float
+        The slope of log(error) on log(spacing) (NaN with fewer than two positive errors).
+    """
+
+    model: str
+    errors_mm: tuple[float, ...]
+    order: float
+
+
+@dataclass(frozen=True)
+class OrderRecord:
+    """What a file holds of an order study (:class:`OrderStudy`): an object of ``accuracy.json``'s
+    ``summary.orders``.
+
+    Attributes
+    ----------
+    group : str
+        The load group.
+    disks : tuple of int
+        Disks per segment.
+    spacing_m : tuple of float
+        Largest subsegment length at each disk count [m].
+    fits : tuple of OrderFit
+        Each model's errors and order, in the study's order.
+    seconds : float
+        Wall time [s] (0 when not recorded).
+    """
+
+    group: str
+    disks: tuple[int, ...]
+    spacing_m: tuple[float, ...]
+    fits: tuple[OrderFit, ...]
+    seconds: float = 0.0
+
+    @classmethod
+    def of(cls, study: OrderStudy) -> OrderRecord:
+        """The record of ``study``."""
+        return cls(study.group, tuple(study.disks), tuple(float(h) for h in study.spacing),
+                   tuple(OrderFit(m, tuple(float(x) for x in e), float(study.order[m]))
+                         for m, e in study.errors_mm.items()), float(study.seconds))
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready form: ``group``, ``disks``, ``spacing_m`` [m], ``errors_mm`` and ``order`` (objects keyed by
+        model), ``seconds``."""
+        return {"group": self.group, "disks": list(self.disks), "spacing_m": list(self.spacing_m),
+                "errors_mm": {f.model: list(f.errors_mm) for f in self.fits},
+                "order": {f.model: f.order for f in self.fits}, "seconds": self.seconds}
+
+    @classmethod
+    def from_json(cls, d: JsonObject) -> OrderRecord:
+        """The record :meth:`to_json` wrote; KeyError naming a missing key (``order.pcc2``), ValueError when an
+        error list's length is not the disk counts'."""
+        disks = tuple(int(n) for n in d["disks"])
+        errors, order = d["errors_mm"], d["order"]
+        fits = []
+        for m, e in errors.items():
+            if len(e) != len(disks):
+                raise ValueError(f"{_FILE}: errors_mm.{m} holds {len(e)} errors for {len(disks)} disk counts")
+            if m not in order:
+                raise KeyError(f"order.{m}")
+            fits.append(OrderFit(str(m), tuple(_number(x) for x in e), _number(order[m])))
+        return cls(str(d["group"]), disks, tuple(_number(h) for h in d["spacing_m"]), tuple(fits),
+                   _number(d.get("seconds", 0.0)))
+
+
+@dataclass(frozen=True)
+class AccuracySummary:
+    """The numbers of an accuracy study and its order studies (``accuracy.json``'s ``summary``).
+
+    Attributes
+    ----------
+    rows : tuple of AccuracyRow
+        One per model and load group.
+    compared : int
+        Tip errors computed, over every model and group (0: nothing could be compared).
+    reference_steps_per_subsegment : int
+        The reference's Runge-Kutta steps per subsegment, as used.
+    seconds : float
+        Wall time of the study [s] (0 when not recorded).
+    orders : tuple of OrderRecord
+        The order study of each group (empty without one).
+    """
+
+    rows: tuple[AccuracyRow, ...]
+    compared: int
+    reference_steps_per_subsegment: int
+    seconds: float
+    orders: tuple[OrderRecord, ...] = ()
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready form: ``rows``, ``compared``, ``reference_steps_per_subsegment``, ``seconds``, ``orders``."""
+        return {"rows": [r.to_json() for r in self.rows], "compared": self.compared,
+                "reference_steps_per_subsegment": self.reference_steps_per_subsegment, "seconds": self.seconds,
+                "orders": [o.to_json() for o in self.orders]}
+
+    @classmethod
+    def from_json(cls, d: JsonObject) -> AccuracySummary:
+        """The numbers :meth:`to_json` wrote: :class:`~pytdcr.records.RecordKeyError` naming the path of a
+        missing key (``rows[2].max_error_mm``)."""
+        return cls(_items("rows", AccuracyRow.from_json, d["rows"]), int(d["compared"]),
+                   int(d["reference_steps_per_subsegment"]), _number(d.get("seconds", 0.0)),
+                   _items("orders", OrderRecord.from_json, d["orders"]))
 
 
 @dataclass(frozen=True)
@@ -191,9 +382,14 @@ class AccuracyStudy:
     reference_steps: int
     seconds: float
 
-    def rows(self) -> list[dict[str, Any]]:
+    def rows(self) -> list[AccuracyRow]:
         """One row per model and group."""
         return [r.row() for r in self.results]
+
+    def summary(self, orders: Sequence[OrderStudy] = ()) -> AccuracySummary:
+        """Its numbers, with those of the ``orders`` studies, as one typed result."""
+        return AccuracySummary(tuple(self.rows()), self.compared, self.reference_steps_per_subsegment, self.seconds,
+                               tuple(OrderRecord.of(st) for st in orders))
 
     @property
     def compared(self) -> int:
@@ -226,7 +422,7 @@ class AccuracyStudy:
         return "; ".join(parts)
 
 
-def _solve_all(model: Model, opts: Any, robot: Robot, group: LoadGroup, T: np.ndarray) -> list[StaticSolution]:
+def _solve_all(model: Model, opts: object, robot: Robot, group: LoadGroup, T: np.ndarray) -> list[StaticSolution]:
     return [model.solve(robot, group.loads(t, robot), None, opts) for t in T]
 
 

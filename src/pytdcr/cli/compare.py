@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from typing import Any
 
 from ..compare import check_models
 from ..statics import MODELS
@@ -32,7 +31,7 @@ from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK, CliError
 __all__ = ["add_accuracy_parser", "add_parser", "error_mm", "run", "run_accuracy_command"]
 
 
-def add_parser(sub: Any) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """The ``compare`` command and its options."""
     c = sub.add_parser("compare", help="two or more models on the same cases: table and overlay figure")
     add_robot_and_loads(c)
@@ -100,7 +99,7 @@ def error_mm(value: float, width: int = 0) -> str:
 
 
 # ---------------------------------------------------------------- accuracy
-def add_accuracy_parser(sub: Any) -> None:
+def add_accuracy_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """The ``accuracy`` command and its options."""
     a = sub.add_parser("accuracy", help="which model to trust: every model against sscr, by load group, and the "
                        "order study")
@@ -147,14 +146,14 @@ def run_accuracy_command(args: argparse.Namespace) -> int:
     print(f"{args.n} tension vectors on robot '{study.robot.name}', {len(study.groups)} load groups, "
           f"{len(study.models)} models against sscr ({study.seconds:.1f} s)" + ("." if why else ":"))
     for r in [] if why else study.rows():
-        if r["unsupported"]:
-            print(f"  {r['group']:>18s}  {r['model']:9s} unsupported")
-        elif not r["converged"]:
-            print(f"  {r['group']:>18s}  {r['model']:9s} nothing compared: converged 0/{r['reference_converged']}")
+        if r.unsupported:
+            print(f"  {r.group:>18s}  {r.model:9s} unsupported")
+        elif not r.converged:
+            print(f"  {r.group:>18s}  {r.model:9s} nothing compared: converged 0/{r.reference_converged}")
         else:
-            print(f"  {r['group']:>18s}  {r['model']:9s} median {error_mm(r['median_error_mm'], 9)} mm, 95th pct "
-                  f"{error_mm(r['p95_error_mm'], 9)} mm, converged {r['converged']}/{r['reference_converged']}, "
-                  f"{r['median_ms']:.2f} ms")
+            print(f"  {r.group:>18s}  {r.model:9s} median {error_mm(r.median_error_mm, 9)} mm, 95th pct "
+                  f"{error_mm(r.p95_error_mm, 9)} mm, converged {r.converged}/{r.reference_converged}, "
+                  f"{r.median_ms:.2f} ms")
     for st in [] if why else res.orders:
         print(f"  order ({st.group}): " + ", ".join(f"{m} {o:.2f}" if math.isfinite(o) else f"{m} -"
                                                      for m, o in st.order.items()))

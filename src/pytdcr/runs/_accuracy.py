@@ -1,9 +1,17 @@
-"""``tdcr accuracy``: the accuracy table of every model against the subsegment Cosserat rod, and the order study."""
+"""``tdcr accuracy``: the accuracy table of every model against the subsegment Cosserat rod, and the order study.
+
+What a run writes in ``accuracy.json`` is one typed result, :class:`AccuracyResult`: the run's inputs, the
+study's numbers (:class:`~pytdcr.accuracy.AccuracySummary`) and the files; :meth:`AccuracyResult.to_json` writes
+the file's keys and :meth:`AccuracyResult.from_json` reads any file a run wrote (``schema_version``
+:data:`SCHEMA_VERSION`; a file without one is version 1, the same layout). A missing key raises
+:class:`~pytdcr.records.RecordKeyError` naming its path (``summary.rows[0].median_error_mm``).
+"""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -11,6 +19,7 @@ import numpy as np
 
 from ..accuracy import (
     AccuracyStudy,
+    AccuracySummary,
     LoadGroup,
     OrderStudy,
     check_accuracy_plan,
@@ -21,6 +30,7 @@ from ..accuracy import (
 from ..bounds import TensionBounds
 from ..loads import Loads
 from ..plotting import plot_order, save_figure
+from ..records import JsonObject, check_schema, part
 from ..robot import Robot
 from ..runtime import atomic_write_text, output_folder, write_csv, write_json
 from ..statics import saving
@@ -28,7 +38,51 @@ from ._output import inputs_record
 from ._report import number_text
 from ._settings import AccuracySettings
 
-__all__ = ["AccuracyRun", "accuracy_markdown", "run_accuracy"]
+__all__ = ["SCHEMA_VERSION", "AccuracyResult", "AccuracyRun", "accuracy_markdown", "run_accuracy"]
+
+#: the layout of ``accuracy.json`` this module writes and reads
+SCHEMA_VERSION = 1
+#: the file these records are read from, as errors name it
+_FILE = "accuracy.json"
+_read = partial(part, _FILE)
+
+
+@dataclass(frozen=True)
+class AccuracyResult:
+    """What an accuracy run records (``accuracy.json``).
+
+    Attributes
+    ----------
+    inputs : mapping
+        The run's inputs as written (versions, robot, loads, the tensions [N], bounds, seed, load groups, models,
+        disks, order cases, reference steps: :func:`~pytdcr.runs._output.inputs_record`); passed through to the
+        file unread.
+    summary : AccuracySummary
+        The study's numbers.
+    files : tuple of str
+        The files written beside ``accuracy.json``.
+    """
+
+    inputs: Mapping[str, Any]
+    summary: AccuracySummary
+    files: tuple[str, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        """``accuracy.json``: ``schema_version``, ``inputs``, ``summary`` and ``files``."""
+        return {"schema_version": SCHEMA_VERSION, "inputs": dict(self.inputs), "summary": self.summary.to_json(),
+                "files": list(self.files)}
+
+    @classmethod
+    def from_json(cls, d: object) -> AccuracyResult:
+        """The record of an ``accuracy.json`` (or of :meth:`to_json`): :class:`~pytdcr.records.RecordKeyError`
+        naming the path of a missing key; ValueError for a part that is not a JSON object or list, or another
+        ``schema_version`` than :data:`SCHEMA_VERSION`."""
+        def read(d: JsonObject) -> AccuracyResult:
+            check_schema(d, _FILE, SCHEMA_VERSION)
+            return cls(_read("inputs", dict, d["inputs"]), _read("summary", AccuracySummary.from_json, d["summary"]),
+                       tuple(str(f) for f in d["files"]))
+
+        return _read("", read, d)
 
 
 @dataclass(frozen=True)
@@ -48,18 +102,14 @@ class AccuracyRun:
     orders: list[OrderStudy]
     files: list[str]
 
-    def summary(self) -> dict[str, Any]:
-        """The rows, time and orders, JSON-ready (``accuracy.json``'s ``summary``)."""
-        return {"rows": self.study.rows(), "compared": self.study.compared,
-                "reference_steps_per_subsegment": self.study.reference_steps_per_subsegment,
-                "seconds": self.study.seconds,
-                "orders": [{"group": st.group, "disks": list(st.disks), "spacing_m": st.spacing,
-                            "errors_mm": st.errors_mm, "order": st.order, "seconds": st.seconds}
-                           for st in self.orders]}
+    def summary(self) -> AccuracySummary:
+        """The rows, time and orders as one typed result (``accuracy.json``'s ``summary`` is its
+        :meth:`~pytdcr.accuracy.AccuracySummary.to_json`)."""
+        return self.study.summary(self.orders)
 
     def to_dict(self) -> dict[str, Any]:
-        """:meth:`summary` and the files."""
-        return {**self.summary(), "files": list(self.files)}
+        """:meth:`summary` (JSON-ready) and the files."""
+        return {**self.summary().to_json(), "files": list(self.files)}
 
 
 def _fmt(x: float, decimals: int = 3) -> str:
@@ -95,12 +145,11 @@ def accuracy_markdown(study: AccuracyStudy, orders: Sequence[OrderStudy], source
         "|---|---|---:|---:|---:|---:|---:|",
     ]
     for r in study.rows():
-        if r["unsupported"]:
-            lines.append(f"| {r['group']} | {r['model']} | unsupported: {r['unsupported'].split('; ')[0]} | | | | |")
+        if r.unsupported:
+            lines.append(f"| {r.group} | {r.model} | unsupported: {r.unsupported.split('; ')[0]} | | | | |")
             continue
-        lines.append(f"| {r['group']} | {r['model']} | {_fmt(r['median_error_mm'])} | {_fmt(r['p95_error_mm'])} | "
-                     f"{_fmt(r['max_error_mm'])} | {r['converged']}/{r['reference_converged']} | "
-                     f"{_fmt(r['median_ms'], 2)} |")
+        lines.append(f"| {r.group} | {r.model} | {_fmt(r.median_error_mm)} | {_fmt(r.p95_error_mm)} | "
+                     f"{_fmt(r.max_error_mm)} | {r.converged}/{r.reference_converged} | {_fmt(r.median_ms, 2)} |")
     if orders:
         disks = orders[0].disks
         lines += ["", "## Order of convergence against `sscr` of the same robot", "",
@@ -147,25 +196,27 @@ def run_accuracy(settings: AccuracySettings, out: str | Path, *, robot: Robot | 
 
 def _write_accuracy(out: Path, run: AccuracyRun, s: AccuracySettings, T: np.ndarray, b: TensionBounds,
                     groups: Sequence[LoadGroup]) -> list[str]:
-    study, orders, robot = run.study, run.orders, run.study.robot
+    """The study's files in ``out``: the table, the report, the order study's table and figure (with one) and
+    ``accuracy.json`` (an :class:`AccuracyResult`); their names."""
+    study, robot = run.study, run.study.robot
+    summary = run.summary()
     files = ["accuracy.csv", "accuracy.md"]
-    rows = study.rows()
+    rows = [r.to_json() for r in summary.rows]
     write_csv(out / "accuracy.csv", list(rows[0]), (list(r.values()) for r in rows))
     source = f"uniform in [{b.lower.min():g}, {b.upper.max():g}] N, seed {s.seed}"
-    atomic_write_text(out / "accuracy.md", accuracy_markdown(study, orders, source))
-    if orders:
+    atomic_write_text(out / "accuracy.md", accuracy_markdown(study, run.orders, source))
+    if summary.orders:
         write_csv(out / "order.csv", ["group", "model", "disks_per_segment", "spacing_m", "median_error_mm", "order"],
-                  ([st.group, name, d, f"{h:.6g}", f"{x:.6g}", f"{st.order[name]:.4f}"]
-                   for st in orders for name, e in st.errors_mm.items()
-                   for d, h, x in zip(st.disks, st.spacing, e, strict=True)))
+                  ([o.group, f.model, d, f"{h:.6g}", f"{x:.6g}", f"{f.order:.4f}"]
+                   for o in summary.orders for f in o.fits
+                   for d, h, x in zip(o.disks, o.spacing_m, f.errors_mm, strict=True)))
         files.append("order.csv")
-        ax = plot_order(orders)
+        ax = plot_order(run.orders)
         ax.set_title(f"{robot.name}: PCC models against sscr as the disks multiply")
         files += save_figure(ax.figure, out, "fig_order")
-    write_json(out / "accuracy.json", {
-        "inputs": inputs_record(robot, Loads(np.zeros(robot.n_tendons)), tensions=T, bounds=b.to_dict(), seed=s.seed,
-                                groups=[g.__dict__ for g in groups], models=list(study.models),
-                                disks=list(s.disks), order_cases=s.order_cases, reference_steps=s.reference_steps),
-        "summary": run.summary(), "files": files})
+    inputs = inputs_record(robot, Loads(np.zeros(robot.n_tendons)), tensions=T, bounds=b.to_dict(), seed=s.seed,
+                           groups=[asdict(g) for g in groups], models=list(study.models), disks=list(s.disks),
+                           order_cases=s.order_cases, reference_steps=s.reference_steps)
+    write_json(out / "accuracy.json", AccuracyResult(inputs, summary, tuple(files)).to_json())
     files.append("accuracy.json")
     return files
