@@ -58,23 +58,23 @@ def run(args: argparse.Namespace) -> int:
     finally:
         bar.__exit__()
     s = res.summary
-    print(f"design study '{study.name}': {s['designs']} designs, {s['designs_computed']} computed, "
-          f"{s['designs_reused']} reused, {s['designs_failed']} failed, on {s['executor']} in {s['seconds']:.1f} s")
+    print(f"design study '{study.name}': {s.designs} designs, {s.designs_computed} computed, "
+          f"{s.designs_reused} reused, {s.designs_failed} failed, on {s.executor} in {s.seconds:.1f} s")
     t = res.table
-    for b in s["best"]:
-        m = b["measure"]
-        ref = t[(t["load_case"] == b["load_case"]) & (t["design"] == -1) & (t["status"] == "ok")]
-        err = f" ± {format_measure(b['error'], m)}" if b["error"] is not None else ""
+    for b in s.best:
+        m = b.measure
+        ref = t[(t["load_case"] == b.load_case) & (t["design"] == -1) & (t["status"] == "ok")]
+        err = f" ± {format_measure(b.error, m)}" if b.error is not None else ""
         versus = f" (base robot {format_measure(ref[m].iloc[0], m)})" if not ref.empty else ""
-        print(f"  {escape_controls(b['load_case'])}: best by {b['goal']} {m}: design {b['design']}, "
-              f"{format_measure(b['value'], m)}{err}{versus}")
-    for u in s.get("unranked", []):
-        print(f"  {escape_controls(u['load_case'])}: no best by {u['goal']} {u['measure']}: {u['reason']}")
-    if s.get("warnings"):
+        print(f"  {escape_controls(b.load_case)}: best by {b.goal} {m}: design {b.design}, "
+              f"{format_measure(b.value, m)}{err}{versus}")
+    for u in s.unranked:
+        print(f"  {escape_controls(u.load_case)}: no best by {u.goal} {u.measure}: {u.reason}")
+    if s.warnings:
         print("  warning: at this budget the volumes are a screening index, not a measurement: their errors exceed "
               "the margins between the leading designs (see report.md)")
-    figures = ", figures" if s.get("figures") else ""
-    best = ", best/" if s.get("best") else ""  # no design measured: no best robot file
+    figures = ", figures" if s.figures else ""
+    best = ", best/" if s.best else ""  # no design measured: no best robot file
     print(f"wrote designs.parquet, designs.csv, timings.csv, summary.json, report.md{best}{figures} in "
           f"{escape_controls(str(res.path))}")
-    return EXIT_OK if s["designs_failed"] < s["designs"] else EXIT_NOT_CONVERGED
+    return EXIT_OK if s.designs_failed < s.designs else EXIT_NOT_CONVERGED

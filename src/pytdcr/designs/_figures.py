@@ -5,14 +5,19 @@ from __future__ import annotations
 
 import itertools
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..plotting import pyplot, save_figure, set_equal_aspect
 from ..robot import Robot
 from ._optimize import measures_nothing
+from ._records import DesignRecord
 from ._spec import DesignStudy
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from matplotlib.figure import Figure
 
 __all__ = ["write_design_figures"]
 
@@ -32,7 +37,7 @@ def _label(measure: str, case: str | None = None) -> str:
     return text + (f"\n({case})" if case else "")
 
 
-def _objective_values(study: DesignStudy, table: Any) -> tuple[Any, list[str]]:
+def _objective_values(study: DesignStudy, table: pd.DataFrame) -> tuple[pd.DataFrame, list[str]]:
     """One row per design (the reference included): the objectives' values in display units."""
     cols = []
     wide = table[["design", "generation", "pareto", "status"]].drop_duplicates("design").set_index("design")
@@ -45,7 +50,7 @@ def _objective_values(study: DesignStudy, table: Any) -> tuple[Any, list[str]]:
     return wide, cols
 
 
-def _pareto_figure(study: DesignStudy, table: Any) -> Any:
+def _pareto_figure(study: DesignStudy, table: pd.DataFrame) -> Figure:
     plt = pyplot()
     wide, cols = _objective_values(study, table)
     ok = wide[(wide["status"] == "ok") & (wide.index >= 0)]
@@ -79,7 +84,7 @@ def _pareto_figure(study: DesignStudy, table: Any) -> Any:
     return fig
 
 
-def _measures_figure(study: DesignStudy, table: Any) -> Any:
+def _measures_figure(study: DesignStudy, table: pd.DataFrame) -> Figure:
     plt = pyplot()
     params = list(study.parameters)
     measures = [*DRAWN, *[f"h_{k}_m" for k in study.measures.directions]]
@@ -107,7 +112,7 @@ def _measures_figure(study: DesignStudy, table: Any) -> Any:
     return fig
 
 
-def _picked(study: DesignStudy, table: Any) -> list[int]:
+def _picked(study: DesignStudy, table: pd.DataFrame) -> list[int]:
     """The designs drawn: the best for each objective among the Pareto front (at most 3), reference first; none
     for an objective that is 0 for every design (:func:`measures_nothing`: it names no best)."""
     wide, cols = _objective_values(study, table)
@@ -121,7 +126,7 @@ def _picked(study: DesignStudy, table: Any) -> list[int]:
     return picked[:4]
 
 
-def _best_figure(study: DesignStudy, robot: Robot, table: Any, records: dict[int, dict[str, Any]]) -> Any:
+def _best_figure(study: DesignStudy, robot: Robot, table: pd.DataFrame, records: dict[int, DesignRecord]) -> Figure:
     from ..statics import solve
     from ._space import apply_parameters
 
@@ -133,23 +138,25 @@ def _best_figure(study: DesignStudy, robot: Robot, table: Any, records: dict[int
     for n, k in enumerate(picked):
         ax = fig.add_subplot(1, len(picked), n + 1, projection="3d")
         axes.append(ax)
-        row = next(r for r in records[k]["rows"] if r["load_case"] == case)
-        design = apply_parameters(robot, records[k]["params"])
+        row = records[k].row(case)
+        if row is None:  # pragma: no cover - a picked design is ok, with a row per load case
+            continue
+        design = apply_parameters(robot, records[k].params)
         case_robot, loads = study.load_cases(design)[case]
         title = "base robot" if k < 0 else f"design {k}"
-        t = row.get("reach_tensions_n")
+        t = row.reach_tensions_n
         sol = solve(case_robot, loads.with_tensions(np.asarray(t)), model=study.model) if t is not None else None
         if sol is None or not sol.converged:
             ax.set_title(f"{title}: farthest shape not converged", fontsize=9)
             continue
         from ..plotting import RobotStyle, plot_robot
 
-        if abs(float(np.linalg.norm(sol.tip_position)) - row["largest_reach_m"]) > 1e-3:
+        if abs(float(np.linalg.norm(sol.tip_position)) - row.largest_reach_m) > 1e-3:
             title += " (re-solved on another branch)"
         plot_robot(case_robot, sol, ax, style=RobotStyle(frames=False, equal=False))
         points.append(sol.disk_positions)
-        ax.set_title(f"{title}\nreach {row['largest_reach_m'] * 1e3:.0f} mm, FSW "
-                     f"{row['volume_m3'] * 1e6:.0f} cm³", fontsize=9)
+        ax.set_title(f"{title}\nreach {row.largest_reach_m * 1e3:.0f} mm, FSW {row.volume_m3 * 1e6:.0f} cm³",
+                     fontsize=9)
     if points:
         allp = np.vstack([*points, np.zeros((1, 3))])
         for ax in axes:
@@ -158,9 +165,11 @@ def _best_figure(study: DesignStudy, robot: Robot, table: Any, records: dict[int
     return fig
 
 
-def write_design_figures(out: Path, study: DesignStudy, robot: Robot, table: Any,
-                         records: dict[int, dict[str, Any]]) -> list[str]:
-    """Write ``pareto``, ``measures`` and ``best_designs`` (.png and .pdf) in ``out``; returns the file names."""
+def write_design_figures(out: Path, study: DesignStudy, robot: Robot, table: pd.DataFrame,
+                         records: dict[int, DesignRecord]) -> list[str]:
+    """Write ``pareto``, ``measures`` and ``best_designs`` (.png and .pdf) in ``out`` from the study's table
+    (:func:`~pytdcr.designs._report.build_table`) and its designs' records (by index); returns the file
+    names."""
     names = save_figure(_pareto_figure(study, table), out, "pareto")
     names += save_figure(_measures_figure(study, table), out, "measures")
     names += save_figure(_best_figure(study, robot, table, records), out, "best_designs")
