@@ -88,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"tdcr: {one_line(err)}; nothing written", file=sys.stderr)
         return EXIT_NOT_CONVERGED
     if args.json:
-        print(dump_json(res.result.to_dict()))
+        print(dump_json(res.result.to_json()))
     else:
         print_reach(res.result, args)
         if res.files:

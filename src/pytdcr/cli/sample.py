@@ -49,11 +49,12 @@ def run(args: argparse.Namespace) -> int:
                               bounds=bounds_spec(args) or BoundsSpec(), n=args.n, seed=args.seed)
     with Bar("sample", args.n, "solve") as bar:
         res = run_sample(settings, out, progress=bar.step)
-    s = res.samples
-    ok = res.converged
-    reach = (f"reach {np.nanmin(s.reach):.4f} to {np.nanmax(s.reach):.4f} m" if ok else "no reach")
-    print(f"{args.n} samples of robot '{res.robot.name}' (seed {args.seed}): {ok} converged, "
-          f"{args.n - ok} not; {reach}; {s.seconds:.2f} s")
+    summary = res.summary
+    counts = summary.counts
+    ok = counts.converged
+    reach = (f"reach {np.nanmin(res.samples.reach):.4f} to {counts.reach_max_m:.4f} m" if ok else "no reach")
+    print(f"{args.n} samples of robot '{summary.robot}' (seed {args.seed}): {ok} converged, "
+          f"{counts.not_converged} not; {reach}; {summary.seconds:.2f} s")
     print(f"wrote {', '.join(res.files)} in {escape_controls(str(out))}")
     if ok == 0:
         print(f"tdcr: none of the {args.n} samples converged", file=sys.stderr)

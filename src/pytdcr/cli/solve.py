@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -13,6 +13,10 @@ from ..statics import DEFAULT_ATOL
 from ..validate import escape_controls
 from ._args import add_model, add_robot_and_loads, load_spec, model_spec, parse_floats, real_type, robot_spec
 from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK, CliError
+
+if TYPE_CHECKING:  # the runs are imported when a command runs, not when the parser is built
+    from ..results import Stability
+    from ..runs import SolveRun
 
 __all__ = ["add_parser", "run"]
 
@@ -42,7 +46,7 @@ def add_parser(sub: Any) -> None:
     s.set_defaults(func=run)
 
 
-def stability_text(st: Any) -> str:
+def stability_text(st: Stability | None) -> str:
     """One line on the equilibrium's static stability."""
     if st is None:
         return "stability: not tested by this model"
@@ -56,13 +60,11 @@ def stability_text(st: Any) -> str:
     return f"stability: {words}"
 
 
-def _derivative_lines(res: Any) -> None:
+def _derivative_lines(res: SolveRun) -> None:
     """The compliance's and the Jacobians' summary lines (when computed)."""
-    import numpy as np
-
     if res.compliance is not None:
         c = res.compliance.matrix
-        lo, hi = res.compliance.to_dict()["translational_stiffness_range_N_per_m"]
+        lo, hi, _, _ = res.compliance.stiffness_range()
         print(f"  tip compliance diag [{', '.join(f'{x:.3g}' for x in np.diag(c)[:3])}] m/N, "
               f"[{', '.join(f'{x:.3g}' for x in np.diag(c)[3:])}] rad/(N m); translational stiffness "
               f"{lo:.3g} to {hi:.3g} N/m")
@@ -117,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
     res = run_solve(settings, plot=args.plot, compliance=args.compliance, jacobians=args.jacobians, csv=args.csv)
     robot, sol = res.robot, res.solution
     if args.json:
-        print(dump_json(res.to_dict()))
+        print(dump_json(res.to_json()))
     else:
         status = "converged" if sol.converged else "NOT converged"
         print(f"robot {robot.name}: {robot.n_disks} disks, {robot.n_tendons} tendons; {res.model.name} model; "

@@ -1,8 +1,16 @@
-"""``tdcr solve``: one static equilibrium, and a figure of it."""
+"""``tdcr solve``: one static equilibrium, and a figure of it.
+
+The run's result is :class:`SolveRun` (the live robot, loads, model and solution); what it reports is
+:class:`SolveRecord`, a typed record of the numbers alone: :meth:`SolveRecord.to_json` is what ``tdcr solve
+--json`` prints (today's keys, plus ``schema_version``: :data:`SCHEMA_VERSION`) and :meth:`SolveRecord.from_json`
+reads such an object back, a missing key raising :class:`~pytdcr.records.RecordKeyError` naming its path
+(``stability.flutter_pairs``) and an absent ``seconds`` (the golden baselines drop times) read as 0.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -10,10 +18,11 @@ import numpy as np
 
 from ..loads import Loads
 from ..plotting import plot_robot, save_figure_as
-from ..results import StaticSolution
+from ..records import JsonObject, check_schema, optional_part, part
+from ..results import BatchSolution, Stability, StaticSolution
 from ..robot import Robot
 from ..runtime import FileRefused, writable_file, write_csv
-from ..statics import Jacobians, Model, TipCompliance, equilibrium_jacobians, solve, tip_compliance
+from ..statics import Jacobians, Model, SolvePath, TipCompliance, equilibrium_jacobians, solve, tip_compliance
 from ..validate import SettingsError, show_path
 from ._output import load_arrows
 from ._settings import SolveSettings
@@ -21,7 +30,10 @@ from ._settings import SolveSettings
 __all__ = [
     "CASE_COLUMNS",
     "FIGURE_SUFFIXES",
+    "SCHEMA_VERSION",
     "SHAPE_COLUMNS",
+    "SolutionRecord",
+    "SolveRecord",
     "SolveRun",
     "case_rows",
     "check_csv_path",
@@ -35,6 +47,171 @@ SHAPE_COLUMNS = ["disk", "x_m", "y_m", "z_m", *[f"R{i}{j}" for i in range(1, 4) 
 
 #: the figure formats a file name may ask for
 FIGURE_SUFFIXES = (".png", ".pdf", ".svg")
+
+#: the layout of ``tdcr solve --json``'s object this module writes and reads
+SCHEMA_VERSION = 1
+
+#: the record errors name
+_FILE = "solve result"
+_read = partial(part, _FILE)
+_optional = partial(optional_part, _FILE)
+
+
+def _number(x: float | None) -> float:
+    """A float of a JSON object: null (a non-finite number, as :func:`~pytdcr.runtime.dump_json` writes it) as
+    NaN."""
+    return float("nan") if x is None else float(x)
+
+
+def _array(x: object) -> np.ndarray | None:
+    """A JSON list of numbers (nested or not) as a float array (null entries as NaN), None for null."""
+    return None if x is None else np.array(x, dtype=float)
+
+
+def _listed(a: np.ndarray | None) -> list[object] | None:
+    """An array as nested lists (as :meth:`StaticSolution.to_dict` writes it), None for None."""
+    return None if a is None else a.tolist()
+
+
+def _stability_from_json(d: JsonObject) -> Stability:
+    """A :class:`Stability` from its JSON (the least damped pair ``[real, |imag|]`` as ``real + |imag| i``; a
+    null lowest eigenvalue as NaN)."""
+    pair = d["least_damped_pair"]
+    return Stability(bool(d["stable"]), _number(d["min_real_eigenvalue"]), int(d["n_real_nonpositive"]),
+                     int(d["flutter_pairs"]), None if pair is None else complex(_number(pair[0]), _number(pair[1])))
+
+
+@dataclass(frozen=True, eq=False)
+class SolutionRecord:
+    """The numbers of one static solve (:meth:`StaticSolution.to_dict`'s), as typed fields.
+
+    Attributes
+    ----------
+    converged : bool
+    failure : str
+        Why a solve with a small residual is still not converged ("" when none; null in JSON).
+    stable : bool or None
+        The equilibrium's static stability (None: not converged, or the model has no test).
+    stability : Stability or None
+        The eigenvalue test behind it.
+    residual : float
+        max |residual| [N m].
+    iterations, load_steps : int
+    model : str
+        The model's registered name.
+    path : SolvePath
+        How the equilibrium was reached.
+    seconds : float
+        Wall time of the solve [s] (0 where a record dropped it).
+    tip_position : ndarray, shape (3,), or None
+        [m]; None (as every shape below) when not converged.
+    tip_rotation : ndarray, shape (3, 3), or None
+        The tip's frame in the base frame.
+    disk_positions : ndarray, shape (N+1, 3), or None
+        Disk centres [m], row 0 the base.
+    q : ndarray or None
+        The model's unknowns (:attr:`StaticSolution.q`).
+    tensions : ndarray, shape (n_tendons, N), or None
+        The tension in each tendon piece [N].
+    """
+
+    converged: bool
+    failure: str
+    stable: bool | None
+    stability: Stability | None
+    residual: float
+    iterations: int
+    load_steps: int
+    model: str
+    path: SolvePath
+    seconds: float
+    tip_position: np.ndarray | None
+    tip_rotation: np.ndarray | None
+    disk_positions: np.ndarray | None
+    q: np.ndarray | None
+    tensions: np.ndarray | None
+
+    @classmethod
+    def of(cls, sol: StaticSolution) -> SolutionRecord:
+        """The numbers of a solve (its shape only when it converged)."""
+        ok = bool(sol.converged)
+        shape = (sol.tip_position, sol.tip_rotation, sol.disk_positions, sol.q, sol.tensions) if ok else (None,) * 5
+        return cls(ok, sol.failure, sol.stable, sol.stability, float(sol.residual), int(sol.iterations),
+                   int(sol.load_steps), sol.model, SolvePath(sol.path), float(sol.seconds), *shape)
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready form: :meth:`StaticSolution.to_dict`'s keys, in its order."""
+        return {"converged": self.converged, "failure": self.failure or None, "stable": self.stable,
+                "stability": None if self.stability is None else self.stability.to_dict(),
+                "residual": self.residual, "iterations": self.iterations, "load_steps": self.load_steps,
+                "model": self.model, "path": self.path, "seconds": self.seconds,
+                "tip_position": _listed(self.tip_position), "tip_rotation": _listed(self.tip_rotation),
+                "disk_positions": _listed(self.disk_positions), "q": _listed(self.q),
+                "tensions": _listed(self.tensions)}
+
+    @classmethod
+    def from_json(cls, d: JsonObject) -> SolutionRecord:
+        """What :meth:`to_json` wrote (an absent ``seconds`` as 0); KeyError naming a missing key."""
+        stable = d["stable"]
+        return cls(bool(d["converged"]), d["failure"] or "", None if stable is None else bool(stable),
+                   _optional("stability", _stability_from_json, d), _number(d["residual"]), int(d["iterations"]),
+                   int(d["load_steps"]), str(d["model"]), SolvePath(d["path"]), float(d.get("seconds", 0.0)),
+                   *(_array(d[k]) for k in ("tip_position", "tip_rotation", "disk_positions", "q", "tensions")))
+
+
+def _compliance_from_json(d: JsonObject) -> TipCompliance:
+    """The compliance of :meth:`TipCompliance.to_dict` (its matrix; the rest follows from it)."""
+    return TipCompliance(np.array(d["compliance"], dtype=float))
+
+
+def _jacobians_from_json(d: JsonObject) -> Jacobians:
+    """The Jacobians of :meth:`Jacobians.to_dict`."""
+    return Jacobians(*(np.array(d[k], dtype=float) for k in ("tip_position", "tip_rotation", "tip_axis",
+                                                              "disk_positions")))
+
+
+@dataclass(frozen=True, eq=False)
+class SolveRecord:
+    """What ``tdcr solve --json`` prints, typed.
+
+    Attributes
+    ----------
+    robot : str
+        The robot's name.
+    solution : SolutionRecord
+        The solve's numbers (at the top level of the JSON).
+    compliance : TipCompliance or None
+        The tip's compliance (``compliance``), when computed.
+    jacobians : Jacobians or None
+        The shape's derivatives by the tensions (``jacobians``), when computed.
+    """
+
+    robot: str
+    solution: SolutionRecord
+    compliance: TipCompliance | None = None
+    jacobians: Jacobians | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready form: ``schema_version``, the robot's name, the solution's keys, then ``compliance`` and
+        ``jacobians`` when computed (each absent otherwise)."""
+        out = {"schema_version": SCHEMA_VERSION, "robot": self.robot, **self.solution.to_json()}
+        if self.compliance is not None:
+            out["compliance"] = self.compliance.to_dict()
+        if self.jacobians is not None:
+            out["jacobians"] = self.jacobians.to_dict()
+        return out
+
+    @classmethod
+    def from_json(cls, d: JsonObject) -> SolveRecord:
+        """The object :meth:`to_json` wrote (or ``tdcr solve --json`` printed before ``schema_version``
+        existed). :class:`~pytdcr.records.RecordKeyError` naming the path of a missing key; ValueError for a part
+        that is not a JSON object or another ``schema_version`` than :data:`SCHEMA_VERSION`."""
+        def read(d: JsonObject) -> SolveRecord:
+            check_schema(d, _FILE, SCHEMA_VERSION)
+            return cls(str(d["robot"]), SolutionRecord.from_json(d), _optional("compliance", _compliance_from_json, d),
+                       _optional("jacobians", _jacobians_from_json, d))
+
+        return _read("", read, d)
 
 
 @dataclass(frozen=True)
@@ -65,15 +242,19 @@ class SolveRun:
     compliance: TipCompliance | None = None
     jacobians: Jacobians | None = None
 
+    @property
+    def record(self) -> SolveRecord:
+        """The numbers it reports, typed: the robot's name, the solution's numbers, and the compliance and the
+        Jacobians when computed."""
+        return SolveRecord(self.robot.name, SolutionRecord.of(self.solution), self.compliance, self.jacobians)
+
+    def to_json(self) -> dict[str, Any]:
+        """What ``tdcr solve --json`` prints (:meth:`SolveRecord.to_json`)."""
+        return self.record.to_json()
+
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready: the robot's name and :meth:`StaticSolution.to_dict` (what ``tdcr solve --json`` prints),
-        with ``compliance`` and ``jacobians`` when computed."""
-        out = {"robot": self.robot.name, **self.solution.to_dict()}
-        if self.compliance is not None:
-            out["compliance"] = self.compliance.to_dict()
-        if self.jacobians is not None:
-            out["jacobians"] = self.jacobians.to_dict()
-        return out
+        """:meth:`to_json` (the name older code calls)."""
+        return self.to_json()
 
 
 def check_figure_path(path: str | Path) -> Path:
@@ -98,7 +279,7 @@ def check_figure_path(path: str | Path) -> Path:
 CASE_COLUMNS = ["converged", "residual_Nm", "path", "stable", "tip_x_m", "tip_y_m", "tip_z_m", "reach_m"]
 
 
-def case_rows(batch: Any) -> tuple[list[str], list[list[Any]]]:
+def case_rows(batch: BatchSolution) -> tuple[list[str], list[list[int | float | str]]]:
     """The header and rows of a batch of cases (``pytdcr.BatchSolution``): each case's tensions [N], whether it
     converged, its residual [N m], path, stability (1 stable, 0 unstable, empty untested or not converged) and
     tip [m] (empty where it did not converge)."""
