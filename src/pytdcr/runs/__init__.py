@@ -4,8 +4,11 @@ Each run takes typed settings (frozen dataclasses checked on construction, the s
 command of the same name: :class:`SolveSettings`, :class:`SampleSettings`, :class:`OptimizeSettings`,
 :class:`CompareSettings`, :class:`AccuracySettings`, :class:`ReproduceSettings`), built of the groups the runs
 share (:class:`RobotSpec`, :class:`LoadSpec`, :class:`ModelSpec`, :class:`BoundsSpec`), and an output folder,
-and returns a typed result with ``to_dict()`` (:class:`SolveRun`, :class:`SampleRun`, :class:`OptimizeRun`,
-:class:`CompareRun`, :class:`AccuracyRun`, :class:`ReproduceRun`).
+and returns a typed result (:class:`SolveRun`, :class:`SampleRun`, :class:`OptimizeRun`, :class:`CompareRun`,
+:class:`AccuracyRun`, :class:`ReproduceRun`, :class:`WorkspaceRun`). The files a run writes are typed records with
+``to_json()`` and ``from_json()`` and a schema version (:class:`SolveRecord`, :class:`SampleRecord`,
+:class:`OptimizeRecord`, :class:`CompareResult`, :class:`AccuracyResult`, :class:`WorkspaceRecord`,
+:class:`WorkspaceComparison`), read with :mod:`pytdcr.records`.
 
 Every run writes the exact inputs (robot, loads, bounds, seeds, solver
 options) beside its results, so it can be repeated exactly. Every run's
@@ -16,8 +19,8 @@ package changes no global state (the command line alone picks a matplotlib
 backend).
 """
 
-from ._accuracy import AccuracyRun, run_accuracy
-from ._compare import CompareRun, run_compare
+from ._accuracy import AccuracyResult, AccuracyRun, run_accuracy
+from ._compare import CaseSource, CompareResult, CompareRun, run_compare
 from ._inverse import (
     WorkspaceInputs,
     WorkspacePool,
@@ -30,7 +33,18 @@ from ._inverse import (
 from ._output import inputs_record
 from ._report import number_text
 from ._reproduce import ReproduceRun, ReproduceSettings, check_reproduce, reproduce_estimate, run_reproduce
-from ._runs import OptimizeRun, SampleRun, run_optimize, run_sample, sample_into, write_optimize
+from ._runs import (
+    OptimizeRecord,
+    OptimizeRun,
+    SampleRecord,
+    SampleRun,
+    SampleRunCounts,
+    SampleSummary,
+    run_optimize,
+    run_sample,
+    sample_into,
+    write_optimize,
+)
 from ._settings import (
     AccuracySettings,
     CompareSettings,
@@ -40,44 +54,78 @@ from ._settings import (
     read_cases,
     read_targets,
 )
-from ._solve import SolveRun, case_rows, check_csv_path, check_figure_path, run_solve, write_shape_csv
+from ._solve import (
+    SolutionRecord,
+    SolveRecord,
+    SolveRun,
+    case_rows,
+    check_csv_path,
+    check_figure_path,
+    run_solve,
+    write_shape_csv,
+)
 from ._specs import MAX_FRICTION, BoundsSpec, LoadSpec, ModelSpec, RobotSpec, RunInputs
 from ._workspace import (
-                         WorkspaceCase,
-                         WorkspaceCaseSpec,
-                         WorkspaceRun,
-                         WorkspaceRunOptions,
-                         check_workspace_cases,
-                         format_measure_of,
-                         run_workspace,
-                         run_workspace_compare,
+    WorkspaceCase,
+    WorkspaceCaseSpec,
+    WorkspaceRun,
+    WorkspaceRunOptions,
+    check_workspace_cases,
+    format_measure_of,
+    run_workspace,
+    run_workspace_compare,
+)
+from ._workspace_records import (
+    CaseComparison,
+    FailedCase,
+    ModelsSection,
+    PairComparison,
+    WorkspaceComparison,
+    WorkspaceRecord,
+    WorkspaceSection,
 )
 
 __all__ = [
     "MAX_FRICTION",
+    "AccuracyResult",
     "AccuracyRun",
     "AccuracySettings",
     "BoundsSpec",
+    "CaseComparison",
+    "CaseSource",
+    "CompareResult",
     "CompareRun",
     "CompareSettings",
+    "FailedCase",
     "LoadSpec",
     "ModelSpec",
+    "ModelsSection",
+    "OptimizeRecord",
     "OptimizeRun",
     "OptimizeSettings",
+    "PairComparison",
     "ReproduceRun",
     "ReproduceSettings",
     "RobotSpec",
     "RunInputs",
+    "SampleRecord",
     "SampleRun",
+    "SampleRunCounts",
     "SampleSettings",
+    "SampleSummary",
+    "SolutionRecord",
+    "SolveRecord",
     "SolveRun",
     "SolveSettings",
     "WorkspaceCase",
     "WorkspaceCaseSpec",
+    "WorkspaceComparison",
     "WorkspaceInputs",
     "WorkspacePool",
+    "WorkspaceRecord",
     "WorkspaceRun",
     "WorkspaceRunOptions",
+    "WorkspaceSection",
     "case_rows",
     "check_csv_path",
     "check_figure_path",
