@@ -48,27 +48,35 @@ def _is_module(name: str) -> bool:
     return (SRC / rel).with_suffix(".py").exists() or (SRC / rel / "__init__.py").exists()
 
 
-def _imports(path: Path) -> set[str]:
-    """pytdcr modules imported by ``path`` (relative imports resolved; ``from pkg import module`` counts the
-    module), at any depth of the file."""
-    tree = ast.parse(path.read_text())
+def _from_imports(path: Path):
+    """(module, node) of every ``from <pytdcr module> import ...`` in ``path`` at any depth, the module relative to
+    the package and relative imports resolved."""
     pkg = [] if _name(path) == "__init__" else _name(path).split(".")
     if path.name != "__init__.py":
         pkg = pkg[:-1]
+    for node in ast.walk(ast.parse(path.read_text())):
+        if not isinstance(node, ast.ImportFrom):
+            continue
+        if node.level:
+            base = pkg[: len(pkg) - node.level + 1]
+            mod = ".".join([*base, node.module] if node.module else base)
+        elif node.module and node.module.startswith("pytdcr"):
+            mod = node.module.removeprefix("pytdcr").lstrip(".")
+        else:
+            continue
+        yield mod, node
+
+
+def _imports(path: Path) -> set[str]:
+    """pytdcr modules imported by ``path`` (relative imports resolved; ``from pkg import module`` counts the
+    module), at any depth of the file."""
     out = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = pkg[: len(pkg) - node.level + 1]
-                mod = ".".join([*base, node.module] if node.module else base)
-            elif node.module and node.module.startswith("pytdcr"):
-                mod = node.module.removeprefix("pytdcr").lstrip(".")
-            else:
-                continue
-            if mod:
-                out.add(mod)
-                out |= {f"{mod}.{a.name}" for a in node.names if _is_module(f"{mod}.{a.name}")}
-        elif isinstance(node, ast.Import):
+    for mod, node in _from_imports(path):
+        if mod:
+            out.add(mod)
+            out |= {f"{mod}.{a.name}" for a in node.names if _is_module(f"{mod}.{a.name}")}
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
             out |= {a.name.removeprefix("pytdcr.") for a in node.names if a.name.startswith("pytdcr.")}
     return out
 
@@ -118,19 +126,7 @@ def _public_names(package: str) -> set[str] | None:
 
 def _imported_names(path: Path):
     """(package, name, line) of every ``from <pytdcr package> import name`` in ``path``, relative ones resolved."""
-    pkg = [] if _name(path) == "__init__" else _name(path).split(".")
-    if path.name != "__init__.py":
-        pkg = pkg[:-1]
-    for node in ast.walk(ast.parse(path.read_text())):
-        if not isinstance(node, ast.ImportFrom):
-            continue
-        if node.level:
-            base = pkg[: len(pkg) - node.level + 1]
-            mod = ".".join([*base, node.module] if node.module else base)
-        elif node.module and node.module.startswith("pytdcr"):
-            mod = node.module.removeprefix("pytdcr").lstrip(".")
-        else:
-            continue
+    for mod, node in _from_imports(path):
         for alias in node.names:
             yield mod, alias.name, node.lineno
 
