@@ -32,7 +32,7 @@ import numpy as np
 
 from .loads import Loads, check_tensions
 from .paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT, PAYLOAD_MASS, STANDARD_GRAVITY, payload_gravity
-from .records import JsonObject, part
+from .records import JsonDict, JsonObject, part
 from .results import StaticSolution
 from .robot import Robot
 from .statics import (
@@ -239,7 +239,7 @@ class AccuracyRow:
     median_ms: float
     unsupported: str = ""
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """JSON- and CSV-ready form, the columns of ``accuracy.csv`` in order (non-finite numbers stay NaN: the
         JSON writer makes them null)."""
         return {"model": self.model, "group": self.group, "cases": self.cases,
@@ -307,7 +307,7 @@ class OrderRecord:
                    tuple(OrderFit(m, tuple(float(x) for x in e), float(study.order[m]))
                          for m, e in study.errors_mm.items()), float(study.seconds))
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """JSON-ready form: ``group``, ``disks``, ``spacing_m`` [m], ``errors_mm`` and ``order`` (objects keyed by
         model), ``seconds``."""
         return {"group": self.group, "disks": list(self.disks), "spacing_m": list(self.spacing_m),
@@ -355,7 +355,7 @@ class AccuracySummary:
     seconds: float
     orders: tuple[OrderRecord, ...] = ()
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """JSON-ready form: ``rows``, ``compared``, ``reference_steps_per_subsegment``, ``seconds``, ``orders``."""
         return {"rows": [r.to_json() for r in self.rows], "compared": self.compared,
                 "reference_steps_per_subsegment": self.reference_steps_per_subsegment, "seconds": self.seconds,

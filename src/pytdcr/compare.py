@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from .loads import Loads, check_tensions
-from .records import JsonObject
+from .records import JsonDict, JsonObject
 from .results import StaticSolution
 from .robot import Robot
 from .statics import Model, get_models, resolve
@@ -65,7 +65,7 @@ class ModelSummary:
     difference_max_mm: float | None = None
     difference_median_pct_length: float | None = None
 
-    def to_json(self, reference: bool) -> dict[str, Any]:
+    def to_json(self, reference: bool) -> JsonDict:
         """Its keys in ``compare.json``'s ``summary``, each prefixed by the model's name: failures and median
         time, then (unless it is the ``reference``) its differences from the reference."""
         out: dict[str, Any] = {f"{self.model}_not_converged": self.not_converged,
@@ -128,7 +128,7 @@ class ComparisonSummary:
                 return m
         raise KeyError(model)
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """JSON-ready form (``compare.json``'s ``summary``): the cases, the reference, the models, the cases every
         model converged on, then each model's failures and median time [ms] (``pcc_not_converged``,
         ``pcc_ms_median``), then each other model's differences from the reference (``cosserat_difference_median_mm``,

@@ -4,7 +4,6 @@ resumable."""
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
 from ..validate import escape_controls
 from ._args import add_out, count_type
@@ -14,7 +13,7 @@ from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK, CliError
 __all__ = ["add_parser", "run"]
 
 
-def add_parser(sub: Any) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """The ``designs`` command and its options."""
     d = sub.add_parser("designs", help="a design study: a workspace study per design, on local processes or a "
                        "Dask cluster; resumable")

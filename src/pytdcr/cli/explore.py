@@ -4,7 +4,6 @@ equilibrium, continued from the last one shown; with ``--workspace``, a workspac
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
 from ..statics import MODELS
 from ._args import count_type, models_help, robot_spec
@@ -13,7 +12,7 @@ from ._runtime import EXIT_OK, CliError
 __all__ = ["add_parser", "run"]
 
 
-def add_parser(sub: Any) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """The ``explore`` command and its options."""
     ex = sub.add_parser("explore", help="a local web page to move the tendons and loads and watch the robot "
                         "(continuation from the last equilibrium shown)")

@@ -32,7 +32,7 @@ __all__ = ["add_parser", "run"]
 _OBJECTIVES = ("least-squares", "least-max", "least-total")
 
 
-def add_parser(sub: Any) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """The ``inverse`` command and its options."""
     s = sub.add_parser("inverse", help="the tensions that put the tip at a target (inverse statics)")
     which = s.add_mutually_exclusive_group(required=True)

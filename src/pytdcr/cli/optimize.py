@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Any
 
 import numpy as np
 
@@ -31,7 +30,7 @@ from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK, one_line
 __all__ = ["add_parser", "run"]
 
 
-def add_parser(sub: Any) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """The ``optimize`` command and its options."""
     op = sub.add_parser("optimize", help="GA maximising the tip's distance from the base (paper Eq. 29)")
     add_robot_and_loads(op)

@@ -12,7 +12,7 @@ from ._runtime import EXIT_OK, CliError
 __all__ = ["add_parser", "run"]
 
 
-def add_parser(sub: Any) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """The ``reproduce`` command and its options."""
     rp = sub.add_parser("reproduce", help="the paper's study at a modest budget (--full: all of it): figures, data "
                         "and report.md")

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
 
 from ..io import RobotFileError, robot_to_dict, write_robot
 from ._runtime import EXIT_OK, CliError
@@ -11,7 +10,7 @@ from ._runtime import EXIT_OK, CliError
 __all__ = ["add_parser", "run"]
 
 
-def add_parser(sub: Any) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """The ``robot`` command and its options."""
     r = sub.add_parser("robot", help="print a robot as TOML (a starting point for your own)")
     r.add_argument("--robot", default="paper", help="built-in robot or TOML file [paper]")

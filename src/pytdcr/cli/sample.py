@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from typing import Any
 
 import numpy as np
 
@@ -28,7 +27,7 @@ from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK
 __all__ = ["add_parser", "run"]
 
 
-def add_parser(sub: Any) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """The ``sample`` command and its options."""
     sm = sub.add_parser("sample", help="random tension samples: CSV, Fig. 3(a) and Fig. 4")
     add_robot_and_loads(sm)

@@ -30,7 +30,10 @@ from ._progress import Bars, quiet, say
 from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK, CliError
 
 if TYPE_CHECKING:
-    from ..workspace import WorkspaceSummary
+    from ..bounds import TensionBounds
+    from ..loads import Loads
+    from ..robot import Robot
+    from ..workspace import WorkspaceSettings, WorkspaceSummary
 
 __all__ = ["add_parser", "run"]
 
@@ -41,7 +44,7 @@ EQUILIBRIA_CHOICES = ("continuation", "loading-path")
 FOLD_CHOICES = ("snap", "stop")
 
 
-def add_parser(sub: Any) -> None:
+def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """The ``workspace`` command and its options."""
     ws = sub.add_parser("workspace", help="the feasible static workspace as a region: volume, boundary, "
                         "realisability")
@@ -81,7 +84,7 @@ def add_parser(sub: Any) -> None:
     ws.set_defaults(func=run)
 
 
-def _compare_models(args: argparse.Namespace, robot: Any, loads: Any) -> dict[str, tuple[Any, ...]] | None:
+def _compare_models(args: argparse.Namespace, robot: Robot, loads: Loads) -> dict[str, tuple[Any, ...]] | None:
     """The cases of ``--compare-models`` (name → robot, loads, no settings of its own, model, options), or None
     without it; CliError for an unknown model, a repeated one, fewer than two, or another comparison asked
     (what each model can do is checked with every case's requirements: :func:`_check_cases`)."""
@@ -106,8 +109,8 @@ def _compare_models(args: argparse.Namespace, robot: Any, loads: Any) -> dict[st
 _CHECKED_FLAGS = {"model": "--model", "equilibria": "--equilibria", "multistability": "--multistability"}
 
 
-def _check_cases(args: argparse.Namespace, cases: dict[str, tuple[Any, ...]] | None, robot: Any, loads: Any,
-                 settings: Any, model: tuple[Any, Any]) -> None:
+def _check_cases(args: argparse.Namespace, cases: dict[str, tuple[Any, ...]] | None, robot: Robot, loads: Loads,
+                 settings: WorkspaceSettings, model: tuple[Any, Any]) -> None:
     """Every case's requirements against its model's capabilities, before the first solve (and before the
     estimate, which solves a few): CliError naming the flag that made the cases, the case and what its model
     lacks (:func:`pytdcr.runs.check_workspace_cases`); for a single case, the flag of the setting the error
@@ -133,7 +136,8 @@ def _check_cases(args: argparse.Namespace, cases: dict[str, tuple[Any, ...]] | N
         raise CliError(err.worded({"cases": flag})) from None
 
 
-def _say_estimate(cases: dict[str, tuple[Any, ...]] | None, robot: Any, loads: Any, bounds: Any, settings: Any,
+def _say_estimate(cases: dict[str, tuple[Any, ...]] | None, robot: Robot, loads: Loads, bounds: TensionBounds,
+                  settings: WorkspaceSettings,
                   model: tuple[Any, Any]) -> None:
     """Say the run's estimated time on stderr when it will take more than a minute (not with ``--quiet``)."""
     from ..runs import WorkspaceCaseSpec

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from ..records import check_schema, part
+from ..records import JsonDict, JsonObject, check_schema, part
 from ..validate import finite_real
 from ._spec import MEASURES, DesignStudy
 
@@ -153,7 +153,7 @@ class CaseRow:
         """Every measure by its column name: :data:`MEASURES`' then h's, as :meth:`measure` gives them."""
         return {**{m: getattr(self, m) for m in MEASURES}, **{f"h_{k}_m": v for k, v in self.h_m.items()}}
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """The row as a design's file holds it: the load case, the measures (NaN is written null by
         :func:`~pytdcr.runtime.dump_json`), h along each direction, the largest reach and the farthest
         tensions."""
@@ -166,7 +166,7 @@ class CaseRow:
                 "reach_tensions_n": None if self.reach_tensions_n is None else list(self.reach_tensions_n)}
 
     @classmethod
-    def from_json(cls, d: Mapping[str, Any]) -> CaseRow:
+    def from_json(cls, d: JsonObject) -> CaseRow:
         """The row :meth:`to_json` wrote: every measure a finite number or null (NaN), the tensions null or a
         list of finite numbers. KeyError for a missing key; ValueError for a key unknown or a value not one."""
         h_keys = {m.group(1): k for k in d if isinstance(k, str) and (m := _H_KEY.fullmatch(k))}  # name: key
@@ -200,12 +200,12 @@ class Timing:
     host: str
     pid: int
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """``{"seconds", "host", "pid"}``."""
         return {"seconds": self.seconds, "host": self.host, "pid": self.pid}
 
     @classmethod
-    def from_json(cls, d: Mapping[str, Any]) -> Timing:
+    def from_json(cls, d: JsonObject) -> Timing:
         """What :meth:`to_json` wrote: seconds a finite number >= 0 or null (NaN), host a string, pid an
         integer. KeyError for a missing key; ValueError otherwise."""
         seconds, host, pid = d["seconds"], d["host"], d["pid"]
@@ -259,7 +259,7 @@ class DesignRecord:
         """Its row of load case ``case`` (None when it has none)."""
         return next((r for r in self.rows if r.load_case == case), None)
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """The record as its file holds it: ``schema_version``, design, params, status, reason, rows,
         traceback (when there is one), timing and generation."""
         out: dict[str, Any] = {"schema_version": SCHEMA_VERSION, "design": self.design, "params": dict(self.params),
@@ -291,7 +291,7 @@ class DesignRecord:
         return _read("", _record, d)
 
 
-def _record(d: Mapping[str, Any]) -> DesignRecord:
+def _record(d: JsonObject) -> DesignRecord:
     """:meth:`DesignRecord.from_json` of a JSON object ``d``."""
     check_schema(d, _FILE, SCHEMA_VERSION)
     design, params, status, rows, timing = d["design"], d["params"], d["status"], d["rows"], d["timing"]
@@ -384,13 +384,13 @@ class BestDesign:
     value: float
     error: float | None
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """``summary.json``'s entry, key for key."""
         return {"load_case": self.load_case, "design": self.design, "robot_file": self.robot_file,
                 "measure": self.measure, "goal": self.goal, "value": self.value, "error": self.error}
 
     @classmethod
-    def from_json(cls, d: Mapping[str, Any]) -> BestDesign:
+    def from_json(cls, d: JsonObject) -> BestDesign:
         """What :meth:`to_json` wrote; KeyError naming a missing key."""
         return cls(d["load_case"], d["design"], d["robot_file"], d["measure"], d["goal"], d["value"], d["error"])
 
@@ -412,12 +412,12 @@ class Unranked:
     goal: str
     reason: str
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """``summary.json``'s entry, key for key."""
         return {"load_case": self.load_case, "measure": self.measure, "goal": self.goal, "reason": self.reason}
 
     @classmethod
-    def from_json(cls, d: Mapping[str, Any]) -> Unranked:
+    def from_json(cls, d: JsonObject) -> Unranked:
         """What :meth:`to_json` wrote; KeyError naming a missing key."""
         return cls(d["load_case"], d["measure"], d["goal"], d["reason"])
 
@@ -479,7 +479,7 @@ class DesignsSummary:
     best: tuple[BestDesign, ...] = ()
     warnings: tuple[str, ...] = ()
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """``summary.json``, key for key and in order, with ``schema_version`` first."""
         return {"schema_version": SCHEMA_VERSION, "study": self.study, "digest": self.digest, "seed": self.seed,
                 "designs": self.designs, "designs_reused": self.designs_reused,
@@ -504,7 +504,7 @@ class DesignsSummary:
         return part(_SUMMARY, "", _summary, d)
 
 
-def _summary(d: Mapping[str, Any]) -> DesignsSummary:
+def _summary(d: JsonObject) -> DesignsSummary:
     """:meth:`DesignsSummary.from_json` of a JSON object ``d``."""
     check_schema(d, _SUMMARY, SCHEMA_VERSION)
     return DesignsSummary(

@@ -38,6 +38,7 @@ import numpy as np
 
 from ..bounds import TensionBounds
 from ..loads import Loads, check_tensions
+from ..records import JsonDict
 from ..results import StaticSolution
 from ..robot import Robot
 from ..statics import Model, resolve, solve
@@ -217,7 +218,7 @@ class InverseResult:
     evaluations: int
     seconds: float
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """JSON-ready form (what ``tdcr inverse --json`` prints)."""
         return {"target": self.target.tolist(), "tensions": self.tensions.tolist(),
                 "tip_position": self.tip_position.tolist(), "tip_axis": self.tip_axis.tolist(),

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from ..records import JsonObject, check_schema, optional_part, part
+from ..records import JsonDict, JsonObject, check_schema, optional_part, part
 from ..runtime import to_jsonable
 
 __all__ = ["SCHEMA_VERSION", "GASettings", "Optimum", "PolishOutcome", "ReachResult", "SearchFailed",
@@ -74,7 +74,7 @@ class Optimum:
     cost: float
     stable: bool | None = None
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """JSON-ready form (:func:`pytdcr.runtime.to_jsonable`, the rule of every JSON file and answer: lists of
         floats, no -0.0, a non-finite number as None)."""
         return to_jsonable({"tensions": self.tensions, "tip_position": self.tip_position, "reach": self.reach,
@@ -107,7 +107,7 @@ class PolishOutcome:
     evaluations: int
     message: str
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """JSON-ready form (keys ``cost_change``, ``evaluations``, ``message``)."""
         return {"cost_change": self.cost_change, "evaluations": self.evaluations, "message": self.message}
 
@@ -288,7 +288,7 @@ class ReachResult:
         """The GA's settings from ``settings``; None for a polish alone (no GA ran)."""
         return GASettings.from_json(self.settings) if "pop_size" in self.settings else None
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """JSON-ready summary (the keys of ``tdcr optimize --json`` and of ``optimize.json``'s ``result``, after
         ``schema_version``), by :func:`pytdcr.runtime.to_jsonable`'s rule: no -0.0 in it, a non-finite number as
         None."""
@@ -310,7 +310,7 @@ class ReachResult:
             "settings": self.settings,
         })
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """:meth:`to_json` (the name older code calls)."""
         return self.to_json()
 

@@ -30,7 +30,7 @@ from ..accuracy import (
 from ..bounds import TensionBounds
 from ..loads import Loads
 from ..plotting import plot_order, save_figure
-from ..records import JsonObject, check_schema, part
+from ..records import JsonDict, JsonObject, check_schema, part
 from ..robot import Robot
 from ..runtime import atomic_write_text, output_folder, write_csv, write_json
 from ..statics import saving
@@ -67,7 +67,7 @@ class AccuracyResult:
     summary: AccuracySummary
     files: tuple[str, ...]
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """``accuracy.json``: ``schema_version``, ``inputs``, ``summary`` and ``files``."""
         return {"schema_version": SCHEMA_VERSION, "inputs": dict(self.inputs), "summary": self.summary.to_json(),
                 "files": list(self.files)}
@@ -107,7 +107,7 @@ class AccuracyRun:
         :meth:`~pytdcr.accuracy.AccuracySummary.to_json`)."""
         return self.study.summary(self.orders)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """:meth:`summary` (JSON-ready) and the files."""
         return {**self.summary().to_json(), "files": list(self.files)}
 

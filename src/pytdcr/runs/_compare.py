@@ -22,7 +22,7 @@ from ..bounds import TensionBounds
 from ..compare import ComparisonSummary, ModelComparison, compare_models
 from ..loads import Loads
 from ..plotting import plot_model_overlay, save_figure
-from ..records import JsonObject, check_schema, part
+from ..records import JsonDict, JsonObject, check_schema, part
 from ..robot import NoFriction, Robot
 from ..runtime import atomic_write_text, output_folder, write_csv, write_json
 from ..statics import get_models, options_record, resolve, saving
@@ -71,7 +71,7 @@ class CaseSource:
             return "random"
         return "given" if _GIVEN.fullmatch(self.cases) else "file"
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """JSON-ready form: ``cases``, with ``bounds`` (``lower``, ``upper`` [N]) and ``seed`` when random."""
         out: dict[str, Any] = {"cases": self.cases}
         if self.bounds is not None:
@@ -113,7 +113,7 @@ class CompareResult:
     summary: ComparisonSummary
     files: tuple[str, ...]
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """``compare.json``: ``schema_version``, ``inputs`` (the source's keys before the solvers' options, as a
         run writes them), ``summary`` and ``files``."""
         inputs = {k: v for k, v in self.inputs.items() if k != "solvers"}
@@ -162,7 +162,7 @@ class CompareRun:
     source: CaseSource
     friction_off: tuple[str, ...] = ()
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """JSON-ready: the robot's name, the cases' source, the summary (as in ``compare.json``), the files."""
         return {"robot": self.robot.name, "source": self.source.to_json(), "friction_off": list(self.friction_off),
                 "summary": self.comparison.summary().to_json(), "files": list(self.files)}

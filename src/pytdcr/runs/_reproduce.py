@@ -17,6 +17,7 @@ from ..loads import MAX_TENSION, Loads
 from ..optimize import MemeticGA, ReachProblem, ReachResult, Termination, maximize_reach, polish_reach
 from ..paper import DEFAULT_BOUNDS, PAYLOAD_MASS, paper_bounds, paper_loads, payload_loads
 from ..plotting import plot_robot, save_figure
+from ..records import JsonDict
 from ..robot import Robot
 from ..runtime import (
     atomic_write_text,
@@ -162,12 +163,12 @@ class ReproduceRun:
     bounds_study: list[tuple[float, ReachResult]]
     verdicts: list[ModelVerdict]
 
-    def summary(self) -> dict[str, Any]:
+    def summary(self) -> JsonDict:
         """Seed, files, sampling, passive solve and workspace section (``reproduce.json``'s ``summary``)."""
         return {"seed": self.seed, "files": list(self.files), "sampling": self.sampling, "passive": self.passive,
                 "workspace": self.workspace.to_json()}
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """:meth:`summary` and the run's time [s]."""
         return {**self.summary(), "seconds": self.seconds}
 

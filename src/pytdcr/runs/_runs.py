@@ -27,7 +27,7 @@ from ..bounds import TensionBounds
 from ..loads import Loads
 from ..optimize import ReachProblem, ReachResult, maximize_reach
 from ..plotting import plot_convergence, plot_reach_samples, plot_robot, plot_robots, save_figure
-from ..records import JsonObject, check_schema, part
+from ..records import JsonDict, JsonObject, check_schema, part
 from ..robot import Robot
 from ..runtime import output_folder, write_csv, write_json
 from ..statics import TIGHT_ATOL, options_record, saving, solve, stability_counts, stability_test
@@ -89,7 +89,7 @@ class SampleRunCounts:
                    int(states["untested"] or 0),
                    float(np.nanmax(samples.reach)) if samples.converged.any() else None)
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """JSON-ready form (keys in the files' order)."""
         return {"converged": self.converged, "not_converged": self.not_converged, "unstable": self.unstable,
                 "stability_test": self.stability_test, "stability_untested": self.stability_untested,
@@ -136,7 +136,7 @@ class SampleRecord:
     seconds: float
     files: tuple[str, ...]
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """JSON-ready form: ``schema_version``, the inputs, solved, complete, the counts, the time and the
         files."""
         return {"schema_version": SAMPLE_SCHEMA_VERSION, "inputs": self.inputs, "solved": self.solved,
@@ -182,7 +182,7 @@ class SampleSummary:
     seconds: float
     files: tuple[str, ...]
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """JSON-ready form: ``schema_version``, robot, solved, seed, the counts, the time and the files."""
         return {"schema_version": SAMPLE_SCHEMA_VERSION, "robot": self.robot, "solved": self.solved,
                 "seed": self.seed, **self.counts.to_json(), "seconds": self.seconds, "files": list(self.files)}
@@ -235,11 +235,11 @@ class SampleRun:
         return SampleSummary(self.robot.name, int(self.samples.converged.size), self.samples.seed, self.counts,
                              self.samples.seconds, tuple(self.files))
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """JSON-ready summary (:meth:`SampleSummary.to_json`)."""
         return self.summary.to_json()
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """:meth:`to_json` (the name older code calls)."""
         return self.to_json()
 
@@ -386,11 +386,11 @@ class OptimizeRun:
         """The result and the files, typed (no inputs: those are ``optimize.json``'s alone)."""
         return OptimizeRecord(None, self.result, tuple(self.files))
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """JSON-ready: ``schema_version``, the result (:meth:`ReachResult.to_json`) and the files."""
         return self.record.to_json()
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """:meth:`to_json` (the name older code calls)."""
         return self.to_json()
 
@@ -413,7 +413,7 @@ class OptimizeRecord:
     result: ReachResult
     files: tuple[str, ...]
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """JSON-ready form: ``schema_version``, the inputs (when known), the result and the files."""
         head: dict[str, Any] = {"schema_version": OPTIMIZE_SCHEMA_VERSION}
         if self.inputs is not None:

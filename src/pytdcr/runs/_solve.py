@@ -12,13 +12,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from ..loads import Loads
 from ..plotting import plot_robot, save_figure_as
-from ..records import JsonObject, check_schema, optional_part, part
+from ..records import JsonDict, JsonObject, check_schema, optional_part, part
 from ..results import BatchSolution, Stability, StaticSolution
 from ..robot import Robot
 from ..runtime import FileRefused, writable_file, write_csv
@@ -139,7 +138,7 @@ class SolutionRecord:
         return cls(ok, sol.failure, sol.stable, sol.stability, float(sol.residual), int(sol.iterations),
                    int(sol.load_steps), sol.model, SolvePath(sol.path), float(sol.seconds), *shape)
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """JSON-ready form: :meth:`StaticSolution.to_dict`'s keys, in its order."""
         return {"converged": self.converged, "failure": self.failure or None, "stable": self.stable,
                 "stability": None if self.stability is None else self.stability.to_dict(),
@@ -191,7 +190,7 @@ class SolveRecord:
     compliance: TipCompliance | None = None
     jacobians: Jacobians | None = None
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """JSON-ready form: ``schema_version``, the robot's name, the solution's keys, then ``compliance`` and
         ``jacobians`` when computed (each absent otherwise)."""
         out = {"schema_version": SCHEMA_VERSION, "robot": self.robot, **self.solution.to_json()}
@@ -248,11 +247,11 @@ class SolveRun:
         Jacobians when computed."""
         return SolveRecord(self.robot.name, SolutionRecord.of(self.solution), self.compliance, self.jacobians)
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> JsonDict:
         """What ``tdcr solve --json`` prints (:meth:`SolveRecord.to_json`)."""
         return self.record.to_json()
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """:meth:`to_json` (the name older code calls)."""
         return self.to_json()
 

@@ -11,6 +11,7 @@ import numpy as np
 from ..bounds import TensionBounds
 from ..loads import Loads
 from ..optimize import MemeticGA, ReachProblem, ReachResult, Termination, maximize_reach, polish_reach
+from ..records import JsonDict
 from ..robot import Robot
 from ..runtime import end_stage
 
@@ -43,7 +44,7 @@ class ModelVerdict:
     reoptimised: ReachResult | None
     method: str
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonDict:
         """JSON-ready form."""
         return {"model": self.model, "converged": self.converged, "reach": self.reach, "tip_shift": self.tip_shift,
                 "method": self.method, "reoptimised": None if self.reoptimised is None else self.reoptimised.to_dict()}

@@ -7,7 +7,7 @@ import shutil
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
@@ -58,6 +58,9 @@ from ._workspace_records import (
     WorkspaceRecord,
     WorkspaceSection,
 )
+
+if TYPE_CHECKING:  # the reproduce run imports this module
+    from ._reproduce import ReproduceSettings
 
 __all__ = [
     "WorkspaceCase",
@@ -697,7 +700,7 @@ def _failed_lines(failed: dict[str, str]) -> list[str]:
 _SectionCases = dict[str, tuple[Robot, Loads, WorkspaceSettings, str]]
 
 
-def _section_cases(robot: Robot, s: Any, seed: int) -> tuple[_SectionCases, _SectionCases]:
+def _section_cases(robot: Robot, s: ReproduceSettings, seed: int) -> tuple[_SectionCases, _SectionCases]:
     """The workspace cases of :func:`workspace_section` and those of its models' comparison (empty without
     ``s.workspace_models``), each name → robot, loads, settings, model."""
     from ..paper import workspace_load_cases
@@ -715,7 +718,7 @@ def _section_cases(robot: Robot, s: Any, seed: int) -> tuple[_SectionCases, _Sec
     return out, {m: (r, loads, settings, m) for m in s.workspace_models}
 
 
-def section_check(robot: Robot, s: Any, *, seed: int = 0) -> None:
+def section_check(robot: Robot, s: ReproduceSettings, *, seed: int = 0) -> None:
     """Every case of :func:`workspace_section` (and of its models' comparison) against its model's capabilities,
     before any solve (:func:`check_workspace_cases`: SettingsError naming ``workspace_models`` for a model of the
     comparison, ``robot`` for the section's own cases)."""
@@ -725,7 +728,7 @@ def section_check(robot: Robot, s: Any, *, seed: int = 0) -> None:
         check_workspace_cases(specs, WorkspaceSettings(), field_name=field_name)
 
 
-def section_estimate(robot: Robot, bounds: TensionBounds, s: Any, *, seed: int = 0) -> Estimate:
+def section_estimate(robot: Robot, bounds: TensionBounds, s: ReproduceSettings, *, seed: int = 0) -> Estimate:
     """The expected length of :func:`workspace_section` at the settings ``s``
     (:func:`~pytdcr.workspace.workspace_estimate`)."""
     cases, models = _section_cases(robot, s, seed)
@@ -733,7 +736,7 @@ def section_estimate(robot: Robot, bounds: TensionBounds, s: Any, *, seed: int =
                               bounds)
 
 
-def workspace_section(robot: Robot, bounds: TensionBounds, s: Any, out: Path, files: list[str], *,
+def workspace_section(robot: Robot, bounds: TensionBounds, s: ReproduceSettings, out: Path, files: list[str], *,
                       seed: int = 0, progress: Any = None) -> WorkspaceSection:
     """``tdcr reproduce``'s workspace section: the FSW under the paper's tip wrench next to no load, at the
     budget of ``s`` (:class:`~pytdcr.runs.ReproduceSettings`); writes ``workspace_slices`` (PNG, PDF) and the
@@ -761,8 +764,8 @@ def workspace_section(robot: Robot, bounds: TensionBounds, s: Any, out: Path, fi
                             _models_section(robot, models, bounds, s, out, files, hooks) if models else None)
 
 
-def _models_section(robot: Robot, models: dict[str, tuple[Any, ...]], bounds: TensionBounds, s: Any, out: Path,
-                    files: list[str], hooks: Callable[[str], WorkspaceHooks]) -> ModelsSection:
+def _models_section(robot: Robot, models: dict[str, tuple[Any, ...]], bounds: TensionBounds, s: ReproduceSettings,
+                    out: Path, files: list[str], hooks: Callable[[str], WorkspaceHooks]) -> ModelsSection:
     """The FSWs of ``models`` (name → robot, loads, settings, model: the paper's wrench, each model's own
     equilibria, continued where it can, at ``s.models_n`` samples and ``s.models_voxels`` voxels per length),
     compared: per model its volume with its error, per pair the Hausdorff distance and the share of each inside
@@ -776,7 +779,7 @@ def _models_section(robot: Robot, models: dict[str, tuple[Any, ...]], bounds: Te
     return ModelsSection(s.models_n, voxel, tuple(_comparison(done)), tuple(_pairs(done)))
 
 
-def workspace_text(ws: WorkspaceSection, s: Any) -> list[str]:
+def workspace_text(ws: WorkspaceSection, s: ReproduceSettings) -> list[str]:
     """The report's workspace section."""
     lines = ["## The feasible static workspace as a region", "",
              f"Base samples n = {ws.n} (scrambled Sobol, with the tension box's corners and edges), voxels of "
