@@ -108,10 +108,11 @@ def test_the_reproduce_workspace_section_compares_the_models(tmp_path):
                           models_n=32, models_voxels=10)
     files: list[str] = []
     ws = workspace_section(paper_robot(), paper_bounds(), s, tmp_path, files, seed=1)
-    models = ws["models"]
-    assert [r["model"] for r in models["cases"]] == ["pcc", "pcc2"] and all(r["volume_m3"] > 0 for r in models["cases"])
-    (pair,) = models["pairs"]
-    assert pair["a"] == "pcc" and pair["b"] == "pcc2" and pair["hausdorff_m"] is not None
+    models = ws.models
+    assert models is not None
+    assert [r.model for r in models.cases] == ["pcc", "pcc2"] and all(r.volume_m3 > 0 for r in models.cases)
+    (pair,) = models.pairs
+    assert pair.a == "pcc" and pair.b == "pcc2" and pair.overlap.hausdorff_m is not None
     assert "workspace_models_slices.png" in files and (tmp_path / "workspace_models_slices.png").is_file()
     text = "\n".join(workspace_text(ws, s))
     assert "### The workspace by model" in text and "| pcc2 |" in text and "Hausdorff" in text
@@ -121,8 +122,9 @@ def test_the_reproduce_workspace_section_compares_the_models(tmp_path):
     loads_cases, model_cases = _section_cases(paper_robot(), s, 1)
     assert {v[2].folds for v in model_cases.values()} == {"stop"}
     assert {v[2].folds for v in loads_cases.values()} == {"snap"}
-    assert "models" not in workspace_section(paper_robot(), paper_bounds(), ReproduceSettings(workspace_n=16,
-                                             workspace_budget=0, workspace_voxels=10), tmp_path, [], seed=1)
+    assert workspace_section(paper_robot(), paper_bounds(), ReproduceSettings(workspace_n=16, workspace_budget=0,
+                                                                          workspace_voxels=10),
+                             tmp_path, [], seed=1).models is None
 
 
 def test_a_comparisons_progress_names_each_case(tmp_path):
