@@ -434,8 +434,11 @@ def test_reproduce_closes_with_its_key_results():
     res = SimpleNamespace(sampling={"n": 100, "converged": 98, "reach_min": 0.0141, "reach_max": 0.3874},
                           ga={100: opt, 50: bad}, payload=opt, bounds_study=[(20.0, opt), (40.0, bad)],
                           verdicts=[SimpleNamespace(model="sscr", converged=True, reach=0.3887, tip_shift=0.0591)],
-                          workspace={"cases": [{"case": "paper wrench", "volume_m3": 0.011782, "volume_err_m3": 0.01102,
-                                                "largest_reach_m": None}]})
+                          workspace=SimpleNamespace(cases=[
+                              SimpleNamespace(case="paper wrench", volume_m3=0.011782, volume_err_m3=0.01102,
+                                              largest_reach_m=None),
+                              SimpleNamespace(case="no load", volume_m3=0.018176, volume_err_m3=0.026816,
+                                              largest_reach_m=0.39)]))
     lines = closing_lines(res)
     assert lines[0] == "samples: 98 of 100 converged, reach 14.1 to 387.4 mm"
     assert lines[1] == "GA under the paper's load, population 50: largest reach 394.1 mm (flagged UNSTABLE)"
@@ -443,3 +446,6 @@ def test_reproduce_closes_with_its_key_results():
     assert "20 N: 392.9 mm (stable); 40 N: 394.1 mm (flagged UNSTABLE)" in lines[4]
     assert lines[5] == "the paper's optimum under sscr: reach 388.7 mm, tip 59.1 mm from pcc's"
     assert lines[6] == "workspace, paper wrench: 11,782 +- 11,020 cm3, largest reach none"
+    # an error bar larger than the value: no volume shown as a result
+    assert lines[7] == ("workspace, no load: volume not measured at this budget (its error, 26,816 cm3, exceeds the "
+                        "estimate; tdcr reproduce --full), largest reach 390.0 mm")

@@ -71,8 +71,10 @@ def closing_lines(res: Any) -> list[str]:
                                                                        for hi, r in res.bounds_study))
     lines += [f"the paper's optimum under {v.model}: " + (f"reach {v.reach * 1e3:.1f} mm, tip {v.tip_shift * 1e3:.1f} "
               "mm from pcc's" if v.converged else "not converged") for v in res.verdicts]
-    for c in res.workspace.get("cases", []):
-        reach = "none" if c["largest_reach_m"] is None else f"{c['largest_reach_m'] * 1e3:.1f} mm"
-        lines.append(f"workspace, {c['case']}: {c['volume_m3'] * 1e6:,.0f} +- {c['volume_err_m3'] * 1e6:,.0f} cm3, "
-                     f"largest reach {reach}")
+    for c in res.workspace.cases:
+        reach = "none" if c.largest_reach_m is None else f"{c.largest_reach_m * 1e3:.1f} mm"
+        volume = (f"{c.volume_m3 * 1e6:,.0f} +- {c.volume_err_m3 * 1e6:,.0f} cm3" if c.volume_err_m3 < c.volume_m3
+                  else f"volume not measured at this budget (its error, {c.volume_err_m3 * 1e6:,.0f} cm3, exceeds "
+                       "the estimate; tdcr reproduce --full)")
+        lines.append(f"workspace, {c.case}: {volume}, largest reach {reach}")
     return lines
