@@ -5,7 +5,9 @@ from __future__ import annotations
 import argparse
 import csv
 import io
-from typing import Any
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -25,6 +27,12 @@ from ._args import (
     robot_spec,
 )
 from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK, CliError
+
+if TYPE_CHECKING:
+    from ..bounds import TensionBounds
+    from ..loads import Loads
+    from ..optimize import InverseResult
+    from ..robot import Robot
 
 __all__ = ["add_parser", "run"]
 
@@ -60,16 +68,27 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     s.set_defaults(func=run, model_default=s.get_default("model"))
 
 
-def _problem(args: argparse.Namespace) -> tuple[Any, Any, Any, Any, Any]:
-    """Robot, loads, bounds, model name and the search's pool (None: the built-in one) of the options, or of
-    ``--workspace``."""
+class Problem(NamedTuple):
+    """What ``tdcr inverse`` solves on: the robot, its external loads, the tension bounds, the model's registered
+    name and the search's pool of starts (tensions (K, n_tendons) [N], tips (K, 3) [m]; None: the built-in one)."""
+
+    robot: Robot
+    loads: Loads
+    bounds: TensionBounds
+    model: str
+    pool: tuple[np.ndarray, np.ndarray] | None
+
+
+def _problem(args: argparse.Namespace) -> Problem:
+    """The :class:`Problem` of the options, or of ``--workspace`` (its run's robot, loads, bounds and model, its
+    samples as the pool)."""
     from ..runs import BoundsSpec, read_workspace_pool
 
     if args.workspace is None:
         robot = robot_spec(args).build()
         loads = load_spec(args).build(robot)
         bounds = (bounds_spec(args) or BoundsSpec()).build(robot)
-        return robot, loads, bounds, args.model, None
+        return Problem(robot, loads, bounds, args.model, None)
     given = [flag for flag, on in (
         ("--robot", args.robot != "paper"), ("--tip-force", args.tip_force), ("--tip-moment", args.tip_moment),
         ("--disk-force", args.disk_force), ("--disk-moment", args.disk_moment), ("--gravity", args.gravity is not None),
@@ -78,13 +97,13 @@ def _problem(args: argparse.Namespace) -> tuple[Any, Any, Any, Any, Any]:
     if given:
         raise CliError(f"--workspace takes the robot, loads, bounds and model of its run: drop {', '.join(given)}")
     ws = read_workspace_pool(args.workspace)
-    return ws.robot, ws.loads, ws.bounds, ws.model, (ws.tensions, ws.tips)
+    return Problem(ws.robot, ws.loads, ws.bounds, ws.model, (ws.tensions, ws.tips))
 
 
 def run(args: argparse.Namespace) -> int:
     """Solve the target (or the path); print the answer (or one JSON object, or the CSV table)."""
     from .. import InverseSearch, TipTarget, inverse_path, inverse_statics
-    from ..runs import check_csv_path, read_targets
+    from ..runs import InverseRun, check_csv_path, read_targets
 
     out = check_csv_path(args.csv) if args.csv is not None else None
     direction = parse_floats(args.direction, "--direction", 3) if args.direction else None
@@ -103,9 +122,8 @@ def run(args: argparse.Namespace) -> int:
                                direction=direction, search=search)
     name = m if isinstance(m, str) else m.name
     if args.json:
-        head = {"robot": robot.name, "model": name, "objective": args.objective}
-        body = results[0].to_dict() if target is not None else {"points": [r.to_dict() for r in results]}
-        print(dump_json({**head, **body}))
+        answers = InverseRun(robot.name, name, args.objective, tuple(results), along_path=target is None)
+        print(dump_json(answers.to_json()))
     elif target is not None:
         _print_one(robot, name, results[0])
     else:
@@ -125,8 +143,8 @@ def _vec(v: np.ndarray, digits: int = 6) -> str:
     return "[" + ", ".join(f"{x:.{digits}f}" for x in v) + "]"
 
 
-def _print_one(robot: Any, model: str, r: Any) -> None:
-    """One answer in a few lines."""
+def _print_one(robot: Robot, model: str, r: InverseResult) -> None:
+    """One answer in a few lines: where the tip is [m], the tensions [N], the objective, the stability."""
     turn = "" if r.axis_error_rad is None else f", its axis {np.degrees(r.axis_error_rad):.3g} deg off"
     where = (f"REACHED ({r.path}), {r.distance_m:.2e} m away{turn}" if r.reachable else
              f"NOT reachable: the nearest point found is {r.distance_m:.3g} m away{turn} ({r.path})")
@@ -138,8 +156,8 @@ def _print_one(robot: Any, model: str, r: Any) -> None:
           f"{r.seconds * 1e3:.0f} ms")
 
 
-def _print_path(results: list[Any], out: Any) -> None:
-    """The path's table on stdout (without ``--csv``) or its summary."""
+def _print_path(results: Sequence[InverseResult], out: Path | None) -> None:
+    """The path's table on stdout (without ``--csv``: ``out`` None) or its summary (the table goes to ``out``)."""
     from ..optimize import InversePath
     from ..runs import inverse_columns, inverse_rows
 

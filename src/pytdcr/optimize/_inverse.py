@@ -32,16 +32,17 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, replace
 from enum import StrEnum
-from typing import Any
+from functools import partial
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..bounds import TensionBounds
 from ..loads import Loads, check_tensions
-from ..records import JsonDict
+from ..records import JsonDict, JsonObject, check_schema, part
 from ..results import StaticSolution
 from ..robot import Robot
-from ..statics import Model, resolve, solve
+from ..statics import Model, ModelOptions, resolve, solve
 from ..validate import MAX_SEED, SettingsError, as_real_array, check_count, check_positions, unit_vector
 from ._inverse_search import (
     NEAREST,
@@ -55,11 +56,18 @@ from ._inverse_search import (
     sample_pool,
 )
 
-__all__ = ["NEAREST", "OBJECTIVES", "InversePath", "InverseResult", "InverseSearch", "TipTarget", "inverse_path",
-           "inverse_statics", "objective_value"]
+__all__ = ["NEAREST", "OBJECTIVES", "SCHEMA_VERSION", "InversePath", "InverseResult", "InverseSearch", "TipTarget",
+           "inverse_path", "inverse_statics", "objective_value"]
 
 #: how a solution is chosen among the redundant ones
 OBJECTIVES = ("least-squares", "least-max", "least-total")
+
+#: the layout of an inverse answer's JSON (:meth:`InverseResult.to_json`, ``tdcr inverse --json``)
+SCHEMA_VERSION = 1
+
+#: the record errors name
+_FILE = "inverse result"
+_read = partial(part, _FILE)
 
 
 class InversePath(StrEnum):
@@ -80,7 +88,7 @@ class InversePath(StrEnum):
     ANOTHER_BRANCH = "another branch"
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class TipTarget:
     """Where the tip should be: a position and, optionally, the direction of its axis.
 
@@ -88,23 +96,22 @@ class TipTarget:
     ----------
     position : array-like, shape (3,)
         [m], base frame; each coordinate within +/- :data:`~pytdcr.validate.MAX_POSITION_M` (no robot reaches
-        farther).
+        farther). Held as a float ndarray (3,).
     direction : array-like, shape (3,), optional
         The tip axis wanted (the last disk's normal), normalised here (:func:`pytdcr.validate.unit_vector`: its
         scale is free); its miss counts ``robot.length`` times the difference of the unit vectors, so that one
-        tolerance [m] holds both.
+        tolerance [m] holds both. Held as a unit ndarray (3,), or None.
     """
 
-    position: Any
-    direction: Any = None
+    position: np.ndarray
+    direction: np.ndarray | None
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "position", check_positions(self.position, "target", single=True))
-        if self.direction is not None:
-            object.__setattr__(self, "direction", unit_vector(self.direction, "direction"))
+    def __init__(self, position: ArrayLike, direction: ArrayLike | None = None) -> None:
+        object.__setattr__(self, "position", check_positions(position, "target", single=True))
+        object.__setattr__(self, "direction", None if direction is None else unit_vector(direction, "direction"))
 
     @classmethod
-    def of(cls, target: Any) -> TipTarget:
+    def of(cls, target: TipTarget | ArrayLike) -> TipTarget:
         """``target`` itself, or a position (3,) [m] as a target without a direction."""
         return target if isinstance(target, TipTarget) else cls(target)
 
@@ -123,8 +130,8 @@ class InverseSearch:
         The solves one target may spend (default 200; at least 10).
     seed : int
         The start pool's Sobol scramble seed.
-    options : the model's options type, optional
-        Solver options (default: the model's).
+    options : ModelOptions, optional
+        Solver options of the model's options type (default: the model's).
     pool : tuple of ndarray, optional
         Equilibria to start from instead of the built-in pool: tensions (K, n_tendons) [N] and their tips
         (K, 3) [m], e.g. a workspace run's samples.
@@ -134,7 +141,7 @@ class InverseSearch:
     starts: int = 3
     max_solves: int = 200
     seed: int = 0
-    options: Any = None
+    options: ModelOptions | None = None
     pool: tuple[np.ndarray, np.ndarray] | None = None
 
     def __post_init__(self) -> None:
@@ -193,12 +200,17 @@ class InverseResult:
         A reaching answer where no small move of the tensions that keeps the tip at the target lowers the
         objective (first-order optimality, checked on the exact Jacobian); False where the search stopped at
         the edge of the tensions the loading path holds there, or did not reach.
-    solution : StaticSolution
-        The equilibrium.
+    solution : StaticSolution or None
+        The equilibrium; None in a result read back from JSON (:meth:`from_json`: a file holds the answer's
+        numbers, not its equilibrium).
     evaluations : int
         Solves spent.
     seconds : float
         Wall time [s].
+
+    JSON happens at one boundary: :meth:`to_json` (what ``tdcr inverse --json`` prints for one target, with
+    ``schema_version``: :data:`SCHEMA_VERSION`) and :meth:`from_json`, which reads it back (``path`` as its
+    :class:`InversePath`), a missing key raising :class:`~pytdcr.records.RecordKeyError` naming it.
     """
 
     target: np.ndarray
@@ -214,23 +226,69 @@ class InverseResult:
     objective: str
     objective_value: float
     optimal: bool
-    solution: StaticSolution
+    solution: StaticSolution | None
     evaluations: int
     seconds: float
 
     def to_dict(self) -> JsonDict:
-        """JSON-ready form (what ``tdcr inverse --json`` prints)."""
+        """JSON-ready form without ``schema_version`` (one point of ``tdcr inverse --targets --json``): the
+        vectors as lists [m, N], ``path`` as its text, the numbers as they are."""
         return {"target": self.target.tolist(), "tensions": self.tensions.tolist(),
                 "tip_position": self.tip_position.tolist(), "tip_axis": self.tip_axis.tolist(),
                 "distance_m": self.distance_m, "axis_error_rad": self.axis_error_rad, "reachable": self.reachable,
                 "stable": self.stable,
-                "converged": self.converged, "path": self.path, "objective": self.objective,
+                "converged": self.converged, "path": self.path.value, "objective": self.objective,
                 "objective_value": self.objective_value, "optimal": self.optimal, "evaluations": self.evaluations,
                 "seconds": self.seconds}
 
+    def to_json(self) -> JsonDict:
+        """The answer's JSON: :meth:`to_dict`'s keys and ``schema_version`` (:data:`SCHEMA_VERSION`)."""
+        return {"schema_version": SCHEMA_VERSION, **self.to_dict()}
 
-def _setup(robot: Robot, loads: Loads, target: Any, bounds: TensionBounds, model: str | Model, objective: str,
-           search: InverseSearch) -> Target:
+    @classmethod
+    def from_json(cls, d: JsonObject) -> InverseResult:
+        """The answer :meth:`to_json` (or :meth:`to_dict`) wrote, ``solution`` None (a file holds no
+        equilibrium); a null number (non-finite, as :func:`~pytdcr.runtime.dump_json` writes it) reads as NaN,
+        an absent ``seconds`` as 0.
+
+        Raises
+        ------
+        RecordKeyError
+            A key is missing (named).
+        ValueError
+            Another ``schema_version``, or a ``path`` that is no :class:`InversePath`'s text.
+        """
+        return _read("", _result_from_json, d)
+
+
+def _number(x: float | None) -> float:
+    """A float of a JSON object: null (a non-finite number written as null) as NaN."""
+    return float("nan") if x is None else float(x)
+
+
+def _vector(x: list[float | None]) -> np.ndarray:
+    """A JSON list of numbers as a float ndarray, null entries as NaN."""
+    return np.array(x, dtype=float)
+
+
+def _result_from_json(d: JsonObject) -> InverseResult:
+    """:meth:`InverseResult.from_json` of an object ``d`` (its schema checked)."""
+    check_schema(d, _FILE, SCHEMA_VERSION)
+    try:
+        path = InversePath(d["path"])
+    except ValueError:
+        raise ValueError(f"{_FILE}: path {d['path']!r}: not one of {', '.join(repr(p.value) for p in InversePath)}"
+                         ) from None
+    turn, stable = d["axis_error_rad"], d["stable"]
+    return InverseResult(_vector(d["target"]), _vector(d["tensions"]), _vector(d["tip_position"]),
+                         _vector(d["tip_axis"]), _number(d["distance_m"]), None if turn is None else _number(turn),
+                         bool(d["reachable"]), None if stable is None else bool(stable), bool(d["converged"]), path,
+                         str(d["objective"]), _number(d["objective_value"]), bool(d["optimal"]), None,
+                         int(d["evaluations"]), _number(d.get("seconds", 0.0)))
+
+
+def _setup(robot: Robot, loads: Loads, target: TipTarget | ArrayLike, bounds: TensionBounds, model: str | Model,
+           objective: str, search: InverseSearch) -> Target:
     """Checked inputs as the search's :class:`Target` (ValueError or TypeError naming the bad argument)."""
     tt = TipTarget.of(target)
     if objective not in OBJECTIVES:
@@ -245,7 +303,8 @@ def _setup(robot: Robot, loads: Loads, target: Any, bounds: TensionBounds, model
     return Target(robot, loads, m, opts, tt.position, tt.direction, search.max_solves)
 
 
-def _starts(tg: Target, bounds: TensionBounds, start: Any, objective: str, search: InverseSearch) -> list[Point]:
+def _starts(tg: Target, bounds: TensionBounds, start: ArrayLike | None, objective: str,
+            search: InverseSearch) -> list[Point]:
     """The points to start from: ``start`` (tensions [N], clipped into the bounds), or the ranked pool's."""
     if start is not None:
         t = as_real_array(start, "start").reshape(-1)
@@ -256,8 +315,8 @@ def _starts(tg: Target, bounds: TensionBounds, start: Any, objective: str, searc
     return ranked_starts(tg, pool, bounds, objective, search.starts)
 
 
-def inverse_statics(robot: Robot, loads: Loads, target: Any, *, bounds: TensionBounds, model: str | Model = "pcc",
-                    objective: str = "least-squares", start: Any = None,
+def inverse_statics(robot: Robot, loads: Loads, target: TipTarget | ArrayLike, *, bounds: TensionBounds,
+                    model: str | Model = "pcc", objective: str = "least-squares", start: ArrayLike | None = None,
                     search: InverseSearch | None = None) -> InverseResult:
     """Tensions inside ``bounds`` that put the tip of ``robot`` under ``loads`` (its tensions ignored) at
     ``target``, the best of the redundant ones by ``objective`` (see the module).
@@ -361,8 +420,8 @@ def _result(p: Point, objective: str, path: InversePath, tol: float, tg: Target,
                          reached and is_optimal(p, bounds, objective), sol, tg.count, time.perf_counter() - clock)
 
 
-def inverse_path(robot: Robot, loads: Loads, targets: Any, *, bounds: TensionBounds, model: str | Model = "pcc",
-                 objective: str = "least-squares", direction: Any = None,
+def inverse_path(robot: Robot, loads: Loads, targets: ArrayLike, *, bounds: TensionBounds, model: str | Model = "pcc",
+                 objective: str = "least-squares", direction: ArrayLike | None = None,
                  search: InverseSearch | None = None) -> list[InverseResult]:
     """Inverse statics along a path: the first of ``targets`` (K, 3) [m] as :func:`inverse_statics` solves it,
     each next one searched from the last one's tensions and equilibrium, its answer checked by continuation
@@ -381,6 +440,7 @@ def inverse_path(robot: Robot, loads: Loads, targets: Any, *, bounds: TensionBou
         tg.aim(row, search.max_solves)
         counted = tg.count
         last = out[-1]
+        assert last.solution is not None  # a search's answer holds its equilibrium (None only when read from JSON)
         p = tg.measure(last.tensions, last.solution)
         s = Search(tg, bounds, objective, search.tol, cold=False)
         p = s.reach(p)

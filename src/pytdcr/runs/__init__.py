@@ -22,6 +22,7 @@ backend).
 from ._accuracy import AccuracyResult, AccuracyRun, run_accuracy
 from ._compare import CaseSource, CompareResult, CompareRun, run_compare
 from ._inverse import (
+    InverseRun,
     WorkspaceInputs,
     WorkspacePool,
     inside_bounds,
@@ -97,6 +98,7 @@ __all__ = [
     "CompareRun",
     "CompareSettings",
     "FailedCase",
+    "InverseRun",
     "LoadSpec",
     "ModelSpec",
     "ModelsSection",

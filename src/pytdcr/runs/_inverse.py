@@ -1,22 +1,41 @@
-"""``tdcr inverse``'s data: a finished workspace run as the starts of inverse statics, and the table of answers."""
+"""``tdcr inverse``'s data: a finished workspace run as the starts of inverse statics, the table of answers and
+the run's answers as a typed record.
+
+:class:`InverseRun` is what ``tdcr inverse --json`` prints (today's keys, plus ``schema_version``:
+:data:`SCHEMA_VERSION`): the robot's and the model's names, the objective and the answers
+(:class:`~pytdcr.optimize.InverseResult`), one target's keys at the top level or a path's under ``points``;
+:meth:`InverseRun.from_json` reads such an object back, a missing key raising
+:class:`~pytdcr.records.RecordKeyError` naming its path (``points[2].tensions``). The CSV table
+(:func:`inverse_columns`, :func:`inverse_rows`) keeps its columns.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
 from ..bounds import TensionBounds
 from ..io import robot_from_dict
 from ..loads import Loads, PointLoad
+from ..optimize import InverseResult
+from ..records import JsonDict, JsonObject, check_schema, part
 from ..robot import Robot
 from ..runtime import RunDoc, RunFolder
 from ..validate import MAX_FORCE_N, MAX_MOMENT_NM, SettingsError
+from ._workspace_records import WorkspaceRecord
 
-__all__ = ["BOUNDS_SLACK", "WorkspaceInputs", "WorkspacePool", "inside_bounds", "inverse_columns", "inverse_rows",
-           "read_workspace_inputs", "read_workspace_pool"]
+__all__ = ["BOUNDS_SLACK", "SCHEMA_VERSION", "InverseRun", "WorkspaceInputs", "WorkspacePool", "inside_bounds",
+           "inverse_columns", "inverse_rows", "read_workspace_inputs", "read_workspace_pool"]
+
+#: the layout of ``tdcr inverse --json``'s object (:class:`InverseRun`) this module writes and reads
+SCHEMA_VERSION = 1
+
+#: the record errors name
+_FILE = "inverse answers"
 
 
 def inverse_columns(n_tendons: int) -> list[str]:
@@ -26,10 +45,68 @@ def inverse_columns(n_tendons: int) -> list[str]:
             "evaluations", "seconds"]
 
 
-def inverse_rows(results: list[Any]) -> list[list[Any]]:
-    """One row per :class:`~pytdcr.optimize.InverseResult`, in the order of :func:`inverse_columns`."""
+def inverse_rows(results: Sequence[InverseResult]) -> list[list[float | bool | str | None]]:
+    """One row per answer, in the order of :func:`inverse_columns`: numbers [m, N, s], ``reachable`` and
+    ``stable`` (None untested) as they are, ``path`` as its text."""
     return [[*r.target.tolist(), *r.tensions.tolist(), *r.tip_position.tolist(), r.distance_m, r.reachable,
-             r.stable, r.path, r.objective_value, r.evaluations, r.seconds] for r in results]
+             r.stable, r.path.value, r.objective_value, r.evaluations, r.seconds] for r in results]
+
+
+@dataclass(frozen=True, eq=False)
+class InverseRun:
+    """The answers of one ``tdcr inverse`` run, as ``--json`` prints them.
+
+    Attributes
+    ----------
+    robot : str
+        The robot's name.
+    model : str
+        The model's registered name.
+    objective : str
+        How the tensions were chosen (:data:`~pytdcr.optimize.OBJECTIVES`).
+    results : tuple of InverseResult
+        One answer per target, in order.
+    along_path : bool
+        The targets were a path (``--targets``: the answers under ``points``); False for one ``--target`` (its
+        answer's keys at the top level, beside the robot, model and objective).
+    """
+
+    robot: str
+    model: str
+    objective: str
+    results: tuple[InverseResult, ...]
+    along_path: bool = False
+
+    def __post_init__(self) -> None:
+        if not self.along_path and len(self.results) != 1:
+            raise ValueError(f"one target has one answer, got {len(self.results)} (a path: along_path=True)")
+
+    def to_json(self) -> JsonDict:
+        """``tdcr inverse --json``'s object: ``schema_version``, ``robot``, ``model``, ``objective`` and the one
+        answer's keys (:meth:`~pytdcr.optimize.InverseResult.to_dict`), or ``points``, one such object per target
+        of a path."""
+        head: JsonDict = {"schema_version": SCHEMA_VERSION, "robot": self.robot, "model": self.model,
+                          "objective": self.objective}
+        if self.along_path:
+            return {**head, "points": [r.to_dict() for r in self.results]}
+        return {**head, **self.results[0].to_dict()}
+
+    @classmethod
+    def from_json(cls, d: JsonObject) -> InverseRun:
+        """The run of a ``tdcr inverse --json`` object (any it printed; a path's when it holds ``points``);
+        RecordKeyError naming a missing key, ValueError for another ``schema_version``."""
+        def read(d: JsonObject) -> InverseRun:
+            check_schema(d, _FILE, SCHEMA_VERSION)
+            head = str(d["robot"]), str(d["model"]), str(d["objective"])
+            if "points" not in d:
+                return cls(*head, (InverseResult.from_json(d),))
+            points = d["points"]
+            if not isinstance(points, list):
+                raise ValueError(f"{_FILE}: points must be a JSON list, got {type(points).__name__}")
+            return cls(*head, tuple(part(_FILE, f"points[{k}]", InverseResult.from_json, p)
+                                    for k, p in enumerate(points)), along_path=True)
+
+        return part(_FILE, "", read, d)
 
 
 @dataclass(frozen=True, eq=False)
@@ -48,13 +125,21 @@ class WorkspacePool:
 
 class WorkspaceInputs(NamedTuple):
     """What a finished ``tdcr workspace`` run was made of: its robot, external loads, bounds and model (a
-    registered name), and its whole ``workspace.json`` (``summary``)."""
+    registered name), and its whole ``workspace.json`` (``summary``) as read, its fields checked where they are
+    read (:class:`~pytdcr.runtime.RunDoc`: the explorer reads the meshes it names and its largest reach so);
+    :attr:`record` is that file as its typed :class:`~pytdcr.runs.WorkspaceRecord`."""
 
     robot: Robot
     loads: Loads
     bounds: TensionBounds
     model: str
-    summary: dict[str, Any]
+    summary: JsonObject
+
+    @property
+    def record(self) -> WorkspaceRecord:
+        """``workspace.json`` as its typed record (its volumes, largest reach, inputs and warnings as
+        attributes); RecordKeyError naming a key it lacks."""
+        return WorkspaceRecord.from_json(self.summary)
 
 
 #: the most point loads read back from a run (one per disk at most, as the command line gives them)
