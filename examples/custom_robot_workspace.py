@@ -10,7 +10,7 @@ import numpy as np
 
 from pytdcr import Loads, TensionBounds
 from pytdcr.io import read_robot
-from pytdcr.workspace import sample_workspace
+from pytdcr.workspace.sampling import sample_workspace
 
 TOML = """
 schema_version = 1

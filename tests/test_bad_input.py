@@ -20,7 +20,7 @@ from pytdcr.io import robot_to_dict
 from pytdcr.limits import MEMORY_ENV, ResourceLimitError, memory_budget
 from pytdcr.optimize import MemeticGA, ReachProblem, SearchFailed, Termination, maximize_reach
 from pytdcr.paper import paper_robot
-from pytdcr.workspace import SamplingConfig, sample_workspace
+from pytdcr.workspace.sampling import SamplingConfig, sample_workspace
 
 ZERO8 = "0,0,0,0,0,0,0,0"
 

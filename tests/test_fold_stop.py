@@ -12,7 +12,7 @@ import pytest
 from pytdcr.cli.workspace import FOLD_CHOICES
 from pytdcr.paper import paper_bounds, paper_loads
 from pytdcr.statics import SolverOptions, solve_batch
-from pytdcr.workspace import FOLD_RULES, WorkspaceSettings
+from pytdcr.workspace import WorkspaceSettings
 from pytdcr.workspace._compute import workspace_region
 from pytdcr.workspace._frontier import GrowthSettings
 from pytdcr.workspace._plan import plan_tensions
@@ -42,7 +42,7 @@ def test_a_path_stops_where_it_would_snap(both_ways):
 
 
 def test_the_fold_rule_is_checked_and_named_alike_everywhere():
-    assert FOLD_CHOICES == FOLD_RULES
+    assert FOLD_CHOICES == WorkspaceSettings.FOLD_RULES
     with pytest.raises(ValueError, match="folds = 'bounce'"):
         WorkspaceSettings(folds="bounce")
     with pytest.raises(ValueError, match="folds = 'bounce'"):
@@ -97,7 +97,7 @@ def test_a_design_study_searches_by_its_fold_rule(paper):
             "parameters": {"routing_radius_2": {"values": [0.01]}}, "loads": {"cases": ["paper wrench"]},
             "budget": {"samples": 32, "search": 400, "voxel": 0.025}}
     volume = {}
-    for rule in FOLD_RULES:
+    for rule in WorkspaceSettings.FOLD_RULES:
         study, robot = study_from_dict({**data, "budget": {**data["budget"], "folds": rule}})
         rec = evaluate_design(study.model_dump(), robot.model_dump(), 0, {"routing_radius_2": 0.01})
         assert rec["status"] == "ok", rec["reason"]

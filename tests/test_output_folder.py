@@ -17,7 +17,7 @@ from pytdcr import Loads, TensionBounds
 from pytdcr.runs import BoundsSpec, SampleSettings, run_sample
 from pytdcr.runtime import MANIFEST, FolderError, RunInterrupted, output_folder, run_in_chunks, submit_in_context
 from pytdcr.statics import Cancelled, cancellable, solve_batch
-from pytdcr.workspace import SamplingConfig, SamplingInterrupted, sample_workspace
+from pytdcr.workspace.sampling import SamplingConfig, SamplingInterrupted, sample_workspace
 
 
 def manifest(path) -> dict:
@@ -182,7 +182,7 @@ def test_live_lock_refused_and_stale_lock_taken_over(tmp_path):
 
 def _interrupt_third_block(monkeypatch) -> None:
     """Make the third block of a sampling run raise KeyboardInterrupt (as Ctrl-C would)."""
-    import pytdcr.workspace._sampling as ws
+    import pytdcr.workspace.sampling as ws
 
     calls = {"n": 0}
     real = ws.solve_batch

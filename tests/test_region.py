@@ -264,8 +264,8 @@ def test_without_loads_the_region_has_the_robots_fourfold_symmetry():
 
 
 def test_a_search_cut_short_by_its_budget_widens_the_error_by_its_whole_last_round():
-    from pytdcr.workspace import SearchRound
     from pytdcr.workspace._compute import _tail
+    from pytdcr.workspace.parts import SearchRound
 
     def rounds(steps: int) -> list[SearchRound]:
         return [SearchRound(0, k, 1000, s, 1000, v, v, 1.0) for k, (s, v) in

@@ -10,11 +10,12 @@ from pytdcr import solve
 from pytdcr.cli.workspace import EQUILIBRIA_CHOICES
 from pytdcr.paper import paper_bounds, paper_loads
 from pytdcr.statics import get_model
-from pytdcr.workspace import EQUILIBRIA, RegionSamples, WorkspaceSettings, equilibria_for
+from pytdcr.workspace import WorkspaceSettings
 from pytdcr.workspace._grid import inside, region_from_points
 from pytdcr.workspace._history import measure_multistability
 from pytdcr.workspace._plan import TensionPlan, plan_tensions
 from pytdcr.workspace._solve import FIRST_WAVE, ROOT, _Solver, continue_plan, solve_plan
+from pytdcr.workspace.parts import RegionSamples
 
 # one tension vector with two stable equilibria under the paper's load (tests/test_continuation.py)
 BISTABLE = np.array([13.18, 14.16, 17.09, 16.97, 11.38, 19.27, 10.38, 18.73])
@@ -100,11 +101,11 @@ def test_a_bistable_tension_vector_is_reported_as_multistable(paper):
 
 
 def test_equilibria_are_named_and_checked(paper):
-    assert EQUILIBRIA_CHOICES == EQUILIBRIA
-    assert equilibria_for(get_model("pcc"), None) == "continuation"
-    assert equilibria_for(get_model("cosserat"), None) == "loading-path"
+    assert EQUILIBRIA_CHOICES == WorkspaceSettings.EQUILIBRIA
+    assert WorkspaceSettings().equilibria_of(get_model("pcc")) == "continuation"
+    assert WorkspaceSettings().equilibria_of(get_model("cosserat")) == "loading-path"
     with pytest.raises(ValueError, match="cannot continue"):
-        equilibria_for(get_model("cosserat"), "continuation")
+        WorkspaceSettings(equilibria="continuation").equilibria_of(get_model("cosserat"))
     with pytest.raises(ValueError, match="equilibria"):
         WorkspaceSettings(equilibria="sideways")
     with pytest.raises(ValueError, match="multistability"):

@@ -9,8 +9,9 @@ import pytest
 
 from pytdcr.runs._report import _stability, _stable_cell
 from pytdcr.runs._workspace import _error_words, _warnings, search_stop_words
-from pytdcr.workspace import BoundarySearch, RegionNumbers, SampleCounts, VolumeEstimate, WorkspaceSummary
+from pytdcr.workspace import WorkspaceSummary
 from pytdcr.workspace._solve import WarmStartCheck
+from pytdcr.workspace.parts import BoundarySearch, RegionNumbers, SampleCounts, VolumeEstimate
 
 
 def _summary(stop: str, volume_cm3: float, error_cm3: float, growth_cm3: float) -> WorkspaceSummary:

@@ -12,7 +12,7 @@ from pytdcr import Loads, Robot, Segment, SolverOptions, Tendon, TensionBounds, 
 from pytdcr.optimize import MemeticGA, ReachProblem, Termination, maximize_reach, polish_reach
 from pytdcr.plotting import plot_convergence, plot_reach_samples
 from pytdcr.runs import OptimizeSettings, ReproduceSettings, SampleSettings, run_optimize, run_reproduce, run_sample
-from pytdcr.workspace import sample_workspace
+from pytdcr.workspace.sampling import sample_workspace
 
 
 @pytest.fixture(scope="module")

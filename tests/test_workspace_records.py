@@ -19,7 +19,7 @@ from pytdcr.runs._workspace_records import (
     WorkspaceComparison,
     WorkspaceRecord,
 )
-from pytdcr.workspace import RegionOverlap
+from pytdcr.workspace.parts import RegionOverlap
 
 
 @pytest.mark.parametrize(("name", "data"), GOLDEN_FILES, ids=[n for n, _ in GOLDEN_FILES])

@@ -23,8 +23,8 @@ from pydantic import AfterValidator, BeforeValidator, Strict
 __all__ = ["MAX_FORCE_N", "MAX_MOMENT_NM", "MAX_POSITION_M", "MAX_SEED", "MAX_TEXT_FILE_BYTES", "MIN_DIRECTION",
            "PLAIN_SCALE", "Count", "Real", "SettingsError", "as_real_array", "check_count", "check_positions",
            "check_real", "check_real_vector", "direction_or_none", "escape_controls", "field_ref", "finite_real",
-           "in_range", "is_integer", "number_text", "parse_numbers", "read_text_file", "show", "show_number",
-           "show_numbers", "show_path", "unit_vector", "unit_vectors"]
+           "in_range", "is_integer", "measured", "number_text", "parse_numbers", "read_text_file", "show",
+           "show_number", "show_numbers", "show_path", "unit_vector", "unit_vectors", "unmeasured_text"]
 
 #: the largest robot, bounds, loads or cases file read [bytes]
 MAX_TEXT_FILE_BYTES = 1_000_000
@@ -140,6 +140,20 @@ def number_text(value: float, decimals: int = 3, width: int = 0) -> str:
     if value != 0.0 and float(text) == 0.0:
         return f"{value:{width}.3g}"
     return text
+
+
+def measured(value: float, error: float) -> bool:
+    """Whether a value with its error bar is a measurement worth showing: both finite and the error [same unit]
+    below the value's magnitude. A number whose error bar is as large as itself is not shown as a result: the
+    reports and the command line write :func:`unmeasured_text` in its place."""
+    return math.isfinite(value) and math.isfinite(error) and 0.0 <= error < abs(value)
+
+
+def unmeasured_text(error_text: str, advice: str = "") -> str:
+    """The words that stand in for a value whose error (``error_text``, with its unit) exceeds it
+    (:func:`measured`), with ``advice`` on how to measure it (a larger budget)."""
+    tail = f"; {advice}" if advice else ""
+    return f"not measured at this budget (its error, {error_text}, exceeds the estimate{tail})"
 
 
 def in_range(lo: float | None, hi: float | None, unit: str, reason: str = "", *, lo_open: bool = False,

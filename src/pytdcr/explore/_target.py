@@ -142,6 +142,7 @@ def answer_by_inverse(robot: Robot, loads: Loads, model: Model, bounds: TensionB
         else:
             notes.append("moving the tensions straight there from the last pose does not converge")
     sol = res.solution
+    assert sol is not None  # a search's own answer holds its equilibrium (only a result read from JSON lacks it)
     notes.append(_sample_note(sample))
     answer = TargetAnswer(np.array(target, dtype=float), INVERSE, bool(res.reachable),
                           float(np.linalg.norm(sol.tip_position - target)), path, count,

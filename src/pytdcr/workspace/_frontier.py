@@ -20,7 +20,7 @@ import numpy as np
 
 from ..bounds import TensionBounds
 from ..records import JsonDict, JsonObject
-from ..validate import check_count
+from ..validate import SettingsError, check_count
 from ._grid import region_from_points
 from ._plan import SOURCES
 from ._solve import RegionSamples, WarmStartCheck, _checked, _Solver
@@ -123,9 +123,9 @@ class GrowthSettings:
         for name, lo in (("max_rounds", 1), ("budget", 0), ("tries", 1), ("check", 0), ("seed", 0)):
             object.__setattr__(self, name, check_count(getattr(self, name), name, lo=lo))
         if not (np.isfinite(self.step) and self.step > 0):
-            raise ValueError(f"step = {self.step!r}: must be a positive number of voxels")
+            raise SettingsError("step", f" = {self.step!r}: must be a positive number of voxels")
         if self.folds not in FOLD_RULES:
-            raise ValueError(f"folds = {self.folds!r}: must be one of {', '.join(FOLD_RULES)}")
+            raise SettingsError("folds", f" = {self.folds!r}: must be one of {', '.join(FOLD_RULES)}")
 
 
 @dataclass

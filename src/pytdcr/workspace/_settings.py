@@ -7,18 +7,19 @@ import math
 import numbers
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
 from ..limits import ResourceLimitError, check_memory
-from ..validate import check_count, show, unit_vectors
+from ..validate import SettingsError, check_count, show, unit_vectors
 from ._frontier import FOLD_RULES
-from ._solve import EQUILIBRIA
+from ._solve import EQUILIBRIA, equilibria_for
 from ._support import fibonacci_directions
 
 if TYPE_CHECKING:
     from ..robot import Robot
+    from ..statics import Model
     from ._frontier import SearchRound
     from ._solve import RegionSamples
 
@@ -80,15 +81,15 @@ def _directions(value: object) -> int | tuple[tuple[float, float, float], ...]:
     (of any scale, not all components subnormal: :func:`~pytdcr.validate.unit_vectors`)."""
     if isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_)):
         if not 0 <= value <= MAX_DIRECTIONS:
-            raise ValueError(f"directions = {value}: must be an integer in [0, {MAX_DIRECTIONS:,}]")
+            raise SettingsError("directions", f" = {value}: must be an integer in [0, {MAX_DIRECTIONS:,}]")
         return int(value)
     if isinstance(value, (str, bytes)) or not isinstance(value, (Sequence, np.ndarray)):
         raise TypeError(f"directions must be a count or (K, 3) vectors, got {show(value)} ({type(value).__name__})")
     d = np.asarray(value, dtype=float)
     if d.ndim != 2 or d.shape[1] != 3 or not 1 <= d.shape[0] <= MAX_DIRECTIONS:
-        raise ValueError(f"directions must have shape (K, 3), 1 <= K <= {MAX_DIRECTIONS}, got {d.shape}")
+        raise SettingsError("directions", f" must have shape (K, 3), 1 <= K <= {MAX_DIRECTIONS}, got {d.shape}")
     if not (np.all(np.isfinite(d)) and np.all(np.any(d, axis=1))):
-        raise ValueError("directions must be finite and nonzero")
+        raise SettingsError("directions", " must be finite and nonzero")
     unit_vectors(d, "directions")  # any scale is a direction; all-subnormal rows are refused (they have none)
     return tuple((float(x), float(y), float(z)) for x, y, z in d)
 
@@ -166,6 +167,13 @@ class WorkspaceSettings:
     multistability: int = MULTISTABILITY_CHECK
     folds: str = FOLD_RULES[0]
 
+    #: the equilibria a region can hold (``equilibria``): ``"continuation"``, ``"loading-path"``
+    EQUILIBRIA: ClassVar[tuple[str, ...]] = EQUILIBRIA
+    #: what a boundary-search step can do at a fold (``folds``): ``"snap"`` through it, ``"stop"`` there
+    FOLD_RULES: ClassVar[tuple[str, ...]] = FOLD_RULES
+    #: the rules of the largest reach (``reach``)
+    REACH_RULES: ClassVar[tuple[str, ...]] = REACH_RULES
+
     def __post_init__(self) -> None:
         put = object.__setattr__
         put(self, "n", check_count(self.n, "n", lo=1))
@@ -178,33 +186,41 @@ class WorkspaceSettings:
             put(self, "budget", check_count(self.budget, "budget", lo=0))
         tol = _real(self.tol, "tol")
         if not (math.isfinite(tol) and 0.0 <= tol <= 1.0):
-            raise ValueError(f"tol = {tol:g}: must be in [0, 1] (a share of the region's voxels)")
+            raise SettingsError("tol", f" = {tol:g}: must be in [0, 1] (a share of the region's voxels)")
         put(self, "tol", tol)
         put(self, "directions", _directions(self.directions))
         if self.reach not in REACH_RULES:
-            raise ValueError(f"reach = {show(self.reach)}: must be one of {', '.join(map(repr, REACH_RULES))}")
+            raise SettingsError("reach",
+                                f" = {show(self.reach)}: must be one of {', '.join(map(repr, REACH_RULES))}")
         if self.threads is not None:
             put(self, "threads", check_count(self.threads, "threads", lo=1))
         if self.equilibria is not None and self.equilibria not in EQUILIBRIA:
-            raise ValueError(f"equilibria = {show(self.equilibria)}: must be one of {', '.join(map(repr, EQUILIBRIA))}"
-                             " or None (continuation where the model can)")
+            raise SettingsError("equilibria", f" = {show(self.equilibria)}: must be one of "
+                                f"{', '.join(map(repr, EQUILIBRIA))} or None (continuation where the model can)")
         put(self, "multistability", check_count(self.multistability, "multistability", lo=0, hi=100_000))
         if self.folds not in FOLD_RULES:
-            raise ValueError(f"folds = {show(self.folds)}: must be one of {', '.join(map(repr, FOLD_RULES))}")
+            raise SettingsError("folds", f" = {show(self.folds)}: must be one of {', '.join(map(repr, FOLD_RULES))}")
+
+    def equilibria_of(self, model: Model) -> str:
+        """The equilibria a region of ``model`` holds under these settings: :attr:`equilibria` when given
+        (``"continuation"`` needs a model that continues a solved state: else SettingsError naming
+        ``equilibria``), else ``"continuation"`` where ``model`` can, ``"loading-path"`` otherwise."""
+        return equilibria_for(model, self.equilibria)
 
     def check(self, robot: Robot) -> WorkspaceSettings:
         """These settings if they suit ``robot``, before any work: the voxel lies in [0.0001, the robot's length]
         m, and the voxel grid fits the memory budget (:func:`grid_bytes`; ValueError naming ``voxel``)."""
         v = self.voxel
         if v is not None and not (MIN_VOXEL <= v <= robot.length):
-            raise ValueError(f"voxel = {v:g}: must be in [{MIN_VOXEL:g}, {robot.length:g}] m (the robot's length)")
+            raise SettingsError("voxel",
+                                f" = {v:g}: must be in [{MIN_VOXEL:g}, {robot.length:g}] m (the robot's length)")
         voxel = self.voxel_for(robot)
         cells = grid_cells(robot, voxel)
         try:
             check_memory(f"a grid of {cells:,.0f} voxels of {voxel * 1e3:g} mm", grid_bytes(robot, voxel),
                          "the tips lie within a ball of the robot's length")
         except ResourceLimitError as err:
-            raise ValueError(f"voxel = {voxel:g}: {err}") from None
+            raise SettingsError("voxel", f" = {voxel:g}: {err}") from None
         return self
 
     def voxel_for(self, robot: Robot) -> float:

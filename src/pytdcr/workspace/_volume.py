@@ -11,7 +11,8 @@ from scipy import ndimage
 from ..records import JsonDict, JsonObject
 from ._grid import Region, region_from_points
 
-__all__ = ["MEASURES", "RegionDimension", "VolumeEstimate", "estimate_volume", "nested_stages", "region_dimension"]
+__all__ = ["MEASURES", "RegionDimension", "VolumeEstimate", "VolumeScale", "estimate_volume", "nested_stages",
+           "region_dimension"]
 
 #: the measure that applies to a region of each dimension 0..3
 MEASURES = ("none", "length", "area", "volume")
@@ -127,6 +128,41 @@ def region_dimension(points: np.ndarray, voxel: float, closing: int = 1,
 
 
 @dataclass(frozen=True)
+class VolumeScale:
+    """A region's volume at one nested sample size.
+
+    Attributes
+    ----------
+    n_base : int
+        Base samples at this size (n/4, n/2 or n).
+    points : int
+        Finite points counted at this size.
+    voxel_m3, centre_m3 : float
+        The outer estimate (occupied voxels) and the inner one (the boundary surface moved in by half a voxel)
+        [m^3].
+    estimate_m3 : float
+        Their mean [m^3].
+    """
+
+    n_base: int
+    points: int
+    voxel_m3: float
+    centre_m3: float
+    estimate_m3: float
+
+    def to_dict(self) -> JsonDict:
+        """JSON-ready form (``workspace.json``'s ``scales`` entries)."""
+        return {"n_base": self.n_base, "points": self.points, "voxel_m3": self.voxel_m3,
+                "centre_m3": self.centre_m3, "estimate_m3": self.estimate_m3}
+
+    @classmethod
+    def from_dict(cls, d: JsonObject) -> VolumeScale:
+        """The scale :meth:`to_dict` wrote; KeyError naming a missing key."""
+        return cls(int(d["n_base"]), int(d["points"]), float(d["voxel_m3"]), float(d["centre_m3"]),
+                   float(d["estimate_m3"]))
+
+
+@dataclass(frozen=True)
 class VolumeEstimate:
     """The volume of a region of sampled points, at n/4, n/2 and n base samples.
 
@@ -146,8 +182,8 @@ class VolumeEstimate:
         The two parts of the error [m^3].
     ratio : float
         Growth of the last doubling over the one before, clipped to [0.5, 1.5] (1 when undefined).
-    scales : tuple of dict
-        Per size: ``n_base``, ``points``, ``voxel_m3``, ``centre_m3``, ``estimate_m3``.
+    scales : tuple of VolumeScale
+        The volume at each size, n/4, n/2 and n.
     search_m3 : float
         The growth still expected of a boundary search stopped before it converged (its budget spent), added
         to the error [m^3]: its last round's growth continued geometrically (0 when it converged).
@@ -161,7 +197,7 @@ class VolumeEstimate:
     discretisation_m3: float
     sampling_m3: float
     ratio: float
-    scales: tuple[dict[str, float], ...]
+    scales: tuple[VolumeScale, ...]
     search_m3: float = 0.0
     dimension: RegionDimension | None = None
 
@@ -182,16 +218,16 @@ class VolumeEstimate:
         """JSON-ready form."""
         return {"volume_m3": self.volume_m3, "error_m3": self.error_m3, "discretisation_m3": self.discretisation_m3,
                 "sampling_m3": self.sampling_m3, "search_m3": self.search_m3, "ratio": self.ratio,
-                "scales": list(self.scales),
+                "scales": [x.to_dict() for x in self.scales],
                 "dimension": None if self.dimension is None else self.dimension.to_dict()}
 
     @classmethod
     def from_dict(cls, d: JsonObject) -> VolumeEstimate:
-        """The estimate :meth:`to_dict` wrote (``scales`` as its dicts, ``dimension`` None when absent); KeyError
+        """The estimate :meth:`to_dict` wrote (``dimension`` None when absent); KeyError
         naming a missing key."""
         dim = d.get("dimension")
         return cls(d["volume_m3"], d["error_m3"], d["discretisation_m3"], d["sampling_m3"], d["ratio"],
-                   tuple(dict(x) for x in d["scales"]), d.get("search_m3", 0.0),
+                   tuple(VolumeScale.from_dict(x) for x in d["scales"]), d.get("search_m3", 0.0),
                    None if dim is None else RegionDimension.from_dict(dim))
 
 
@@ -226,19 +262,19 @@ def estimate_volume(points: np.ndarray, stage: np.ndarray, n_base: int, voxel: f
     dimension = region_dimension(points, voxel, closing, max_dimension)
     if dimension.dimension < 3:
         return VolumeEstimate(0.0, 0.0, 0.0, 0.0, 1.0, (), 0.0, dimension), region_from_points(points, voxel, closing)
-    scales = []
+    scales: list[VolumeScale] = []
     region = None
     for k, n in enumerate((max(1, n_base // 4), max(1, n_base // 2), n_base)):
         keep = stage <= k
         region = region_from_points(points[keep], voxel, closing)
         v, m = _both(region)
-        scales.append({"n_base": int(n), "points": int(np.sum(keep & np.all(np.isfinite(points), axis=1))),
-                       "voxel_m3": v, "centre_m3": m, "estimate_m3": 0.5 * (v + m)})
-    e = [s["estimate_m3"] for s in scales]
+        scales.append(VolumeScale(int(n), int(np.sum(keep & np.all(np.isfinite(points), axis=1))), v, m,
+                                  0.5 * (v + m)))
+    e = [s.estimate_m3 for s in scales]
     d1, d2 = e[1] - e[0], e[2] - e[1]
     ratio = float(np.clip(d2 / d1, 0.5, 1.5)) if d1 > 0 and d2 > 0 else 1.0
     sampling = abs(d2) * (ratio + ratio**2)
-    disc = 0.5 * abs(scales[-1]["voxel_m3"] - scales[-1]["centre_m3"])
+    disc = 0.5 * abs(scales[-1].voxel_m3 - scales[-1].centre_m3)
     est = VolumeEstimate(e[-1], disc + sampling, disc, sampling, ratio, tuple(scales), 0.0, dimension)
     assert region is not None
     return est, region

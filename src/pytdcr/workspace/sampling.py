@@ -1,4 +1,9 @@
-"""Random sampling of the feasible static workspace."""
+"""The paper's plain random sampling of the feasible static workspace (its Fig. 3(a) and Fig. 4).
+
+:func:`sample_workspace` solves random tension vectors drawn uniformly in the box (:class:`SamplingConfig`) and
+returns their tips as :class:`WorkspaceSamples`; the region study (:func:`pytdcr.workspace.workspace_study`)
+is the measured alternative: a region with its volume and error.
+"""
 
 from __future__ import annotations
 
