@@ -45,6 +45,11 @@ def test_the_accuracy_studys_payload_hangs_along_the_robots_gravity(paper, gravi
 
 
 # ---------------------------------------------------------------- tdcr reproduce's report says what was computed
+#: a GA's settings as a result records them (:class:`pytdcr.optimize.GASettings`), population 8
+GA_SETTINGS = {"pop_size": 8, "tol": 1e-6, "window": 5, "max_gen": 30, "polish": True, "local_search": True,
+               "local_search_runs": 0}
+
+
 def _reach_result(reach: float, stable: bool | None = True, n_tendons: int = 8, upper: float = 20.0):
     """A final optimum of ``reach`` [m] (no GA stage, as a polish alone reports it), with its stability."""
     from pytdcr.optimize import ReachResult
@@ -53,7 +58,7 @@ def _reach_result(reach: float, stable: bool | None = True, n_tendons: int = 8, 
                        cost=1.0 / reach, value=reach, stable=stable, converged=True, stop_reason="tolerance",
                        generations=3, evaluations=40, nonconverged=0, seconds=1.0, seed=0,
                        history={"best": [1.0 / reach] * 3, "local_search_evaluations": [0, 0, 0]}, ga=None,
-                       polish_evaluations=5, settings={"pop_size": 8})
+                       polish_evaluations=5, settings=dict(GA_SETTINGS))
 
 
 def _numbers(text: str) -> list[float]:
@@ -66,7 +71,7 @@ def test_the_reports_payload_force_is_the_one_the_payload_study_used(paper, grav
     robot without): the report prints that force, not (0, 0, -m 9.81) whatever the robot."""
     import re
 
-    from pytdcr.runs._report import _payload_text
+    from pytdcr.runs._reproduce_report import _payload_text
 
     robot = paper.with_gravity(gravity)
     text = _payload_text(robot, _reach_result(0.39))
@@ -87,7 +92,7 @@ def test_the_reports_payload_force_is_the_one_the_payload_study_used(paper, grav
     ((0.30,), "One upper bound only: nothing to compare", "grows"),
 ])
 def test_the_bounds_study_says_grows_only_when_the_reach_grows(reaches, says, never):
-    from pytdcr.runs._report import _bounds_comment
+    from pytdcr.runs._reproduce_report import _bounds_comment
 
     text = _bounds_comment([(hi, _reach_result(r)) for hi, r in zip((10.0, 20.0, 40.0), reaches, strict=False)])
     assert says in text and never not in text
@@ -103,16 +108,15 @@ def _heavy_payload_optimum(paper):
                                      "backbone": paper.backbone.model_copy(update={"youngs_modulus": 2e9})})
     problem = ReachProblem.create(heavy, payload_loads(heavy), paper_bounds(8))
     found = polish_reach(problem, np.zeros(8), max_iter=3, restarts=0)
-    return heavy, dataclasses.replace(found, settings={**found.settings, "pop_size": 8})  # as the GA would say
+    return heavy, dataclasses.replace(found, settings={**found.settings, **GA_SETTINGS})  # as the GA would say
 
 
 def test_the_report_says_whether_each_optimum_is_stable(paper):
     """Every optimum's stability test is reported: the payload sentence, the GA and bounds tables, and a warning
     naming each optimum flagged unstable (the heavy robot's payload optimum, computed here)."""
     from pytdcr.paper import paper_bounds
-    from pytdcr.runs import ReproduceSettings
-    from pytdcr.runs._report import _payload_text, reproduce_report
-    from pytdcr.runs._reproduce import ReproduceRun
+    from pytdcr.runs import PassiveSolveRecord, ReproduceRun, ReproduceSettings, SamplingRecord, WorkspaceSection
+    from pytdcr.runs._reproduce_report import _payload_text, reproduce_report
 
     heavy, pay = _heavy_payload_optimum(paper)
     assert pay.stable is False and pay.reach == pytest.approx(heavy.length)
@@ -121,8 +125,10 @@ def test_the_report_says_whether_each_optimum_is_stable(paper):
     assert "0.0491 N, is not below the straight robot's buckling load" in text
     assert "the optimum is statically stable" in _payload_text(paper, _reach_result(0.4, True))
     assert "untested (the model has no such test)" in _payload_text(paper, _reach_result(0.4, None))
-    run = ReproduceRun(seed=0, files=[], sampling={"n": 4, "converged": 4, "reach_min": 0.3, "reach_max": 0.39},
-                       passive={"converged": False}, workspace={}, seconds=1.0,
+    run = ReproduceRun(seed=0, files=[], sampling=SamplingRecord(n=4, converged=4, seconds=0.5, reach_max=0.39,
+                                                                 reach_min=0.3),
+                       passive=PassiveSolveRecord(converged=False), workspace=WorkspaceSection(16, 0.04, 0, ()),
+                       seconds=1.0,
                        ga={8: _reach_result(0.39, True), 10: _reach_result(0.38, False)}, payload=pay,
                        bounds_study=[(10.0, _reach_result(0.37, True)), (20.0, _reach_result(0.39, None))],
                        verdicts=[])
@@ -134,16 +140,24 @@ def test_the_report_says_whether_each_optimum_is_stable(paper):
     bounds = [line for line in report.splitlines() if line.startswith(("| 10 |", "| 20 |"))]
     assert [row.rstrip(" |").rsplit(" | ", 1)[1] for row in bounds] == ["yes", "untested"]
     assert "does not check the stability" not in report
+    # the head reads the typed parts: the samples' counts and reach range, the passive solve's outcome
+    assert "4 tension vectors uniform in the bounds" in report
+    assert "4 converged; reach from 0.3000 to 0.3900 m" in report
+    assert "The passive solve did not converge (no figure)." in report and "fig3b_loaded.png" not in report
     calm = dataclasses.replace(run, ga={8: _reach_result(0.39, True)}, payload=_reach_result(0.4, True),
-                               bounds_study=[(20.0, _reach_result(0.39, True))])
-    assert "**Warning:**" not in reproduce_report(paper, calm, paper_bounds(8), ReproduceSettings())
+                               bounds_study=[(20.0, _reach_result(0.39, True))],
+                               passive=PassiveSolveRecord(True, (0.1, -0.2, 0.3), 0.37417))
+    calm_report = reproduce_report(paper, calm, paper_bounds(8), ReproduceSettings())
+    assert "**Warning:**" not in calm_report
+    assert ("the load alone puts the tip at [0.1, -0.2, 0.3] m (reach 0.3742 m): `fig3b_loaded.png`."
+            in calm_report) and "did not converge" not in calm_report
 
 
 def test_the_axial_payload_sentence_is_said_only_where_it_holds(paper, rao):
     """The antagonistic-pair sentence needs a pair of opposite tendons (same segment and radius, angles pi apart)
     and a robot pointing up against its payload; the axial part needs the latter alone."""
     from pytdcr.robot import Tendon
-    from pytdcr.runs._report import _antagonistic_pairs, _payload_text
+    from pytdcr.runs._reproduce_report import _antagonistic_pairs, _payload_text
 
     r = _reach_result(0.4)
     assert _antagonistic_pairs(paper) == [(1, 3), (2, 4), (5, 7), (6, 8)]

@@ -428,10 +428,12 @@ def test_reproduce_closes_with_its_key_results():
     from types import SimpleNamespace
 
     from pytdcr.cli.reproduce import closing_lines
+    from pytdcr.runs import SamplingRecord
 
     opt = SimpleNamespace(reach=0.3929, stable=True)
     bad = SimpleNamespace(reach=0.3941, stable=False)
-    res = SimpleNamespace(sampling={"n": 100, "converged": 98, "reach_min": 0.0141, "reach_max": 0.3874},
+    res = SimpleNamespace(sampling=SamplingRecord(n=100, converged=98, seconds=1.5, reach_max=0.3874,
+                                                  reach_min=0.0141),
                           ga={100: opt, 50: bad}, payload=opt, bounds_study=[(20.0, opt), (40.0, bad)],
                           verdicts=[SimpleNamespace(model="sscr", converged=True, reach=0.3887, tip_shift=0.0591)],
                           workspace=SimpleNamespace(cases=[

@@ -652,8 +652,8 @@ def test_number_text_is_the_validation_layer_s_rule():
     """``number_text`` lives next to ``show_number`` (the one rule of the command line too) and stays
     importable from :mod:`pytdcr.runs` and its report."""
     import pytdcr.runs
-    import pytdcr.runs._report
+    import pytdcr.runs._reproduce_report
     from pytdcr.validate import number_text
 
-    assert pytdcr.runs.number_text is number_text and pytdcr.runs._report.number_text is number_text
+    assert pytdcr.runs.number_text is number_text and pytdcr.runs._reproduce_report.number_text is number_text
     assert number_text(2e-4) == "0.0002" and number_text(-0.0) == "0.000" and number_text(1.25, 3, 9) == "    1.250"

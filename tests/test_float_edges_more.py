@@ -25,7 +25,7 @@ from pytdcr.paper import paper_bounds, paper_robot
 from pytdcr.robot import MIN_GRAVITY, Robot
 from pytdcr.runs._accuracy import _fmt
 from pytdcr.runs._compare import _compare_markdown
-from pytdcr.runs._report import _axial_text, _bounds_trend, _payload_is_axial, number_text
+from pytdcr.runs._reproduce_report import _axial_text, _bounds_trend, _payload_is_axial, number_text
 
 pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
 

@@ -3,11 +3,16 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Literal, overload
 
 from ._args import add_out, add_robot_and_loads, add_seed, check_out, has_tip_wrench, robot_spec
 from ._progress import Bars, quiet, say
 from ._runtime import EXIT_OK, CliError
+
+if TYPE_CHECKING:
+    from ..optimize import ReachResult
+    from ..runs import ReproduceRun
 
 __all__ = ["add_parser", "run"]
 
@@ -43,7 +48,15 @@ def run(args: argparse.Namespace) -> int:
             say(f"{est.text()}, for its workspace sections (the GAs and the better models run beside them)")
     with Bars() as bars:  # stages run at once, on threads: one row each in one live block
 
-        def progress(stage: str, total: int | None, unit: str = "gen") -> Any:
+        @overload
+        def progress(stage: str, total: int | None, unit: Literal["gen"]) -> Callable[[int, float, float], None]: ...
+
+        @overload
+        def progress(stage: str, total: int | None, unit: str) -> Callable[[int], None]: ...
+
+        def progress(stage: str, total: int | None, unit: str) -> Callable[..., None]:
+            """The study's ``progress(stage, total, unit)`` (:func:`~pytdcr.runs.run_reproduce`): a GA's
+            ``on_generation`` for ``unit`` "gen", a stage's ``step(k)`` otherwise, each a row of the live block."""
             return bars.generations(stage, total) if unit == "gen" else bars(stage, total, unit)
 
         res = run_reproduce(robot, out, seed=args.seed, progress=progress, settings=settings)
@@ -53,17 +66,17 @@ def run(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _optimum(r: Any) -> str:
+def _optimum(r: ReachResult) -> str:
     """A reach optimum in a few words: the reach [mm] and its stability flag."""
     state = "" if r.stable is None else " (stable)" if r.stable else " (flagged UNSTABLE)"
     return f"{r.reach * 1e3:.1f} mm{state}"
 
 
-def closing_lines(res: Any) -> list[str]:
-    """The key results of a reproduce run (:class:`~pytdcr.runs.ReproduceRun`), one line each."""
+def closing_lines(res: ReproduceRun) -> list[str]:
+    """The key results of a reproduce run, one line each."""
     smp = res.sampling
-    lines = [f"samples: {smp['converged']} of {smp['n']} converged, reach {smp['reach_min'] * 1e3:.1f} to "
-             f"{smp['reach_max'] * 1e3:.1f} mm"]
+    lines = [f"samples: {smp.converged} of {smp.n} converged, reach {smp.reach_min * 1e3:.1f} to "
+             f"{smp.reach_max * 1e3:.1f} mm"]
     lines += [f"GA under the paper's load, population {pop}: largest reach {_optimum(r)}"
               for pop, r in sorted(res.ga.items())]
     lines.append(f"largest reach under a payload: {_optimum(res.payload)}")

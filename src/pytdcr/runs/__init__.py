@@ -32,8 +32,9 @@ from ._inverse import (
     read_workspace_pool,
 )
 from ._output import inputs_record
-from ._report import number_text
 from ._reproduce import ReproduceRun, ReproduceSettings, check_reproduce, reproduce_estimate, run_reproduce
+from ._reproduce_records import PassiveSolveRecord, SamplingRecord
+from ._reproduce_report import number_text
 from ._runs import (
     OptimizeRecord,
     OptimizeRun,
@@ -106,6 +107,7 @@ __all__ = [
     "OptimizeRun",
     "OptimizeSettings",
     "PairComparison",
+    "PassiveSolveRecord",
     "ReproduceRun",
     "ReproduceSettings",
     "RobotSpec",
@@ -115,6 +117,7 @@ __all__ = [
     "SampleRunCounts",
     "SampleSettings",
     "SampleSummary",
+    "SamplingRecord",
     "SolutionRecord",
     "SolveRecord",
     "SolveRun",

@@ -35,7 +35,7 @@ from ..robot import Robot
 from ..runtime import atomic_write_text, output_folder, write_csv, write_json
 from ..statics import saving
 from ._output import inputs_record
-from ._report import number_text
+from ._reproduce_report import number_text
 from ._settings import AccuracySettings
 
 __all__ = ["SCHEMA_VERSION", "AccuracyResult", "AccuracyRun", "accuracy_markdown", "run_accuracy"]

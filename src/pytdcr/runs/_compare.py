@@ -27,7 +27,7 @@ from ..robot import NoFriction, Robot
 from ..runtime import atomic_write_text, output_folder, write_csv, write_json
 from ..statics import get_models, options_record, resolve, saving
 from ._output import inputs_record, markdown_table
-from ._report import number_text
+from ._reproduce_report import number_text
 from ._settings import CompareSettings
 
 __all__ = ["SCHEMA_VERSION", "CaseSource", "CompareResult", "CompareRun", "run_compare"]

@@ -8,7 +8,6 @@ from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -17,7 +16,6 @@ from ..loads import MAX_TENSION, Loads
 from ..optimize import MemeticGA, ReachProblem, ReachResult, Termination, maximize_reach, polish_reach
 from ..paper import DEFAULT_BOUNDS, PAYLOAD_MASS, paper_bounds, paper_loads, payload_loads
 from ..plotting import plot_robot, save_figure
-from ..records import JsonDict
 from ..robot import Robot
 from ..runtime import (
     atomic_write_text,
@@ -33,18 +31,16 @@ from ..statics import options_record, resolve, solve
 from ..validate import SettingsError, check_real, show
 from ..workspace import Estimate
 from ._output import inputs_record, load_arrows
-from ._report import reproduce_report
+from ._reproduce_records import OnGeneration, PassiveSolveRecord, Progress, ReproduceRun, SamplingRecord, Step
+from ._reproduce_report import reproduce_report
 from ._runs import sample_into, write_optimize
 from ._settings import SampleSettings
 from ._survival import ModelVerdict, model_verdicts, verdict_text
 from ._workspace import section_check, section_estimate, workspace_section, workspace_text
 from ._workspace_records import WorkspaceSection
 
-__all__ = ["ReproduceRun", "ReproduceSettings", "check_reproduce", "reproduce_estimate", "run_reproduce"]
-
-#: ``progress(stage, total, unit)`` returns the stage's callback: for ``unit`` "gen" a GA's
-#: ``on_generation(gen, best, mean)``, otherwise ``step(k)`` advanced by the work done (total None: unknown)
-Progress = Callable[[str, "int | None", str], Callable[..., None]]
+__all__ = ["Progress", "ReproduceRun", "ReproduceSettings", "check_reproduce", "reproduce_estimate",
+           "run_reproduce"]
 
 
 @dataclass(frozen=True)
@@ -129,48 +125,18 @@ class ReproduceSettings:
 
 
 @dataclass(frozen=True)
-class ReproduceRun:
-    """What :func:`run_reproduce` produced.
+class _Stages:
+    """The study's ``progress`` (or None: nothing shown), asked for each stage's callback."""
 
-    Attributes
-    ----------
-    seed : int
-    files : list of str
-        Every file written, in order (``report.md`` last but for ``reproduce.json``).
-    sampling, passive, workspace : dict
-        Fig. 3(a)'s samples (n, converged, reach range [m], time [s]), Fig. 3(b)'s passive solve and the
-        workspace section, JSON-ready.
-    seconds : float
-        The whole run [s].
-    ga : dict of int to ReachResult
-        The GA under the paper's load, by population.
-    payload : ReachResult
-        The GA under a payload hanging along the robot's gravity (:func:`~pytdcr.paper.payload_loads`).
-    bounds_study : list of (float, ReachResult)
-        The optimum by upper tension bound [N].
-    verdicts : list of ModelVerdict
-        The optimum under the better models.
-    """
+    progress: Progress | None
 
-    seed: int
-    files: list[str]
-    sampling: dict[str, Any]
-    passive: dict[str, Any]
-    workspace: WorkspaceSection
-    seconds: float
-    ga: dict[int, ReachResult]
-    payload: ReachResult
-    bounds_study: list[tuple[float, ReachResult]]
-    verdicts: list[ModelVerdict]
+    def generations(self, stage: str, total: int) -> OnGeneration | None:
+        """A GA stage of at most ``total`` generations: its ``on_generation`` (None without progress)."""
+        return None if self.progress is None else self.progress(stage, total, "gen")
 
-    def summary(self) -> JsonDict:
-        """Seed, files, sampling, passive solve and workspace section (``reproduce.json``'s ``summary``)."""
-        return {"seed": self.seed, "files": list(self.files), "sampling": self.sampling, "passive": self.passive,
-                "workspace": self.workspace.to_json()}
-
-    def to_dict(self) -> JsonDict:
-        """:meth:`summary` and the run's time [s]."""
-        return {**self.summary(), "seconds": self.seconds}
+    def steps(self, stage: str, total: int | None, unit: str) -> Step | None:
+        """A stage of ``total`` steps of ``unit`` (None: not known): its ``step(k)`` (None without progress)."""
+        return None if self.progress is None else self.progress(stage, total, unit)
 
 
 @dataclass(frozen=True)
@@ -198,25 +164,23 @@ def _jobs(robot: Robot, s: ReproduceSettings) -> dict[str, _Job]:
 
 
 def _sample_and_passive(robot: Robot, loads: Loads, bounds: TensionBounds, s: ReproduceSettings, seed: int,
-                        out: Path, summary: dict[str, Any], note: Callable) -> None:
-    """Fig. 3(a) and Fig. 4 (random samples under the paper's load), Fig. 3(b) (no tension, the load alone)."""
-    step = note("sampling", s.n_samples, "solve")
+                        out: Path, files: list[str], stages: _Stages) -> tuple[SamplingRecord, PassiveSolveRecord]:
+    """Fig. 3(a) and Fig. 4 (random samples under the paper's load), Fig. 3(b) (no tension, the load alone):
+    writes their figures and data in ``out``, appends the files' names to ``files``."""
+    step = stages.steps("sampling", s.n_samples, "solve")
     sample = sample_into(out, SampleSettings(n=s.n_samples, seed=seed), robot=robot, loads=loads, bounds=bounds,
                          progress=step)
     end_stage(step)
-    summary["files"] += sample.files
+    files += sample.files
     smp = sample.samples
-    summary["sampling"] = {"n": s.n_samples, "converged": int(smp.converged.sum()), "seconds": smp.seconds,
-                           "reach_max": float(np.nanmax(smp.reach)), "reach_min": float(np.nanmin(smp.reach))}
+    sampling = SamplingRecord.of(s.n_samples, smp.converged, smp.reach, smp.seconds)
     passive = solve(robot, loads)
     if passive.converged:
         ax = plot_robot(robot, passive, loads=load_arrows(passive, loads, robot))
         ax.set_title(f"no tension; tip force {tuple(loads.tip_force.tolist())} N (purple),\n"
                      f"moment {tuple(loads.tip_moment.tolist())} N m (orange: axis)")
-        summary["files"] += save_figure(ax.figure, out, "fig3b_loaded")
-    summary["passive"] = {"converged": passive.converged,
-                          "tip": passive.tip_position.tolist() if passive.converged else None,
-                          "reach": passive.reach if passive.converged else None}
+        files += save_figure(ax.figure, out, "fig3b_loaded")
+    return sampling, PassiveSolveRecord.of(bool(passive.converged), passive.tip_position, passive.reach)
 
 
 def _adopt(r: ReachResult, other: ReachResult) -> ReachResult:
@@ -247,7 +211,7 @@ def _bounds_study(robot: Robot, jobs: dict[str, _Job], done: dict[str, ReachResu
     return study
 
 
-def _run_jobs(jobs: dict[str, _Job], s: ReproduceSettings, seed: int, note: Callable,
+def _run_jobs(jobs: dict[str, _Job], s: ReproduceSettings, seed: int, stages: _Stages,
               between: Callable[[], None], finished: Callable[[str, ReachResult], None]) -> dict[str, ReachResult]:
     """Run the GA jobs two at a time in worker threads (the compiled solvers release the GIL).
 
@@ -255,7 +219,7 @@ def _run_jobs(jobs: dict[str, _Job], s: ReproduceSettings, seed: int, note: Call
     draws the figures, is not thread-safe). Each run is deterministic by its seed, whatever the interleaving.
     """
     def run(j: _Job) -> ReachResult:
-        step = note(j.label, j.max_gen)
+        step = stages.generations(j.label, j.max_gen)
         try:
             return maximize_reach(j.problem, MemeticGA(pop_size=j.pop, n_polish=s.n_polish),
                                   Termination(s.tol, s.window, j.max_gen), seed=seed, on_generation=step)
@@ -309,9 +273,11 @@ def run_reproduce(robot: Robot, out: str | Path, *, seed: int = 0, progress: Pro
     """The paper's whole study (sections 3-4) on ``robot``; writes figures, data and ``report.md`` in ``out``.
 
     ``out`` follows the output-folder rule (:func:`output_folder`): Ctrl-C keeps the figures and data
-    finished so far, with the manifest's status ``interrupted``. ``progress(stage, total)`` returns the GA's
-    callback for each stage; its ``close()``, where it has one, is called when the stage ends (a GA that
-    converges stops before ``total``).
+    finished so far, with the manifest's status ``interrupted``. ``progress(stage, total, unit)``
+    (:class:`~pytdcr.runs._reproduce_records.Progress`) returns each stage's callback: a GA's ``on_generation``
+    for ``unit`` "gen", a ``step(k)`` otherwise; its ``close()``, where it has one, is called when the stage ends
+    (a GA that converges stops before ``total``). The result is typed; ``reproduce.json`` is its
+    :meth:`ReproduceRun.to_json`, read back with :meth:`ReproduceRun.from_json`.
     """
     s = settings or ReproduceSettings()
     check_reproduce(robot, s, seed=seed)
@@ -324,19 +290,20 @@ def _reproduce(robot: Robot, out: Path, seed: int, progress: Progress | None, s:
     bounds = paper_bounds(robot.n_tendons)
     jobs = _jobs(robot, s)
     loaded = jobs[f"pop{s.pops[0]}"].problem
-    summary: dict[str, Any] = {"seed": seed, "files": []}
-
-    def note(stage: str, total: int | None, unit: str = "gen") -> Callable[..., None] | None:
-        return progress(stage, total, unit) if progress is not None else None
+    stages = _Stages(progress)
+    files: list[str] = []  # every file written, in order
+    sampling: SamplingRecord | None = None
+    passive: PassiveSolveRecord | None = None
+    workspace: WorkspaceSection | None = None
 
     pops: dict[int, ReachResult] = {}
-    later: list[Future] = []
+    later: list[Future[list[ModelVerdict]]] = []
 
     def finished(key: str, r: ReachResult) -> None:
         # Fig. 5 (each population, under the paper's load) and Fig. 6 (under a payload along gravity), drawn as
         # the runs finish
         if key.startswith("pop") or key == "payload":
-            summary["files"] += write_optimize(r, jobs[key].problem, out, stem=key)
+            files.extend(write_optimize(r, jobs[key].problem, out, stem=key))
         if key.startswith("pop"):
             pops[jobs[key].pop] = r
             if len(pops) == len(set(s.pops)):  # the optimum is known: each better model takes it up beside the GA
@@ -347,34 +314,28 @@ def _reproduce(robot: Robot, out: Path, seed: int, progress: Progress | None, s:
                              for m in s.verdict_models)
 
     def side() -> None:
-        _sample_and_passive(robot, loaded.loads, bounds, s, seed, out, summary, note)
-        summary["workspace"] = workspace_section(robot, bounds, s, out, summary["files"], seed=seed,
-                                                 progress=progress)
+        nonlocal sampling, passive, workspace
+        sampling, passive = _sample_and_passive(robot, loaded.loads, bounds, s, seed, out, files, stages)
+        workspace = workspace_section(robot, bounds, s, out, files, seed=seed, progress=progress)
 
     # the better models' runs are independent of each other and of the GA's other jobs (BLAS on one thread)
     with single_threaded_blas(), worker_pool(max(1, len(s.verdict_models))) as submit:
-        done = _run_jobs(jobs, s, seed, note, side, finished)
+        done = _run_jobs(jobs, s, seed, stages, side, finished)
         ga = {pop: done[f"pop{pop}"] for pop in s.pops}
         pay = done["payload"]
         best = min(ga.values(), key=lambda r: r.cost)
         bound_study = _bounds_study(robot, jobs, done, ga, s)
         verdicts = [v for f in later for v in f.result()]
+    if sampling is None or passive is None or workspace is None:  # side() ran before any job finished
+        raise RuntimeError("the study's samples and workspace section were not computed")
     with saving():  # everything is computed: Ctrl-C from here waits for the report
-        run = ReproduceRun(seed, summary["files"], summary["sampling"], summary["passive"], summary["workspace"],
-                           time.perf_counter() - t_start, ga, pay, bound_study, verdicts)
+        inputs = inputs_record(robot, loaded.loads, bounds=bounds.to_dict(), seed=seed, payload_mass_kg=PAYLOAD_MASS,
+                               **dataclasses.asdict(s), solver=options_record(loaded.model, loaded.options))
+        run = ReproduceRun(seed, files, sampling, passive, workspace, time.perf_counter() - t_start, ga, pay,
+                           bound_study, verdicts, inputs)
         report = reproduce_report(robot, run, bounds, s, [*verdict_text(best, verdicts),
                                                           *workspace_text(run.workspace, s)])
         atomic_write_text(out / "report.md", report)
-        run = dataclasses.replace(run, files=[*run.files, "report.md"])
-        write_json(out / "reproduce.json", {
-            "inputs": inputs_record(robot, loaded.loads, bounds=bounds.to_dict(), seed=seed,
-                                    payload_mass_kg=PAYLOAD_MASS, **dataclasses.asdict(s),
-                                    solver=options_record(loaded.model, loaded.options)),
-            "summary": run.summary(),
-            "ga": {str(p): r.to_dict() for p, r in ga.items()},
-            "payload": pay.to_dict(),
-            "bounds_study": [{"upper": hi, **r.to_dict()} for hi, r in bound_study],
-            "better_models": [v.to_dict() for v in verdicts],
-            "seconds": run.seconds,
-        })
+        run = dataclasses.replace(run, files=[*files, "report.md"])
+        write_json(out / "reproduce.json", run.to_json())
     return run

@@ -4,16 +4,19 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..bounds import TensionBounds
 from ..loads import Loads
 from ..optimize import MemeticGA, ReachProblem, ReachResult, Termination, maximize_reach, polish_reach
-from ..records import JsonDict
+from ..records import JsonDict, JsonObject, optional_part
 from ..robot import Robot
-from ..runtime import end_stage
+from ..runtime import end_stage, to_jsonable
+
+if TYPE_CHECKING:
+    from ._reproduce_records import OnGeneration, Progress, Step
 
 __all__ = ["ModelVerdict", "model_verdicts", "verdict_text"]
 
@@ -44,15 +47,37 @@ class ModelVerdict:
     reoptimised: ReachResult | None
     method: str
 
+    def to_json(self) -> JsonDict:
+        """A row of ``reproduce.json``'s ``better_models``: ``{"model", "converged", "reach", "tip_shift",
+        "method", "reoptimised"}`` (a non-finite number as null, no re-optimisation as null)."""
+        return to_jsonable({"model": self.model, "converged": self.converged, "reach": self.reach,
+                            "tip_shift": self.tip_shift, "method": self.method,
+                            "reoptimised": None if self.reoptimised is None else self.reoptimised.to_json()})
+
     def to_dict(self) -> JsonDict:
-        """JSON-ready form."""
-        return {"model": self.model, "converged": self.converged, "reach": self.reach, "tip_shift": self.tip_shift,
-                "method": self.method, "reoptimised": None if self.reoptimised is None else self.reoptimised.to_dict()}
+        """:meth:`to_json` (the name older code calls)."""
+        return self.to_json()
+
+    @classmethod
+    def from_json(cls, d: JsonObject) -> ModelVerdict:
+        """The row :meth:`to_json` wrote (a null reach or tip shift read as NaN); KeyError or
+        :class:`~pytdcr.records.RecordKeyError` naming a missing key (``reoptimised.polish``)."""
+        return cls(str(d["model"]), bool(d["converged"]), _number(d["reach"]), _number(d["tip_shift"]),
+                   optional_part("reproduce.json", "reoptimised", ReachResult.from_json, d), str(d["method"]))
+
+
+def _number(x: object) -> float:
+    """A float of the file: null (a non-finite number as written) as NaN; ValueError for what is no number."""
+    if x is None:
+        return float("nan")
+    if isinstance(x, (int, float)):
+        return float(x)
+    raise ValueError(f"reproduce.json: a number was expected, got {type(x).__name__}")
 
 
 def model_verdicts(robot: Robot, loads: Loads, bounds: TensionBounds, best: ReachResult, *,
                    models: Sequence[str] = ("pcc2", "sscr"), budget: tuple[int, int] = (0, 8), seed: int = 0,
-                   progress: Any = None) -> list[ModelVerdict]:
+                   progress: Progress | None = None) -> list[ModelVerdict]:
     """Re-evaluate ``best`` (a ``pcc`` optimum) with each model, then re-optimise with it.
 
     ``budget`` is (``ga_pop``, ``polish_iter``). With ``ga_pop`` = 0 the re-optimisation is a gradient polish
@@ -61,21 +86,24 @@ def model_verdicts(robot: Robot, loads: Loads, bounds: TensionBounds, best: Reac
     given, is told each model's stage (the GA's generations, or the polish as one step).
     """
     ga_pop, polish_iter = budget
-    out = []
+    out: list[ModelVerdict] = []
     for name in models:
         problem = ReachProblem.create(robot, loads, bounds, model=name)
         sol = problem.solve(best.tensions)
         reach = sol.reach if sol.converged else float("nan")
         shift = float(np.linalg.norm(sol.tip_position - best.tip_position)) if sol.converged else float("nan")
-        step = None
+        stage: OnGeneration | Step | None = None  # the stage's callback, ended however the stage ends
+        res: ReachResult | None
         try:
             if ga_pop:
-                step = progress(f"{name}: GA, population {ga_pop}", 30, "gen") if progress else None
+                on_generation = progress(f"{name}: GA, population {ga_pop}", 30, "gen") if progress else None
+                stage = on_generation
                 res = maximize_reach(problem, MemeticGA(pop_size=ga_pop, extra_starts=(best.tensions,)),
-                                     Termination(1e-6, 5, 30), seed=seed, on_generation=step)
+                                     Termination(1e-6, 5, 30), seed=seed, on_generation=on_generation)
                 method = f"memetic GA, population {ga_pop}, seed {seed}, polished also from the pcc optimum"
             else:
                 step = progress(f"{name}: polish from the pcc optimum", 1, "run") if progress else None
+                stage = step
                 if step:
                     step(0)  # shown from its start
                 res = polish_reach(problem, best.tensions, max_iter=polish_iter, restarts=0)
@@ -85,7 +113,7 @@ def model_verdicts(robot: Robot, loads: Loads, bounds: TensionBounds, best: Reac
         except RuntimeError:
             res, method = None, "re-optimisation failed: no converged solve"
         finally:
-            end_stage(step)
+            end_stage(stage)
         out.append(ModelVerdict(name, bool(sol.converged), reach, shift, res, method))
     return out
 

@@ -1,4 +1,4 @@
-"""The reproduction's ``report.md``, written from the data of the run."""
+"""The reproduction's ``report.md``, written from the typed result of the run (:class:`ReproduceRun`)."""
 
 from __future__ import annotations
 
@@ -17,7 +17,8 @@ from ..runtime import default_threads
 from ..validate import direction_or_none, number_text
 
 if TYPE_CHECKING:
-    from ._reproduce import ReproduceRun, ReproduceSettings
+    from ._reproduce import ReproduceSettings
+    from ._reproduce_records import PassiveSolveRecord, ReproduceRun
 
 __all__ = ["number_text", "reproduce_report"]
 
@@ -68,7 +69,7 @@ def _bounds_comment(bound_study: list[tuple[float, ReachResult]]) -> str:
 def _first_final(r: ReachResult, tol: float) -> int:
     """First generation whose best cost is within ``tol`` of the GA's final best."""
     final = r.ga.cost if r.ga is not None else r.cost
-    return next((g + 1 for g, b in enumerate(r.history["best"]) if abs(b - final) < tol), r.generations)
+    return next((g + 1 for g, b in enumerate(r.per_generation.best) if abs(b - final) < tol), r.generations)
 
 
 def _beside_paper(ga: dict[int, ReachResult], tol: float) -> str:
@@ -80,7 +81,7 @@ def _beside_paper(ga: dict[int, ReachResult], tol: float) -> str:
             f"optimum by the fourth generation, to 1e-6. Here, with population {pop}, the best cost was final "
             f"(within {tol:g}) at generation {_first_final(r, tol)}; the stopping rule was "
             f"{'met' if met else 'not met (generation cap)'} at generation {r.generations}, after "
-            f"{r.evaluations} model solves ({r.history['local_search_evaluations'][-1]} of them in the local "
+            f"{r.evaluations} model solves ({r.per_generation.local_search_evaluations[-1]} of them in the local "
             "searches).")
     if r.polished:
         moved = r.polish_gain
@@ -113,9 +114,16 @@ def _ga_row(label: str, r: ReachResult) -> str:
             f"{r.seconds:.1f} |")
 
 
+def _passive_text(passive: PassiveSolveRecord) -> str:
+    """Fig. 3(b)'s sentence: where the load alone puts the tip, or that the solve did not converge."""
+    if not passive.converged or passive.tip is None or passive.reach is None:
+        return "The passive solve did not converge (no figure)."
+    return (f"With every tension 0 the load alone puts the tip at {np.round(passive.tip, 4).tolist()} m "
+            f"(reach {passive.reach:.4f} m): `fig3b_loaded.png`.")
+
+
 def _head(robot: Robot, run: ReproduceRun, bounds: TensionBounds, s: ReproduceSettings) -> list[str]:
     smp = run.sampling
-    passive = run.passive
     return [
         "# Feasible static workspace of the paper robot: reproduction",
         "",
@@ -132,15 +140,13 @@ def _head(robot: Robot, run: ReproduceRun, bounds: TensionBounds, s: ReproduceSe
         "",
         "## Fig. 3(a), Fig. 4: random samples under the paper's load",
         "",
-        f"{smp['n']} tension vectors uniform in the bounds, under tip force {PAPER_TIP_FORCE} N and tip moment "
-        f"{PAPER_TIP_MOMENT} N m: {smp['converged']} converged; reach from {smp['reach_min']:.4f} to "
-        f"{smp['reach_max']:.4f} m (`samples.csv`, `fig3a_samples.png`, `fig4_configurations.png`).",
+        f"{smp.n} tension vectors uniform in the bounds, under tip force {PAPER_TIP_FORCE} N and tip moment "
+        f"{PAPER_TIP_MOMENT} N m: {smp.converged} converged; reach from {smp.reach_min:.4f} to "
+        f"{smp.reach_max:.4f} m (`samples.csv`, `fig3a_samples.png`, `fig4_configurations.png`).",
         "",
         "## Fig. 3(b): the robot under the paper's load",
         "",
-        (f"With every tension 0 the load alone puts the tip at {np.round(passive['tip'], 4).tolist()} m "
-         f"(reach {passive['reach']:.4f} m): `fig3b_loaded.png`.") if passive["converged"]
-        else "The passive solve did not converge (no figure).",
+        _passive_text(run.passive),
         "",
     ]
 
@@ -206,11 +212,15 @@ def _axial_text(robot: Robot) -> str:
 
 
 def _payload_text(robot: Robot, pay: ReachResult) -> str:
+    """The payload study's paragraph: the payload's force, the GA's and the polished optimum ``pay``, its
+    stability and, where the payload is axial, what that means (:func:`_axial_text`)."""
     ga = pay.ga if pay.ga is not None else pay.optimum
+    settings = pay.ga_settings
     force = ", ".join(f"{f:.4f}" for f in payload_loads(robot).tip_force)
     along = "the robot's gravity" if np.any(robot.gravity) else "standard gravity (the robot has none)"
-    return (f"Payload {PAYLOAD_MASS * 1e3:g} g at the tip (force ({force}) N, along {along}). GA (population "
-            f"{pay.settings['pop_size']}): reach {ga.reach:.6f} m after {pay.generations} generations and "
+    return (f"Payload {PAYLOAD_MASS * 1e3:g} g at the tip (force ({force}) N, along {along}). "
+            + (f"GA (population {settings.pop_size})" if settings is not None else "A polish alone (no GA)")
+            + f": reach {ga.reach:.6f} m after {pay.generations} generations and "
             f"{pay.evaluations} solves"
             + (f"; polished {pay.reach:.6f} m with tensions {np.round(pay.tensions, 3).tolist()} N"
                if pay.polished else "")
