@@ -108,7 +108,9 @@ def test_the_golden_summary_reads_and_writes_back():
     assert (best.load_case, best.design, best.robot_file) == ("paper wrench", 3, "best/design_000003.toml")
     assert best.value == data["best"][0]["value"] and best.error == data["best"][0]["error"]
     assert s.designs == 4 and s.load_cases == ("paper wrench",) and s.unranked == () and len(s.warnings) == 1
-    assert s["designs_computed"] == 4  # read as the dict it was
+    assert s.designs_computed == 4
+    with pytest.raises(TypeError):  # read by attribute: no dict-style access
+        s["designs_computed"]
 
 
 def test_a_record_round_trips_through_its_file_and_a_pickle():
@@ -128,7 +130,9 @@ def test_a_record_round_trips_through_its_file_and_a_pickle():
     assert math.isnan(back.rows[0].peak_stress_pa) and back.rows[0].reach_tensions_n is None
     assert back.params == ok.params and type(back.params["disks"]) is int
     assert "traceback" not in ok.to_json() and failed.to_json()["traceback"] == "Traceback ..."
-    assert ok["rows"][0]["volume_m3"] == 0.02 and ok["status"] == "ok"  # read as the dict it was
+    assert ok.rows[0].volume_m3 == 0.02 and ok.ok and not failed.ok
+    with pytest.raises(TypeError):  # read by attribute: no dict-style access
+        ok["status"]
 
 
 @pytest.mark.parametrize(("path", "named"), [

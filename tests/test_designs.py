@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from pytdcr.designs import (
+    MEASURES,
     DesignsRunOptions,
     StudyError,
     apply_parameters,
@@ -88,7 +89,7 @@ def test_a_design_whose_robot_is_impossible_fails_with_its_reason():
     study, robot = study_from_dict(_study())
     rec = evaluate_design(study.model_dump(), robot.model_dump(), 3, {"backbone_radius": 0.003,
                                                                       "routing_radius_2": 0.002})
-    assert rec["status"] == "failed" and "must exceed backbone.outer_radius" in rec["reason"] and rec["rows"] == []
+    assert rec.status == "failed" and "must exceed backbone.outer_radius" in rec.reason and rec.rows == ()
 
 
 def test_the_small_example_is_valid():
@@ -111,7 +112,7 @@ def test_local_and_dask_runs_give_one_table_and_resume(tmp_path):
     study, robot = study_from_dict(_study())
     local = run_designs(study, robot, tmp_path / "local", options=DesignsRunOptions(workers=2))
     t = local.table
-    assert list(t["design"]) == [-1, 0, 1, 2, 3] and local.summary["reference"] == "ok"
+    assert list(t["design"]) == [-1, 0, 1, 2, 3] and local.summary.reference == "ok"
     ref = t[t["design"] == -1].iloc[0]  # the base robot, measured like a design
     assert (ref["backbone_radius"], ref["routing_radius_2"]) == (0.0007, 0.01) and ref["status"] == "ok"
     t = t[t["design"] >= 0]
@@ -127,16 +128,16 @@ def test_local_and_dask_runs_give_one_table_and_resume(tmp_path):
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         remote = run_designs(study, robot, tmp_path / "dask",
                              options=DesignsRunOptions(scheduler=cluster.scheduler_address))
-    assert "Dask" in remote.summary["executor"]
+    assert "Dask" in remote.summary.executor
     assert (tmp_path / "local" / "designs.csv").read_text() == (tmp_path / "dask" / "designs.csv").read_text()
     # run again: everything reused, the same table
     again = run_designs(study, robot, tmp_path / "local", options=DesignsRunOptions(workers=1))
-    assert again.summary["designs_reused"] == 4 and again.summary["designs_computed"] == 0
+    assert again.summary.designs_reused == 4 and again.summary.designs_computed == 0
     assert again.table.equals(local.table)
     # a missing design file is computed again, alone
     (tmp_path / "local" / "designs" / "000001.json").unlink()
     part = run_designs(study, robot, tmp_path / "local", options=DesignsRunOptions(workers=1))
-    assert (part.summary["designs_reused"], part.summary["designs_computed"]) == (3, 1)
+    assert (part.summary.designs_reused, part.summary.designs_computed) == (3, 1)
     assert (tmp_path / "local" / "designs.csv").read_text() == (tmp_path / "dask" / "designs.csv").read_text()
     summary = json.loads((tmp_path / "local" / "summary.json").read_text())
     assert summary["designs_reused"] == 3 and summary["seed"] == 3
@@ -215,11 +216,18 @@ def test_the_pareto_front_is_the_set_no_design_dominates():
 def test_objectives_are_minimised_and_a_failed_design_has_none():
     study, _ = study_from_dict(_study(objectives=[{"measure": "volume_m3", "goal": "max"},
                                                   {"measure": "peak_stress_pa", "goal": "min"}]))
-    good = {"status": "ok", "rows": [{"load_case": "no load", "volume_m3": 2.0, "peak_stress_pa": 5.0}]}
-    nan = {"status": "ok", "rows": [{"load_case": "no load", "volume_m3": float("nan"), "peak_stress_pa": 5.0}]}
-    bad = {"status": "failed", "rows": []}
-    F, ok = objective_matrix(study, [good, nan, bad])
-    assert F[0].tolist() == [-2.0, 5.0] and ok.tolist() == [True, False, False] and not F[1:].any()
+    from pytdcr.designs._records import CaseRow, DesignRecord, Timing
+
+    def rec(status: str, case: str = "no load", **measures: float) -> DesignRecord:
+        row = CaseRow(case, **{**dict.fromkeys(MEASURES, float("nan")), **measures}, h_m={}, reach_tensions_n=None)
+        return DesignRecord(0, {}, status, "", (row,) if status == "ok" else (), Timing(1.0, "h", 1))
+
+    good = rec("ok", volume_m3=2.0, peak_stress_pa=5.0)
+    nan = rec("ok", volume_m3=float("nan"), peak_stress_pa=5.0)
+    bad = rec("failed")
+    elsewhere = rec("ok", "gravity only", volume_m3=2.0, peak_stress_pa=5.0)  # no row of the objectives' case
+    F, ok = objective_matrix(study, [good, nan, bad, elsewhere])
+    assert F[0].tolist() == [-2.0, 5.0] and ok.tolist() == [True, False, False, False] and not F[1:].any()
 
 
 @pytest.mark.slow
@@ -234,16 +242,16 @@ def test_an_optimised_study_is_the_same_on_any_executor_and_resumes(tmp_path):
     local = run_designs(study, robot, tmp_path / "local", options=DesignsRunOptions(workers=1, figures=False))
     t = local.table
     assert list(t["design"]) == list(range(-1, len(t) - 1)) and set(t["generation"]) == {-1, 0, 1, 2}
-    assert 4 < local.summary["designs"] <= 12 and local.summary["designs_failed"] == 0
+    assert 4 < local.summary.designs <= 12 and local.summary.designs_failed == 0
     assert t["routing_radius_2"].between(0.004, 0.012).all() and t["disks_1"].isin(range(6, 13)).all()
-    assert t[t["design"] >= 0].drop_duplicates(["routing_radius_2", "disks_1"]).shape[0] == local.summary["designs"]
+    assert t[t["design"] >= 0].drop_duplicates(["routing_radius_2", "disks_1"]).shape[0] == local.summary.designs
     assert t["pareto"].any() and not t.loc[t["design"] == -1, "pareto"].any()
     # "best" follows the first objective (the largest reach here), in best/, the summary and the report
-    best = local.summary["best"][0]
+    best = local.summary.best[0]
     designs = t[t["design"] >= 0]
-    assert best["measure"] == "largest_reach_m" and best["design"] == designs.loc[designs["largest_reach_m"].idxmax(),
-                                                                                   "design"]
-    assert (tmp_path / "local" / best["robot_file"]).is_file() and best["error"] is None
+    assert best.measure == "largest_reach_m" and best.design == designs.loc[designs["largest_reach_m"].idxmax(),
+                                                                            "design"]
+    assert (tmp_path / "local" / best.robot_file).is_file() and best.error is None
     assert "(max largest_reach_m, the first objective)" in (tmp_path / "local" / "report.md").read_text()
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         run_designs(study, robot, tmp_path / "dask",
@@ -252,14 +260,14 @@ def test_an_optimised_study_is_the_same_on_any_executor_and_resumes(tmp_path):
     # the optimiser replays its generations from the files: nothing computed again
     (tmp_path / "local" / "designs" / "000005.json").unlink()
     again = run_designs(study, robot, tmp_path / "local", options=DesignsRunOptions(workers=1, figures=False))
-    assert (again.summary["designs_computed"], again.summary["designs_reused"]) == (1, local.summary["designs"] - 1)
+    assert (again.summary.designs_computed, again.summary.designs_reused) == (1, local.summary.designs - 1)
     assert (tmp_path / "local" / "designs.csv").read_text() == (tmp_path / "dask" / "designs.csv").read_text()
 
 
 def test_the_report_warns_when_volume_errors_exceed_the_margins():
     import pandas as pd
 
-    from pytdcr.designs._run import _screening_note
+    from pytdcr.designs._report import _screening_note
 
     def table(err: float) -> pd.DataFrame:
         return pd.DataFrame({"design": [-1, 0, 1, 2], "load_case": ["c"] * 4,
@@ -286,7 +294,7 @@ def test_the_report_warns_when_volume_errors_exceed_the_margins():
 def test_the_comparison_with_the_base_robot_shows_no_change_it_cannot_compute():
     import pandas as pd
 
-    from pytdcr.designs._run import _versus_reference
+    from pytdcr.designs._report import _versus_reference
 
     study, _ = study_from_dict(_study())
     row = {"load_case": "c", "volume_m3": 0.02, "volume_err_m3": 0.001, "realisable_volume_m3": 0.01,
@@ -332,10 +340,10 @@ def test_the_largest_reach_is_at_least_every_direction_s_support():
         "up": [0.0, 0.0, 1.0], "side": [1.0, 0.0, 0.0], "out": [1.0, 1.0, 0.3], "down": [0.0, 0.0, -1.0]}}))
     rec = evaluate_design(study.model_dump(), robot.model_dump(), 0, {"backbone_radius": 0.0007,
                                                                       "routing_radius_2": 0.01})
-    row = rec["rows"][0]
-    assert rec["status"] == "ok", rec["reason"]
-    assert row["largest_reach_m"] >= max(row[f"h_{k}_m"] for k in ("up", "side", "out", "down")) - 1e-12
-    assert row["largest_reach_m"] <= row["arc_length_m"] + 1e-12
+    row = rec.rows[0]
+    assert rec.status == "ok", rec.reason
+    assert row.largest_reach_m >= max(row.h_m[k] for k in ("up", "side", "out", "down")) - 1e-12
+    assert row.largest_reach_m <= row.arc_length_m + 1e-12
 
 
 def test_a_design_that_kills_its_dask_workers_is_recorded_as_failed():
@@ -343,18 +351,19 @@ def test_a_design_that_kills_its_dask_workers_is_recorded_as_failed():
 
     from distributed import KilledWorker
 
+    from pytdcr.designs._records import DesignRecord, Timing
     from pytdcr.designs._run import _wait
 
     dead, good = Future(), Future()
     from types import SimpleNamespace
 
     dead.set_exception(KilledWorker("evaluate_design-1", SimpleNamespace(address="tcp://10.0.0.7:40000"), 3))
-    good.set_result({"design": 0, "params": {"disks": 4}, "status": "ok", "reason": "", "rows": []})
+    good.set_result(DesignRecord(0, {"disks": 4}, "ok", "", (), Timing(1.0, "h", 1)))
     got = []
     _wait(None, {dead: (1, {"disks": 5}), good: (0, {"disks": 4})}, got.append)
-    rec = {r["design"]: r for r in got}
-    assert rec[0]["status"] == "ok" and rec[1]["status"] == "failed" and rec[1]["params"] == {"disks": 5}
-    assert "KilledWorker" in rec[1]["reason"] and "out of memory" in rec[1]["reason"]
+    rec = {r.design: r for r in got}
+    assert rec[0].status == "ok" and rec[1].status == "failed" and rec[1].params == {"disks": 5}
+    assert "KilledWorker" in rec[1].reason and "out of memory" in rec[1].reason and rec[1].rows == ()
 
 
 @pytest.mark.slow
@@ -392,7 +401,7 @@ def test_a_local_worker_that_dies_stops_the_run_saved_and_resumable(tmp_path, mo
     manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
     assert manifest["status"] == "interrupted"
     again = run_designs(study, robot, tmp_path / "out", options=DesignsRunOptions(workers=2, figures=False))
-    assert again.summary["designs"] == 4 and again.summary["designs_computed"] + again.summary["designs_reused"] == 4
+    assert again.summary.designs == 4 and again.summary.designs_computed + again.summary.designs_reused == 4
 
 
 def test_tdcr_designs_exits_75_when_the_compute_goes_away(tmp_path, capsys, monkeypatch):
@@ -458,7 +467,7 @@ def test_the_volume_error_warning_skips_regions_without_volume():
     import pandas as pd
 
     from pytdcr.designs import measures_nothing
-    from pytdcr.designs._run import _screening_note
+    from pytdcr.designs._report import _screening_note
 
     study, _ = study_from_dict(_study())
     t = pd.DataFrame({"design": [-1, 0, 1, 2], "load_case": ["c"] * 4, "volume_m3": [0.0, 0.05, 0.0, 0.04],

@@ -24,6 +24,7 @@ from typing import ClassVar
 import pytest
 
 from pytdcr.designs import DesignsRunOptions, _run, evaluate_design, run_designs, study_from_dict
+from pytdcr.designs._records import RecordShape
 from pytdcr.runtime import dump_json
 
 #: the design whose file is spoiled (an ok one: backbone 0.7 mm, routing 10 mm)
@@ -261,7 +262,7 @@ def test_a_missing_measure_is_written_as_null_and_read_back_as_nan(baseline, tmp
     """Records are strict JSON: a measure a design could not compute (NaN) is null in its file and NaN again
     when resumed, so that a NaN in a file is never one this run wrote."""
     study, robot = _study()
-    shape = _run._RecordShape.of(study, robot)
+    shape = RecordShape.of(study, robot)
     rec = _record(baseline[0])
     rec["rows"][0]["peak_stress_pa"] = math.nan
     rec["timing"]["seconds"] = math.nan
@@ -270,5 +271,5 @@ def test_a_missing_measure_is_written_as_null_and_read_back_as_nan(baseline, tmp
     (tmp_path / "designs").mkdir()
     (tmp_path / "designs" / f"{SPOILED:06d}.json").write_text(text)
     back = _run._reuse(tmp_path, SPOILED, rec["params"], shape)
-    assert back is not None and math.isnan(back["rows"][0]["peak_stress_pa"]) and math.isnan(back["timing"]["seconds"])
-    assert back["rows"][0]["volume_m3"] == rec["rows"][0]["volume_m3"]
+    assert back is not None and math.isnan(back.rows[0].peak_stress_pa) and math.isnan(back.timing.seconds)
+    assert back.rows[0].volume_m3 == rec["rows"][0]["volume_m3"]

@@ -608,16 +608,16 @@ def test_the_optimiser_s_dicts_follow_the_json_rule():
 def test_finite_real_is_check_real_s_rule_for_answers_without_an_exception():
     """One finite-number check (:func:`pytdcr.validate.finite_real`, by :func:`check_real`): the explorer's
     boxes and a design record's numbers use it."""
-    from pytdcr.designs._run import _number
+    from pytdcr.designs._records import is_number
     from pytdcr.validate import finite_real
 
     for bad in (True, False, np.True_, "1", None, [1.0], math.nan, math.inf, -math.inf, 10**400, -(10**400), 1j):
         assert finite_real(bad) is None, bad
-        assert _number(bad) is False, bad
+        assert is_number(bad) is False, bad
     for good, want in ((0, 0.0), (-0.0, 0.0), (3, 3.0), (2.5, 2.5), (10**300, 1e300), (np.float32(0.5), 0.5)):
         got = finite_real(good)
         assert got == want and type(got) is float and not math.copysign(1.0, got) < 0
-        assert _number(good) is True
+        assert is_number(good) is True
 
 
 def test_the_explorer_s_boxes_keep_their_messages_and_ranges():

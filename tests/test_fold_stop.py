@@ -100,8 +100,8 @@ def test_a_design_study_searches_by_its_fold_rule(paper):
     for rule in WorkspaceSettings.FOLD_RULES:
         study, robot = study_from_dict({**data, "budget": {**data["budget"], "folds": rule}})
         rec = evaluate_design(study.model_dump(), robot.model_dump(), 0, {"routing_radius_2": 0.01})
-        assert rec["status"] == "ok", rec["reason"]
-        volume[rule] = rec["rows"][0]["volume_m3"]
+        assert rec.status == "ok", rec.reason
+        volume[rule] = rec.rows[0].volume_m3
     settings = WorkspaceSettings(n=32, seed=design_seed(3, 0), voxel=0.025, budget=400, directions=0,
                                  reach="support", threads=1, multistability=0, folds="stop")
     case_robot, loads = study.load_cases(apply_parameters(robot, {"routing_radius_2": 0.01}))["paper wrench"]

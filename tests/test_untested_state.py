@@ -120,7 +120,7 @@ def test_unstable_counts_only_the_converged_samples():
     solver leaves NaN there, so the numbers of real runs, and the golden baselines, do not move)."""
     from types import SimpleNamespace
 
-    from pytdcr.runs._runs import _sample_counts
+    from pytdcr.runs import SampleRunCounts
     from pytdcr.workspace import SampleCounts
 
     ok = np.array([True, True, False, False])
@@ -133,5 +133,5 @@ def test_unstable_counts_only_the_converged_samples():
     assert SampleCounts.of(region, "untested").unstable is None
     tips = np.array([[0.1, 0.0, 0.2]] * 2 + [[np.nan] * 3] * 2)
     sample = SimpleNamespace(converged=ok, stable=st, reach=np.linalg.norm(tips, axis=1))
-    assert _sample_counts(sample, "pcc")["unstable"] == 1
-    assert _sample_counts(sample, "cosserat")["unstable"] is None
+    assert SampleRunCounts.of(sample, "pcc").unstable == 1
+    assert SampleRunCounts.of(sample, "cosserat").unstable is None

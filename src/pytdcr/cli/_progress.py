@@ -14,9 +14,12 @@ import os
 import sys
 import threading
 import time
-from typing import Any
+from typing import TYPE_CHECKING
 
 from ..runtime import duration
+
+if TYPE_CHECKING:
+    from rich.progress import Progress, ProgressColumn, Task
 
 __all__ = ["LINE_SECONDS", "Bar", "Bars", "line_seconds", "quiet", "say", "set_quiet"]
 
@@ -84,7 +87,7 @@ class _Lines:
         self._line(f", done in {time.monotonic() - self.t0:.0f} s")
 
 
-def _columns(width: int) -> tuple[Any, ...]:
+def _columns(width: int) -> tuple[ProgressColumn, ...]:
     """The live block's columns on a terminal ``width`` characters wide: the stage's name (given what the others
     leave, cut with an ellipsis), a bar (from 100 characters), the work done of its total, the time spent and
     left, the label (the best reach)."""
@@ -93,7 +96,7 @@ def _columns(width: int) -> tuple[Any, ...]:
     from rich.text import Text
 
     class Count(ProgressColumn):
-        def render(self, task: Any) -> Text:
+        def render(self, task: Task) -> Text:
             if task.finished and not task.completed:  # a stage of unknown length, ended
                 return Text("done")
             of = f"/{task.total:.0f}" if task.total is not None else ""
@@ -101,7 +104,7 @@ def _columns(width: int) -> tuple[Any, ...]:
             return Text(f"{task.completed:.0f}{of} {task.fields.get('unit', '')}{label}")
 
     class Time(ProgressColumn):
-        def render(self, task: Any) -> Text:
+        def render(self, task: Task) -> Text:
             spent = task.finished_time if task.finished else task.elapsed
             left = task.time_remaining
             more = f", ~{duration(left)} left" if left is not None and not task.finished and spent else ""
@@ -121,7 +124,7 @@ class _Live:
 
     def __init__(self) -> None:
         self.lock = threading.Lock()
-        self.progress: Any = None
+        self.progress: Progress | None = None
         self.open = 0
 
     def add(self, desc: str, total: int | None, unit: str) -> int:
@@ -251,11 +254,11 @@ class Bars:
             bar = self.bars[threading.get_ident()] = Bar(stage, total, unit)
         return bar
 
-    def __call__(self, stage: str, total: int | None, unit: str | None = None) -> Any:
+    def __call__(self, stage: str, total: int | None, unit: str | None = None) -> _Steps:
         """A stage of ``total`` steps (None: not known) of ``unit``: returns its ``step(k=1, label=None)``."""
         return _Steps(self._open(stage, total, unit or ("dir" if "h(d)" in stage else self.unit)))
 
-    def generations(self, stage: str, total: int | None) -> Any:
+    def generations(self, stage: str, total: int | None) -> _Generations:
         """A GA's stage: its callback shows the best reach in mm; the callback's ``close()`` ends the stage."""
         return _Generations(self._open(stage, total, "gen"))
 

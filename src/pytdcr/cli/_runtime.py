@@ -28,7 +28,8 @@ import os
 import sys
 import threading
 from collections.abc import Callable
-from typing import Any
+from types import FrameType
+from typing import TextIO
 
 from ..runtime import cancellable
 from ..validate import SettingsError, show
@@ -75,14 +76,15 @@ def _run_command(args: argparse.Namespace) -> int:
     The main thread waits on an event, not on ``Thread.join`` (an interrupted join can leave the thread
     reported as finished while it still runs).
     """
-    outcome: dict[str, Any] = {}
+    code: list[int] = []  # the command's exit status, once it returned
+    error: list[BaseException] = []  # what it raised instead
     done = threading.Event()
 
     def target() -> None:
         try:
-            outcome["code"] = int(args.func(args))
+            code.append(int(args.func(args)))
         except BaseException as err:  # handed to the main thread as it is
-            outcome["error"] = err
+            error.append(err)
         finally:
             done.set()
 
@@ -106,13 +108,13 @@ def _run_command(args: argparse.Namespace) -> int:
                         pass
             except KeyboardInterrupt:
                 raise _Interrupted("left at once; nothing more saved") from None
-            err = outcome.get("error")
+            err = error[0] if error else None
             if err is None:
                 raise _Interrupted("the run had finished; everything it wrote was saved") from None
             raise _Interrupted(getattr(err, "message", None) or "nothing saved") from None
-    err = outcome.get("error")
+    err = error[0] if error else None
     if err is None:
-        return outcome["code"]
+        return code[0]
     if isinstance(err, KeyboardInterrupt):
         raise _Interrupted(getattr(err, "message", None) or "nothing saved") from None
     raise err
@@ -194,7 +196,7 @@ class StderrGuard:
     instead of failing inside a progress bar; :attr:`lost` says it happened (the exit status is then
     :data:`EXIT_PIPE_CLOSED` for a run that would have returned 0 or 1)."""
 
-    def __init__(self, stream: Any) -> None:
+    def __init__(self, stream: TextIO) -> None:
         self.stream = stream
         self.lost = False
 
@@ -238,7 +240,8 @@ class StderrGuard:
         except BrokenPipeError:
             self._closed()
 
-    def __getattr__(self, name: str) -> Any:
+    def __getattr__(self, name: str) -> object:
+        """Anything else of the stream it guards (``fileno``, ``isatty``, ``encoding``, ...)."""
         return getattr(self.stream, name)
 
 
@@ -253,6 +256,6 @@ def pipe_closed() -> int:
     return EXIT_PIPE_CLOSED
 
 
-def terminate(_signum: int, _frame: Any) -> None:
+def terminate(_signum: int, _frame: FrameType | None) -> None:
     """SIGTERM's handler: the same as Ctrl-C."""
     raise KeyboardInterrupt

@@ -6,7 +6,8 @@ runs it from the command line."""
 
 from ._evaluate import check_capabilities, design_seed, designs_estimate, evaluate_design
 from ._optimize import DesignSearch, measures_nothing, objective_matrix, pareto_front
-from ._run import DesignsRun, DesignsRunOptions, WorkersLost, format_measure, run_designs
+from ._report import format_measure
+from ._run import DesignsRun, DesignsRunOptions, WorkersLost, run_designs
 from ._space import PARAMETERS, apply_parameters, choose_designs, from_unit, parameter_info, read_parameter
 from ._spec import (
     LOAD_CASE_NAMES,

@@ -12,7 +12,8 @@ import os
 import socket
 import time
 import traceback
-from typing import TYPE_CHECKING, Any
+from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -115,9 +116,12 @@ def _case_row(study: DesignStudy, settings: WorkspaceSettings, name: str, robot:
         reach_tensions_n=None if far.tensions is None else tuple(float(t) for t in far.tensions))
 
 
-def evaluate_design(study_data: dict[str, Any], robot_data: dict[str, Any], index: int,
+def evaluate_design(study_data: Mapping[str, object], robot_data: Mapping[str, object], index: int,
                     params: dict[str, float]) -> DesignRecord:
     """Evaluate design ``index`` (``params`` applied to the base robot ``robot_data``) under every load case.
+
+    ``study_data`` and ``robot_data`` are a :class:`~pytdcr.designs.DesignStudy`'s and a
+    :class:`~pytdcr.robot.Robot`'s dumps (``model_dump()``: plain data a process pickles), validated again here.
 
     Returns its record: status ``"ok"`` with a row per load case (:class:`~pytdcr.designs._records.CaseRow`),
     or ``"failed"`` with its reason, and where and how long it ran. A design whose robot is invalid, or whose

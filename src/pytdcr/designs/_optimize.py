@@ -10,31 +10,38 @@ on any executor, and a stopped run replays its finished generations from their f
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
-from typing import Any
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
+from ._records import DesignRecord
 from ._space import from_unit
 from ._spec import DesignStudy
+
+if TYPE_CHECKING:
+    from pymoo.core.population import Population
 
 __all__ = ["DesignSearch", "measures_nothing", "objective_matrix", "pareto_front"]
 
 #: a batch of new designs: (generation, [(design index, parameter values)])
 Batch = tuple[int, list[tuple[int, dict[str, float]]]]
+#: evaluates a batch of new designs ``(generation, [(index, values)])`` into their records by index
+Evaluate = Callable[[int, list[tuple[int, dict[str, float]]]], Mapping[int, DesignRecord]]
 
 
-def objective_matrix(study: DesignStudy, records: list[dict[str, Any]]) -> tuple[np.ndarray, np.ndarray]:
-    """The objectives of designs, to minimise: F (n, n_objectives), a max goal negated; and ``ok`` (n,), False
-    for a failed design or one with a missing (NaN) objective (its row of F is 0)."""
+def objective_matrix(study: DesignStudy, records: Sequence[DesignRecord]) -> tuple[np.ndarray, np.ndarray]:
+    """The objectives of designs (their records), to minimise: F (n, n_objectives), a max goal negated; and
+    ``ok`` (n,), False for a failed design or one with a missing (NaN) objective (its row of F is 0): a
+    design without a row for the objective's load case, or whose row lacks the measure (NaN)."""
     F = np.zeros((len(records), len(study.objectives)))
     ok = np.ones(len(records), dtype=bool)
     for i, rec in enumerate(records):
-        rows = {r["load_case"]: r for r in rec.get("rows", [])}
         for j, o in enumerate(study.objectives):
-            v = rows.get(study.objective_case(o), {}).get(o.measure)
-            v = np.nan if v is None else float(v)
-            if rec["status"] != "ok" or not np.isfinite(v):
+            row = rec.row(study.objective_case(o))
+            v = np.nan if row is None else float(row.measure(o.measure))
+            if not rec.ok or not np.isfinite(v):
                 ok[i] = False
                 continue
             F[i, j] = -v if o.goal == "max" else v
@@ -42,7 +49,7 @@ def objective_matrix(study: DesignStudy, records: list[dict[str, Any]]) -> tuple
     return F, ok
 
 
-def measures_nothing(values: Any) -> bool:
+def measures_nothing(values: npt.ArrayLike) -> bool:
     """True when a measure is 0 for every design that has it (the volume of designs whose regions are all planar,
     dimension below 3): it ranks nothing, and no design is named best by it."""
     v = np.asarray(values, dtype=float)
@@ -82,8 +89,8 @@ class DesignSearch:
         self.algo.setup(self.problem, termination=("n_gen", int(study.designs.generations)), seed=int(study.seed),
                         verbose=False)
         self.seen: dict[str, int] = {}
-        self.records: dict[int, dict[str, Any]] = {}
-        self._asked: Any = None
+        self.records: dict[int, DesignRecord] = {}
+        self._asked: Population | None = None
         self._keys: list[str] = []
 
     @staticmethod
@@ -104,7 +111,7 @@ class DesignSearch:
             yield generation, batch
             generation += 1
 
-    def tell(self, records: dict[int, dict[str, Any]]) -> None:
+    def tell(self, records: Mapping[int, DesignRecord]) -> None:
         """Hand over the records of the last batch (by design index); every design asked must have one."""
         from pymoo.core.evaluator import Evaluator
         from pymoo.problems.static import StaticProblem
@@ -117,8 +124,7 @@ class DesignSearch:
 
 
 def design_batches(study: DesignStudy, designs: list[dict[str, float]] | None,
-                   evaluate: Callable[[int, list[tuple[int, dict[str, float]]]], dict[int, dict[str, Any]]]
-                   ) -> dict[int, int]:
+                   evaluate: Evaluate) -> dict[int, int]:
     """Run the study's designs through ``evaluate(generation, batch) -> records``: a grid or Sobol set as one
     batch (``designs``), the optimiser generation by generation. Returns each design's generation."""
     if study.designs.method != "optimize":

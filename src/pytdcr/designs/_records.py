@@ -26,7 +26,7 @@ import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import partial
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -262,17 +262,11 @@ class DesignRecord:
     def to_json(self) -> JsonDict:
         """The record as its file holds it: ``schema_version``, design, params, status, reason, rows,
         traceback (when there is one), timing and generation."""
-        out: dict[str, Any] = {"schema_version": SCHEMA_VERSION, "design": self.design, "params": dict(self.params),
-                               "status": self.status, "reason": self.reason,
-                               "rows": [r.to_json() for r in self.rows]}
+        out: JsonDict = {"schema_version": SCHEMA_VERSION, "design": self.design, "params": dict(self.params),
+                         "status": self.status, "reason": self.reason, "rows": [r.to_json() for r in self.rows]}
         if self.traceback is not None:
             out["traceback"] = self.traceback
         return {**out, "timing": self.timing.to_json(), "generation": self.generation}
-
-    def __getitem__(self, key: str) -> Any:
-        """The value at ``key`` of :meth:`to_json`: for callers that read a record as the dict it was before
-        it had a type (``rec["status"]``); read the attributes instead."""
-        return self.to_json()[key]
 
     @classmethod
     def from_json(cls, d: object) -> DesignRecord:
@@ -471,7 +465,7 @@ class DesignsSummary:
     load_cases: tuple[str, ...]
     executor: str
     seconds: float
-    inputs: dict[str, Any]
+    inputs: JsonDict
     versions: dict[str, str]
     measures: dict[str, str]
     unranked: tuple[Unranked, ...] = ()
@@ -489,11 +483,6 @@ class DesignsSummary:
                 "measures": dict(self.measures), "unranked": [u.to_json() for u in self.unranked],
                 "figures": list(self.figures), "best": [b.to_json() for b in self.best],
                 "warnings": list(self.warnings)}
-
-    def __getitem__(self, key: str) -> Any:
-        """The value at ``key`` of :meth:`to_json`: for callers that read the summary as the dict it was
-        (``run.summary["best"]``); read the attributes instead."""
-        return self.to_json()[key]
 
     @classmethod
     def from_json(cls, d: object) -> DesignsSummary:

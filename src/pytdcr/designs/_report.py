@@ -74,8 +74,7 @@ def build_table(study: DesignStudy, robot: Robot, records: dict[int, DesignRecor
     names = list(study.parameters)
     measures = list(MEASURES) + [f"h_{k}_m" for k in study.measures.directions]
     order = sorted(records)
-    # the optimiser's objectives read a record as its JSON (pytdcr.designs._optimize)
-    F, ok = objective_matrix(study, [records[k].to_json() for k in order])
+    F, ok = objective_matrix(study, [records[k] for k in order])
     designs = np.array(order) >= 0
     front = np.zeros(len(order), dtype=bool)
     front[designs] = pareto_front(F[designs], ok[designs])

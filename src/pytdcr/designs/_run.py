@@ -22,7 +22,7 @@ from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from .. import __version__
 from ..robot import Robot
@@ -42,17 +42,15 @@ from ..statics import check_cancelled, mark_saving
 from ..validate import check_count
 from ._evaluate import check_capabilities, evaluate_design
 from ._optimize import design_batches
-from ._records import DesignRecord, DesignsSummary, RecordShape, Timing, is_number
-from ._report import _screening_note as _screening_note  # importable from here, as before it moved
-from ._report import _versus_reference as _versus_reference  # importable from here, as before it moved
-from ._report import clear_name, format_measure, own_folder, write_results
+from ._records import DesignRecord, DesignsSummary, RecordShape, Timing
+from ._report import clear_name, own_folder, write_results
 from ._space import choose_designs
 from ._spec import DesignStudy, StudyError, measures_for
 
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["DesignsRun", "DesignsRunOptions", "WorkersLost", "format_measure", "run_designs"]
+__all__ = ["DesignsRun", "DesignsRunOptions", "WorkersLost", "run_designs"]
 
 #: files and folders a study's folder holds
 LAYOUT = ("study.toml", "designs", "designs.csv", "designs.parquet", "timings.csv", "summary.json", "report.md",
@@ -126,12 +124,6 @@ def _design_file(out: Path, index: int) -> Path:
 
 #: failures that a resume tries again: what more memory, or workers that stay alive, can change
 RETRIED_FAILURES = ("ResourceLimitError", "KilledWorker")
-
-
-#: what a study's design record holds (kept here under its former name for older callers)
-_RecordShape = RecordShape
-#: a finite JSON number (:func:`~pytdcr.designs._records.is_number`; kept here under its former name)
-_number = is_number
 
 
 def _reuse(out: Path, index: int, params: dict[str, float], shape: RecordShape) -> DesignRecord | None:
@@ -313,9 +305,9 @@ class _Runner:
         self.failed += rec.status == "failed"
         self._report()
 
-    def batch(self, generation: int, batch: list[tuple[int, dict[str, float]]]) -> dict[int, dict[str, Any]]:
+    def batch(self, generation: int, batch: list[tuple[int, dict[str, float]]]) -> dict[int, DesignRecord]:
         """Evaluate ``batch`` [(index, values)] (with the reference, index -1, the first time); returns the
-        batch's records by index, as their JSON (what the optimiser reads: :mod:`pytdcr.designs._optimize`)."""
+        batch's records by index (what the optimiser reads: :mod:`pytdcr.designs._optimize`)."""
         jobs = ([(-1, {})] if self._reference else []) + list(batch)
         self._reference = False
         todo = []
@@ -335,7 +327,7 @@ class _Runner:
             study_data, robot_data = self.study.model_dump(mode="python"), self.robot.model_dump(mode="python")
             jobs_ = {self.executor.submit(study_data, robot_data, k, p): (k, p) for k, p in todo}
             _wait(self.executor, jobs_, lambda rec: self._keep(generation, rec))
-        return {k: self.records[k].to_json() for k, _ in batch}
+        return {k: self.records[k] for k, _ in batch}
 
 
 #: the libraries whose versions a design study's summary records

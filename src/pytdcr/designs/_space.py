@@ -6,8 +6,9 @@ from __future__ import annotations
 import itertools
 import re
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, TypedDict, cast
 
 import numpy as np
 from pydantic import ValidationError
@@ -15,6 +16,9 @@ from scipy.stats import qmc
 
 from ..io import format_validation_error
 from ..robot import Robot
+
+if TYPE_CHECKING:
+    from ._spec import Parameter
 
 __all__ = ["PARAMETERS", "ParameterInfo", "apply_parameters", "choose_designs", "from_unit", "parameter_info",
            "read_parameter"]
@@ -56,8 +60,50 @@ def parameter_info(name: str) -> ParameterInfo:
     return ParameterInfo(base, int(seg) if seg is not None else None, unit, integer, doc)
 
 
-def _segments(data: dict[str, Any], seg: int | None, name: str) -> list[int]:
-    n = len(data["segments"])
+class _TendonData(TypedDict):
+    """A tendon as :meth:`Robot.model_dump` gives it."""
+
+    segment: int
+    radius: float
+    angle_deg: float
+
+
+class _SegmentData(TypedDict):
+    """A segment as :meth:`Robot.model_dump` gives it."""
+
+    length: float
+    n_disks: int
+    disk_mass: float
+    subsegment_lengths: tuple[float, ...] | None
+
+
+class _BackboneData(TypedDict):
+    """The backbone as :meth:`Robot.model_dump` gives it."""
+
+    youngs_modulus: float
+    poissons_ratio: float | None
+    shear_modulus: float | None
+    outer_radius: float
+    inner_radius: float
+    mass_per_length: float
+
+
+class _RobotData(TypedDict):
+    """A robot as :meth:`Robot.model_dump` gives it (by alias: ``disk_radius`` is the one given), which
+    :func:`apply_parameters` edits before validating the result as a whole."""
+
+    name: str
+    backbone: _BackboneData
+    segments: tuple[_SegmentData, ...]
+    tendons: tuple[_TendonData, ...]
+    gravity: tuple[float, float, float]
+    friction: dict[str, object]
+    disk_radius: float | None
+
+
+def _segments(n: int, seg: int | None, name: str) -> list[int]:
+    """The indices (0-based) of the segments of ``n`` a parameter sets: segment ``seg`` (1-based) or, for
+    None, all; ValueError naming the parameter ``name`` for a segment the robot does not have."""
     if seg is None:
         return list(range(n))
     if not 1 <= seg <= n:
@@ -65,9 +111,10 @@ def _segments(data: dict[str, Any], seg: int | None, name: str) -> list[int]:
     return [seg - 1]
 
 
-def _set(data: dict[str, Any], name: str, value: float) -> None:
+def _set(data: _RobotData, name: str, value: float) -> None:
+    """Set parameter ``name`` to ``value`` in the robot's dump ``data`` (in place; validated later)."""
     info = parameter_info(name)
-    segs = _segments(data, info.segment, name)
+    segs = _segments(len(data["segments"]), info.segment, name)
     tendons = [t for t in data["tendons"] if t["segment"] - 1 in segs]
     if info.base == "routing_radius":
         for t in tendons:
@@ -98,7 +145,7 @@ def _set(data: dict[str, Any], name: str, value: float) -> None:
 def apply_parameters(robot: Robot, values: dict[str, float]) -> Robot:
     """``robot`` with the parameters set, in the order given; ValueError when the robot it makes is invalid
     (naming the robot field and its range)."""
-    data = robot.model_dump()
+    data = cast(_RobotData, robot.model_dump())
     for name, value in values.items():
         _set(data, name, value)
     try:
@@ -107,7 +154,9 @@ def apply_parameters(robot: Robot, values: dict[str, float]) -> Robot:
         raise ValueError(format_validation_error(err)) from None
 
 
-def _levels(p: Any, integer: bool) -> list[float]:
+def _levels(p: Parameter, integer: bool) -> list[float]:
+    """A grid's values of parameter ``p``: its list, or ``steps`` (default 3) evenly spaced over its range;
+    whole numbers rounded, each value once."""
     if p.values is not None:
         vals = list(p.values)
     else:
@@ -117,7 +166,7 @@ def _levels(p: Any, integer: bool) -> list[float]:
     return list(dict.fromkeys(int(np.rint(v)) if integer else float(v) for v in vals))
 
 
-def choose_designs(parameters: dict[str, Any], method: str, count: int | None, *,
+def choose_designs(parameters: Mapping[str, Parameter], method: str, count: int | None, *,
                    seed: int = 0) -> list[dict[str, float]]:
     """The designs: each a dict of parameter values, in a fixed order (the design's index is its place).
 
@@ -137,7 +186,7 @@ def choose_designs(parameters: dict[str, Any], method: str, count: int | None, *
     return [from_unit(row, parameters) for row in u]
 
 
-def from_unit(u: np.ndarray, parameters: dict[str, Any]) -> dict[str, float]:
+def from_unit(u: np.ndarray, parameters: Mapping[str, Parameter]) -> dict[str, float]:
     """The design at the point ``u`` (shape (n_parameters,), in [0, 1]) of the unit cube: a range is mapped
     linearly, a range of whole numbers and a list of values give each value an even share of the interval."""
     d: dict[str, float] = {}
@@ -158,21 +207,21 @@ def read_parameter(robot: Robot, name: str) -> float:
     """The value ``robot`` has for parameter ``name`` (NaN where its segments or tendons differ; an angle
     offset is 0 for the robot itself)."""
     info = parameter_info(name)
-    data = robot.model_dump()
-    segs = _segments(data, info.segment, name)
+    segs = _segments(len(robot.segments), info.segment, name)
+    vals: list[float | None]
     if info.base == "routing_radius":
-        vals = [t["radius"] for t in data["tendons"] if t["segment"] - 1 in segs]
+        vals = [t.radius for t in robot.tendons if t.segment - 1 in segs]
     elif info.base == "segment_length":
-        vals = [data["segments"][k]["length"] for k in segs]
+        vals = [robot.segments[k].length for k in segs]
     elif info.base == "disks":
-        vals = [data["segments"][k]["n_disks"] for k in segs]
+        vals = [robot.segments[k].n_disks for k in segs]
     elif info.base == "tendon_angle_offset":
         vals = [0.0]
     elif info.base == "backbone_radius":
-        vals = [data["backbone"]["outer_radius"]]
+        vals = [robot.backbone.outer_radius]
     elif info.base == "youngs_modulus":
-        vals = [data["backbone"]["youngs_modulus"]]
-    else:
-        vals = [data["disk_radius"]]
-    vals = [float(v) for v in vals if v is not None]
-    return vals[0] if vals and np.ptp(vals) == 0.0 else float("nan")
+        vals = [robot.backbone.youngs_modulus]
+    else:  # the radius given (none: it follows the tendons)
+        vals = [robot.disk_radius_given]
+    found = [float(v) for v in vals if v is not None]
+    return found[0] if found and np.ptp(found) == 0.0 else float("nan")

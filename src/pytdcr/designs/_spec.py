@@ -42,7 +42,7 @@ from __future__ import annotations
 import hashlib
 import json
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
@@ -50,6 +50,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from ..io import format_validation_error, load_robot, read_toml
 from ..loads import Loads
 from ..paper import workspace_load_cases
+from ..records import JsonObject
 from ..robot import Robot
 from ..statics import MODELS
 from ..validate import unit_vector
@@ -203,7 +204,7 @@ class Measures(_Strict):
 
     @field_validator("directions")
     @classmethod
-    def _unit(cls, v: dict[str, Any]) -> dict[str, Any]:
+    def _unit(cls, v: dict[str, list[float]]) -> dict[str, list[float]]:
         for name, d in v.items():
             if not name.isidentifier():
                 raise ValueError(f"direction name {name!r}: letters, digits and _ only (it names a column)")
@@ -308,7 +309,7 @@ class DesignStudy(_Strict):
         text = json.dumps(self.model_dump(mode="json"), sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
-    def load_cases(self, robot: Robot) -> dict[str, tuple[Robot, Any]]:
+    def load_cases(self, robot: Robot) -> dict[str, tuple[Robot, Loads]]:
         """The study's load cases on ``robot``, in the file's order (named, then custom): name → (robot, loads)."""
         named = workspace_load_cases(robot)
         out = {name: named[name] for name in self.loads.cases}
@@ -319,11 +320,11 @@ class DesignStudy(_Strict):
         return out
 
 
-def study_from_dict(data: dict[str, Any], source: str = "study", base_dir: Path | None = None
+def study_from_dict(data: JsonObject, source: str = "study", base_dir: Path | None = None
                     ) -> tuple[DesignStudy, Robot]:
-    """Validate a study (as read from TOML) and load its base robot; every parameter's range is tried on the
-    base robot, one parameter at a time, so an impossible range is refused here, naming its key, and every load
-    case against the model's capabilities (:func:`check_capabilities`), naming ``model``.
+    """Validate a study ``data`` (as read from TOML, unchecked) and load its base robot; every parameter's range
+    is tried on the base robot, one parameter at a time, so an impossible range is refused here, naming its key,
+    and every load case against the model's capabilities (:func:`check_capabilities`), naming ``model``.
 
     Raises
     ------

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import math
 import platform
-from typing import Any
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 from .._version import __version__
 from ..io import robot_to_dict
 from ..loads import Loads
+from ..records import JsonDict
 from ..results import StaticSolution
 from ..robot import Robot
 from ..runtime import to_jsonable
@@ -19,8 +20,9 @@ from ..validate import direction_or_none
 __all__ = ["inputs_record", "load_arrows", "markdown_table"]
 
 
-def inputs_record(robot: Robot, loads: Loads, **extra: Any) -> dict[str, Any]:
-    """The exact inputs of a run (JSON-ready): versions, robot, external loads and ``extra``."""
+def inputs_record(robot: Robot, loads: Loads, **extra: object) -> JsonDict:
+    """The exact inputs of a run (JSON-ready: NumPy values made plain, :func:`~pytdcr.runtime.to_jsonable`):
+    versions, robot, external loads and ``extra`` (the run's own settings, each a JSON-ready or NumPy value)."""
     return to_jsonable({
         "pytdcr": __version__,
         "python": platform.python_version(),
@@ -31,14 +33,14 @@ def inputs_record(robot: Robot, loads: Loads, **extra: Any) -> dict[str, Any]:
     })
 
 
-def load_arrows(sol: StaticSolution, loads: Loads, robot: Robot) -> list[tuple]:
+def load_arrows(sol: StaticSolution, loads: Loads, robot: Robot) -> list[tuple[np.ndarray, np.ndarray, str, str]]:
     """Arrows for the tip force (purple) and the tip moment's axis (orange), scaled to a quarter of the length.
 
     Each arrow is its load's unit vector (:func:`~pytdcr.validate.direction_or_none`, safe at any scale); a load
     whose components are all below :data:`~pytdcr.validate.MIN_DIRECTION` (zero, or too small to have a
     direction) has no arrow. Its label gives the load's magnitude (``math.hypot``: never 0 for a non-zero load).
     """
-    arrows: list[tuple] = []
+    arrows: list[tuple[np.ndarray, np.ndarray, str, str]] = []
     scale = 0.25 * robot.length
     for load, length, colour, what, unit in ((loads.tip_force, scale, "tab:purple", "tip force", "N"),
                                              (loads.tip_moment, scale * 0.6, "tab:orange", "tip moment axis",
@@ -51,7 +53,7 @@ def load_arrows(sol: StaticSolution, loads: Loads, robot: Robot) -> list[tuple]:
     return arrows
 
 
-def markdown_table(rows: list[dict[str, Any]], columns: list[tuple[str, str, str]]) -> str:
+def markdown_table(rows: Sequence[Mapping[str, object]], columns: Sequence[tuple[str, str, str]]) -> str:
     """A Markdown table of ``rows``; ``columns`` are (key, header, format); non-finite floats print as n/c."""
     head = "| " + " | ".join(c[1] for c in columns) + " |"
     sep = "|" + "|".join("---:" for _ in columns) + "|"

@@ -19,7 +19,6 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -103,12 +102,6 @@ class SampleRunCounts:
                    str(d["stability_test"]), int(d["stability_untested"]), None if reach is None else float(reach))
 
 
-def _sample_counts(samples: WorkspaceSamples, model: str) -> dict[str, Any]:
-    """:meth:`SampleRunCounts.of` as JSON: kept only for ``tests/test_untested_state.py``, which reads it by key
-    (to be read by attribute there, then removed)."""
-    return SampleRunCounts.of(samples, model).to_json()
-
-
 @dataclass(frozen=True)
 class SampleRecord:
     """``sample_run.json``: what a sample run was given, how far it got and what its samples held.
@@ -129,7 +122,7 @@ class SampleRecord:
         The files of the run, this one included.
     """
 
-    inputs: dict[str, Any]
+    inputs: JsonDict
     solved: int
     complete: bool
     counts: SampleRunCounts
@@ -265,7 +258,7 @@ class _SampleFiles:
     out: Path
     n: int
     n_tendons: int
-    inputs: dict[str, Any]
+    inputs: JsonDict
     model: str
 
     def record(self, samples: WorkspaceSamples, files: list[str]) -> SampleRecord:
@@ -409,13 +402,13 @@ class OptimizeRecord:
         The files written before it (figures and the history CSV).
     """
 
-    inputs: dict[str, Any] | None
+    inputs: JsonDict | None
     result: ReachResult
     files: tuple[str, ...]
 
     def to_json(self) -> JsonDict:
         """JSON-ready form: ``schema_version``, the inputs (when known), the result and the files."""
-        head: dict[str, Any] = {"schema_version": OPTIMIZE_SCHEMA_VERSION}
+        head: JsonDict = {"schema_version": OPTIMIZE_SCHEMA_VERSION}
         if self.inputs is not None:
             head["inputs"] = self.inputs
         return {**head, "result": self.result.to_json(), "files": list(self.files)}

@@ -15,7 +15,7 @@ import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
@@ -23,6 +23,7 @@ from ..accuracy import LoadGroup, default_groups
 from ..compare import check_models
 from ..loads import check_tensions
 from ..optimize import MemeticGA, Termination
+from ..records import JsonDict
 from ..robot import Robot
 from ..statics import MODELS, get_models
 from ..validate import SettingsError, field_ref, is_integer, parse_numbers, read_text_file, show, show_path
@@ -229,7 +230,7 @@ class CompareSettings:
         return {name: ModelSpec(name, shear_extension=self.shear_extension and _has_option(name, "shear_extension"))
                 for name in self.models}
 
-    def tensions(self, robot: Robot) -> tuple[np.ndarray, dict[str, Any]]:
+    def tensions(self, robot: Robot) -> tuple[np.ndarray, JsonDict]:
         """The cases, shape (B, n_tendons) [N], and what they are (a JSON-ready record of their source)."""
         if isinstance(self.cases, (str, Path)):
             return read_cases(self.cases, robot), {"cases": str(self.cases)}

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numbers
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
@@ -22,7 +22,7 @@ from ..io import load_robot, read_toml
 from ..loads import Loads, PointLoad, check_vector
 from ..paper import DEFAULT_BOUNDS
 from ..robot import ConstantFriction, ExponentialFriction, NoFriction, Robot
-from ..statics import Model, configure, get_model, get_models, resolve
+from ..statics import Model, ModelOptions, configure, get_model, get_models, resolve
 from ..validate import MAX_SEED, SettingsError, as_real_array, check_count, show, show_path
 
 __all__ = ["MAX_FRICTION", "BoundsSpec", "LoadSpec", "ModelSpec", "RobotSpec", "RunInputs",
@@ -34,7 +34,7 @@ MAX_FRICTION = 10.0
 FRICTION_LAWS = {"none": NoFriction, "paper": ExponentialFriction}
 
 
-def count_setting(value: Any, name: str, lo: int = 1, hi: int | None = None) -> int:
+def count_setting(value: object, name: str, lo: int = 1, hi: int | None = None) -> int:
     """``value`` as an int in [lo, hi] (:func:`pytdcr.validate.check_count`), a :class:`SettingsError` naming
     ``name`` when out of range."""
     try:
@@ -43,19 +43,19 @@ def count_setting(value: Any, name: str, lo: int = 1, hi: int | None = None) -> 
         raise SettingsError.about(name, err) from None
 
 
-def check_seed(seed: Any) -> int:
+def check_seed(seed: object) -> int:
     """A random seed: an integer in [0, :data:`MAX_SEED`]."""
     return count_setting(seed, "seed", 0, MAX_SEED)
 
 
-def check_flag(value: Any, name: str) -> bool:
+def check_flag(value: object, name: str) -> bool:
     """``value`` as a bool (NumPy's too); TypeError for anything else."""
     if not isinstance(value, (bool, np.bool_)):
         raise TypeError(f"{name} must be True or False, got {show(value)}")
     return bool(value)
 
 
-def check_type(value: Any, kind: type, name: str) -> None:
+def check_type(value: object, kind: type, name: str) -> None:
     """TypeError unless ``value`` is a ``kind`` (one of the settings' groups, say)."""
     if not isinstance(value, kind):
         raise TypeError(f"{name} must be a pytdcr.runs.{kind.__name__}, got {type(value).__name__}")
@@ -173,7 +173,7 @@ class LoadSpec:
                      tip_moment=np.array(self.tip_moment), point_loads=tuple(points), release=self.release)
 
 
-def _disk_wrench(item: Any, name: str) -> tuple[int, tuple[float, float, float]]:
+def _disk_wrench(item: object, name: str) -> tuple[int, tuple[float, float, float]]:
     """A (disk >= 1, 3 finite numbers within +/-1e6) pair, checked (SettingsError naming ``name``)."""
     try:
         disk, vector = item
@@ -216,10 +216,10 @@ class ModelSpec:
         """The registered model."""
         return get_model(self.name)
 
-    def options(self) -> Any:
+    def options(self) -> ModelOptions:
         """The model's default options with these overrides (SettingsError for an option it does not have)."""
         m = self.model
-        overrides: dict[str, Any] = {}
+        overrides: dict[str, object] = {}
         if self.atol is not None:
             overrides["atol"] = self.atol
         if self.shear_extension:
@@ -236,7 +236,7 @@ class ModelSpec:
                 raise
             raise SettingsError.about(key, err) from None
 
-    def resolve(self, robot: Robot, loads: Loads | None = None) -> tuple[Model, Any]:
+    def resolve(self, robot: Robot, loads: Loads | None = None) -> tuple[Model, ModelOptions]:
         """The model and its options, checked by the registry against ``robot`` and ``loads``
         (:func:`pytdcr.statics.resolve`)."""
         return resolve(self.model, robot, loads, self.options())
@@ -350,14 +350,15 @@ class RunInputs:
         External loads and friction direction (tensions zero).
     bounds : TensionBounds
     model : Model
-    options : the model's options type
+    options : ModelOptions
+        The model's options (its own options type).
     """
 
     robot: Robot
     loads: Loads
     bounds: TensionBounds
     model: Model
-    options: Any
+    options: ModelOptions
 
 
 @dataclass(frozen=True)
