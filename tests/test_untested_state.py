@@ -121,7 +121,7 @@ def test_unstable_counts_only_the_converged_samples():
     from types import SimpleNamespace
 
     from pytdcr.runs import SampleRunCounts
-    from pytdcr.workspace import SampleCounts
+    from pytdcr.workspace.parts import SampleCounts
 
     ok = np.array([True, True, False, False])
     st = np.array([0.0, 1.0, 0.0, np.nan])  # row 2 did not converge: its 0 is not a tested state

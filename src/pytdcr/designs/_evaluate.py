@@ -19,7 +19,8 @@ import numpy as np
 
 from ..bounds import TensionBounds
 from ..statics import Cancelled
-from ..workspace import Estimate, WorkspaceSettings, check_workspace, workspace_estimate, workspace_study
+from ..workspace import WorkspaceSettings, check_workspace, workspace_estimate, workspace_study
+from ..workspace.parts import Estimate
 from ._records import CaseRow, DesignRecord, Timing
 from ._space import apply_parameters
 from ._spec import MEASURES, DesignStudy

@@ -19,7 +19,7 @@ import numpy as np
 
 from ..io import write_robot
 from ..runtime import atomic_write, atomic_write_text, write_json
-from ..workspace import FOLD_RULES
+from ..workspace import WorkspaceSettings
 from ._figures import write_design_figures
 from ._optimize import measures_nothing, objective_matrix, pareto_front
 from ._records import BestDesign, DesignRecord, DesignsSummary, Unranked
@@ -184,8 +184,9 @@ def _front_table(study: DesignStudy, ok: pd.DataFrame) -> list[str]:
             "|---" * (1 + len(study.parameters) + len(heads)) + "|", *(r[1] for r in rows)]
 
 
-#: how the report says what the search's steps do at folds, by rule (:data:`~pytdcr.workspace.FOLD_RULES`)
-_FOLD_WORDS = dict(zip(FOLD_RULES, ("snapping through", "stopping"), strict=True))
+#: how the report says what the search's steps do at folds, by rule
+#: (:attr:`~pytdcr.workspace.WorkspaceSettings.FOLD_RULES`)
+_FOLD_WORDS = dict(zip(WorkspaceSettings.FOLD_RULES, ("snapping through", "stopping"), strict=True))
 
 
 def _best_section(study: DesignStudy, ok: pd.DataFrame, best: BestDesign) -> list[str]:

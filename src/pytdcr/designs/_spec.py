@@ -54,7 +54,7 @@ from ..records import JsonObject
 from ..robot import Robot
 from ..statics import MODELS
 from ..validate import unit_vector
-from ..workspace import FOLD_RULES
+from ..workspace import WorkspaceSettings
 from ._space import apply_parameters, parameter_info
 
 __all__ = ["LOAD_CASE_NAMES", "MAX_DESIGNS", "MEASURES", "DesignStudy", "Objective", "Parameter", "StudyError",
@@ -159,14 +159,14 @@ class Designs(_Strict):
 class Budget(_Strict):
     """Work per design and load case: base samples, boundary-search solves, whether to search the largest reach,
     the volume's voxel edge [m] (the same for every design; default the base robot's length / 32), and what a
-    search step does at a fold (:data:`~pytdcr.workspace.FOLD_RULES`: ``"snap"`` through it, or ``"stop"`` there,
-    about half the search's cost under a load)."""
+    search step does at a fold (:attr:`~pytdcr.workspace.WorkspaceSettings.FOLD_RULES`: ``"snap"`` through it,
+    or ``"stop"`` there, about half the search's cost under a load)."""
 
     samples: Annotated[int, Field(ge=16, le=1_000_000)] = 500
     search: Annotated[int, Field(ge=0, le=100_000_000)] = 0
     reach_search: bool = False
     voxel: Annotated[float, Field(gt=1e-4, le=1.0, allow_inf_nan=False)] | None = None
-    folds: Literal[FOLD_RULES] = FOLD_RULES[0]  # type: ignore[valid-type]
+    folds: Literal[WorkspaceSettings.FOLD_RULES] = WorkspaceSettings.FOLD_RULES[0]  # type: ignore[valid-type]
 
 
 class CustomLoad(_Strict):

@@ -29,7 +29,7 @@ from ..runtime import (
 )
 from ..statics import options_record, resolve, solve
 from ..validate import SettingsError, check_real, show
-from ..workspace import Estimate
+from ..workspace.parts import Estimate
 from ._output import inputs_record, load_arrows
 from ._reproduce_records import OnGeneration, PassiveSolveRecord, Progress, ReproduceRun, SamplingRecord, Step
 from ._reproduce_report import reproduce_report

@@ -30,7 +30,7 @@ from ..records import JsonDict, JsonObject, check_schema, part
 from ..robot import Robot
 from ..runtime import output_folder, write_csv, write_json
 from ..statics import TIGHT_ATOL, options_record, saving, solve, stability_counts, stability_test
-from ..workspace import SamplingConfig, SamplingInterrupted, WorkspaceSamples, sample_workspace
+from ..workspace.sampling import SamplingConfig, SamplingInterrupted, WorkspaceSamples, sample_workspace
 from ._output import inputs_record, load_arrows
 from ._settings import OptimizeSettings, SampleSettings
 from ._specs import RunInputs
