@@ -8,7 +8,7 @@ import re
 import pytest
 
 from pytdcr.runs._report import _stability, _stable_cell
-from pytdcr.runs._workspace import _error_words, _warnings, search_stop_words
+from pytdcr.runs._workspace_report import _error_words, _warnings, search_stop_words
 from pytdcr.workspace import BoundarySearch, RegionNumbers, SampleCounts, VolumeEstimate, WorkspaceSummary
 from pytdcr.workspace._solve import WarmStartCheck
 
