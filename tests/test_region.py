@@ -367,7 +367,7 @@ def test_the_largest_reach_follows_its_rule():
 def test_the_realisable_reach_is_labelled_the_farthest_realisable_sample():
     """``realisable.largest_reach_m`` is the farthest realisable sample, never searched, and says so; it can be
     below the FSW's searched optimum even when that optimum is itself realisable (checked here)."""
-    from pytdcr.runs._workspace import _reach_note
+    from pytdcr.runs._workspace_report import _reach_note
     from pytdcr.workspace import workspace_study
 
     robot, loads, b = paper_robot().with_gravity(None), Loads(np.zeros(8)), TensionBounds.uniform(8, 0, 4)

@@ -102,7 +102,8 @@ def test_the_reproduce_workspace_section_compares_the_models(tmp_path):
     volume, per pair the overlap, the slices written and the report's table."""
     from pytdcr.paper import paper_bounds, paper_robot
     from pytdcr.runs import ReproduceSettings
-    from pytdcr.runs._workspace import workspace_section, workspace_text
+    from pytdcr.runs._workspace import workspace_section
+    from pytdcr.runs._workspace_report import workspace_text
 
     s = ReproduceSettings(workspace_n=16, workspace_budget=0, workspace_voxels=10, workspace_models=("pcc", "pcc2"),
                           models_n=32, models_voxels=10)

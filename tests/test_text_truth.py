@@ -8,7 +8,7 @@ import re
 import pytest
 
 from pytdcr.runs._reproduce_report import _stability, _stable_cell
-from pytdcr.runs._workspace import _error_words, _warnings, search_stop_words
+from pytdcr.runs._workspace_report import _error_words, _warnings, search_stop_words
 from pytdcr.workspace import WorkspaceSummary
 from pytdcr.workspace._solve import WarmStartCheck
 from pytdcr.workspace.parts import BoundarySearch, RegionNumbers, SampleCounts, VolumeEstimate

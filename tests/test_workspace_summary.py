@@ -85,7 +85,7 @@ def test_every_golden_workspace_json_reads_and_writes_back(name, data):
 
 def test_the_run_warnings_are_worded_from_the_typed_numbers():
     """The warnings a run writes follow from the summary alone: recomputed from a golden file, they are its."""
-    from pytdcr.runs._workspace import _warnings
+    from pytdcr.runs._workspace_report import _warnings
 
     name, data = next((n, d) for n, d in GOLDEN_FILES if n.startswith("workspace/"))
     assert [w.text for w in _warnings(WorkspaceSummary.from_json(data))] == data["warnings"], name

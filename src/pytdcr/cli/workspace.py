@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 import sys
 from dataclasses import replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ..paper import workspace_load_cases
 from ..validate import escape_controls
@@ -33,14 +33,19 @@ if TYPE_CHECKING:
     from ..bounds import TensionBounds
     from ..loads import Loads
     from ..robot import Robot
+    from ..runs import WorkspaceCaseSpec
+    from ..statics import ModelOptions
     from ..workspace import WorkspaceSettings, WorkspaceSummary
+
+    #: the model the cases without one of their own are solved by: its name and options (None: its defaults)
+    ModelChoice = tuple[str, ModelOptions | None]
 
 __all__ = ["add_parser", "run"]
 
-#: the region's equilibria (:data:`pytdcr.workspace.EQUILIBRIA`: the parser is built without importing the region
-#: package, so they are named here and a test checks them against the library's)
+#: the region's equilibria (:attr:`pytdcr.workspace.WorkspaceSettings.EQUILIBRIA`: the parser is built without
+#: importing the workspace package, so they are named here and a test checks them against the library's)
 EQUILIBRIA_CHOICES = ("continuation", "loading-path")
-#: the boundary search's rules at a fold (:data:`pytdcr.workspace.FOLD_RULES`), likewise
+#: the boundary search's rules at a fold (:attr:`pytdcr.workspace.WorkspaceSettings.FOLD_RULES`), likewise
 FOLD_CHOICES = ("snap", "stop")
 
 
@@ -84,11 +89,11 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     ws.set_defaults(func=run)
 
 
-def _compare_models(args: argparse.Namespace, robot: Robot, loads: Loads) -> dict[str, tuple[Any, ...]] | None:
+def _compare_models(args: argparse.Namespace, robot: Robot, loads: Loads) -> dict[str, WorkspaceCaseSpec] | None:
     """The cases of ``--compare-models`` (name → robot, loads, no settings of its own, model, options), or None
     without it; CliError for an unknown model, a repeated one, fewer than two, or another comparison asked
     (what each model can do is checked with every case's requirements: :func:`_check_cases`)."""
-    from ..runs import ModelSpec
+    from ..runs import ModelSpec, WorkspaceCaseSpec
     from ..statics import MODELS
 
     if args.compare_models is None:
@@ -100,7 +105,8 @@ def _compare_models(args: argparse.Namespace, robot: Robot, loads: Loads) -> dic
                        f"got {escape_controls(args.compare_models)!r}")
     if args.compare_loads or args.equilibria == "both":
         raise CliError("--compare-models with --compare-loads or --equilibria both: choose one comparison")
-    return {name: (robot, loads, None, name, ModelSpec(name, shear_extension=args.shear_extension).options())
+    return {name: WorkspaceCaseSpec(robot, loads, None, name,
+                                    ModelSpec(name, shear_extension=args.shear_extension).options())
             for name in names}
 
 
@@ -109,13 +115,13 @@ def _compare_models(args: argparse.Namespace, robot: Robot, loads: Loads) -> dic
 _CHECKED_FLAGS = {"model": "--model", "equilibria": "--equilibria", "multistability": "--multistability"}
 
 
-def _check_cases(args: argparse.Namespace, cases: dict[str, tuple[Any, ...]] | None, robot: Robot, loads: Loads,
-                 settings: WorkspaceSettings, model: tuple[Any, Any]) -> None:
+def _check_cases(args: argparse.Namespace, cases: dict[str, WorkspaceCaseSpec] | None, robot: Robot, loads: Loads,
+                 settings: WorkspaceSettings, model: ModelChoice) -> None:
     """Every case's requirements against its model's capabilities, before the first solve (and before the
     estimate, which solves a few): CliError naming the flag that made the cases, the case and what its model
     lacks (:func:`pytdcr.runs.check_workspace_cases`); for a single case, the flag of the setting the error
     names (``--model``, ``--equilibria`` or ``--multistability``)."""
-    from ..runs import WorkspaceCaseSpec, check_workspace_cases
+    from ..runs import check_workspace_cases
     from ..validate import SettingsError
     from ..workspace import check_workspace
 
@@ -128,24 +134,22 @@ def _check_cases(args: argparse.Namespace, cases: dict[str, tuple[Any, ...]] | N
         return
     flag = ("--compare-models" if args.compare_models is not None else "--compare-loads" if args.compare_loads
             else "--equilibria both")
-    specs = {name: WorkspaceCaseSpec(*value) for name, value in cases.items()}
     try:
-        check_workspace_cases(specs, settings.with_voxel_for(robot), model=model[0], options=model[1],
+        check_workspace_cases(cases, settings.with_voxel_for(robot), model=model[0], options=model[1],
                               field_name="cases")
     except SettingsError as err:
         raise CliError(err.worded({"cases": flag})) from None
 
 
-def _say_estimate(cases: dict[str, tuple[Any, ...]] | None, robot: Robot, loads: Loads, bounds: TensionBounds,
-                  settings: WorkspaceSettings,
-                  model: tuple[Any, Any]) -> None:
+def _say_estimate(cases: dict[str, WorkspaceCaseSpec] | None, robot: Robot, loads: Loads, bounds: TensionBounds,
+                  settings: WorkspaceSettings, model: ModelChoice) -> None:
     """Say the run's estimated time on stderr when it will take more than a minute (not with ``--quiet``)."""
     from ..runs import WorkspaceCaseSpec
     from ..workspace import workspace_estimate
 
     if quiet():
         return
-    specs = [WorkspaceCaseSpec(*v) for v in cases.values()] if cases else [WorkspaceCaseSpec(robot, loads)]
+    specs = list(cases.values()) if cases else [WorkspaceCaseSpec(robot, loads)]
     est = workspace_estimate([(c.robot, c.loads, replace(c.settings, voxel=settings.voxel) if c.settings else settings,
                                c.model if c.model is not None else model[0],
                                c.options if c.model is not None else model[1]) for c in specs], bounds)
@@ -176,7 +180,7 @@ def _workspace_lines(name: str, s: WorkspaceSummary) -> list[str]:
 
 def run(args: argparse.Namespace) -> int:
     """The workspace study; print each case's volumes and reach, and what was written."""
-    from ..runs import BoundsSpec, WorkspaceRunOptions, run_workspace, run_workspace_compare
+    from ..runs import BoundsSpec, WorkspaceCaseSpec, WorkspaceRunOptions, run_workspace, run_workspace_compare
     from ..workspace import WorkspaceSettings
 
     out = check_out(args.out)
@@ -193,11 +197,9 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as err:
         raise CliError(f"--{err}") from None
     if args.equilibria is not None:
-        from ..workspace import equilibria_for
-
         for kind in EQUILIBRIA_CHOICES if args.equilibria == "both" else (args.equilibria,):
             try:
-                equilibria_for(m, kind)
+                replace(settings, equilibria=kind).equilibria_of(m)
             except ValueError as err:
                 raise CliError(f"--{err}") from None
     if args.equilibria == "both" and args.compare_loads:
@@ -206,9 +208,9 @@ def run(args: argparse.Namespace) -> int:
     if by_model is not None:
         cases = by_model
     elif args.compare_loads:
-        cases = workspace_load_cases(robot, loads)
+        cases = {k: WorkspaceCaseSpec(r, ld) for k, (r, ld) in workspace_load_cases(robot, loads).items()}
     elif args.equilibria == "both":
-        cases = {k: (robot, loads, replace(settings, equilibria=k)) for k in EQUILIBRIA_CHOICES}
+        cases = {k: WorkspaceCaseSpec(robot, loads, replace(settings, equilibria=k)) for k in EQUILIBRIA_CHOICES}
     else:
         cases = None
     _check_cases(args, cases, robot, loads, settings, (m.name, options))

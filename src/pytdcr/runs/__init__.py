@@ -73,7 +73,6 @@ from ._workspace import (
     WorkspaceRun,
     WorkspaceRunOptions,
     check_workspace_cases,
-    format_measure_of,
     run_workspace,
     run_workspace_compare,
 )
@@ -86,6 +85,7 @@ from ._workspace_records import (
     WorkspaceRecord,
     WorkspaceSection,
 )
+from ._workspace_report import format_measure_of
 
 __all__ = [
     "MAX_FRICTION",

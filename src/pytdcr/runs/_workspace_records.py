@@ -14,7 +14,8 @@ from dataclasses import asdict, dataclass, fields
 from typing import TypeVar
 
 from ..records import JsonDict, JsonObject, RunWarning, check_schema, part
-from ..workspace import RegionOverlap, WorkspaceSummary
+from ..workspace import WorkspaceSummary
+from ..workspace.parts import RegionOverlap
 
 __all__ = ["SCHEMA_VERSION", "WARNING_KINDS", "CaseComparison", "FailedCase", "ModelsSection", "PairComparison",
            "WorkspaceComparison", "WorkspaceRecord", "WorkspaceSection"]
