@@ -3,6 +3,8 @@ known shapes."""
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -502,8 +504,8 @@ def test_warm_starts_agree_to_a_share_of_the_robots_length():
     paper, tiny = paper_robot(), _tiny_robot()
     assert same_tip(paper) == SAME_TIP == 1e-6 and same_tip(tiny) == pytest.approx(5e-9, rel=1e-12)
     tips = np.array([[0.0, 0.0, 2e-3], [1e-3, 0.0, 1.5e-3]])
-    warm = {"converged": np.array([True, True]), "tip_position": tips}
-    off = {"converged": np.array([True, True]), "tip_position": tips + np.array([1e-7, 0.0, 0.0])}  # 0.1 um
+    warm = SimpleNamespace(converged=np.array([True, True]), tip_position=tips)
+    off = SimpleNamespace(converged=np.array([True, True]), tip_position=tips + np.array([1e-7, 0.0, 0.0]))  # 0.1 um
     assert _agree(warm, off, same_tip(paper)).all() and not _agree(warm, off, same_tip(tiny)).any()
     # on the tiny robot warm starts still pass the check: its equilibria agree far within the scaled tolerance
     plan = plan_tensions(TensionBounds.uniform(8, 0, 0.01), 256, seed=1, corners=False)

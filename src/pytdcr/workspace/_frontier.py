@@ -287,15 +287,14 @@ def _solved(solver: _Solver, samples: RegionSamples, T: np.ndarray, parents: np.
     else:
         assert samples.q is not None
         got, report = _checked(solver, T, samples.q[parents], check, seed, 0)
-    if np.any(got["at_fold"]):  # steps that stopped at a fold reached nothing new
-        keep = ~got["at_fold"]
-        got, T = {k: v[keep] for k, v in got.items()}, T[keep]
+    if np.any(got.at_fold):  # steps that stopped at a fold reached nothing new
+        keep = ~got.at_fold
+        got, T = got.take(keep), T[keep]
         parent = None if parent is None else parent[keep]
-    return RegionSamples(T, np.full(T.shape[0], SEARCH, dtype=np.int8), got["tip_position"], got["converged"],
-                         got["stable"], got["below_base"], got["disks_touch"], 0, seconds=time.perf_counter() - t0,
-                         q=got["q"], stage=np.full(T.shape[0], stage, dtype=np.int8), curvature=got["curvature"],
-                         parent=parent, residual=got["residual"], atol=got["atol"],
-                         root=samples.root), report
+    found = RegionSamples.of(T, np.full(T.shape[0], SEARCH, dtype=np.int8), got, 0,
+                             np.full(T.shape[0], stage, dtype=np.int8), warm=WarmStartCheck("loading path"),
+                             seconds=time.perf_counter() - t0)
+    return replace(found, parent=parent, root=samples.root), report
 
 
 def _stopping_at_folds(solver: _Solver, folds: str) -> _Solver:

@@ -151,9 +151,9 @@ def measure_multistability(solver: _Solver, samples: RegionSamples, count: int, 
         nan = np.full((rows.size, 3), np.nan)
         no = np.zeros(rows.size, dtype=bool)
         return Multistability(EQUILIBRIA[1], FROM_ROOT, rows, nan, no, no, no, seconds, solver.stability)
-    ok = np.asarray(got["converged"], dtype=bool)
-    gap = np.linalg.norm(np.nan_to_num(got["tip_position"] - samples.tip_position[rows], nan=np.inf), axis=1)
+    ok = np.asarray(got.converged, dtype=bool)
+    gap = np.linalg.norm(np.nan_to_num(got.tip_position - samples.tip_position[rows], nan=np.inf), axis=1)
     return Multistability(EQUILIBRIA[0] if continued else EQUILIBRIA[1], FROM_REST if continued else FROM_ROOT,
-                          rows, got["tip_position"],
-                          ok, ok & (got["stable"] != 0.0), ok & (gap > same_tip(solver.robot)), seconds,
+                          rows, got.tip_position,
+                          ok, ok & (got.stable != 0.0), ok & (gap > same_tip(solver.robot)), seconds,
                           solver.stability)

@@ -4,8 +4,8 @@ with the loading path, and the realisability of every equilibrium."""
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, fields, replace
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
@@ -33,6 +33,7 @@ __all__ = [
     "SAME_TIP",
     "SAME_TIP_LENGTH",
     "RegionSamples",
+    "SolvedRows",
     "WarmStartCheck",
     "WarmStarts",
     "equilibria_for",
@@ -137,6 +138,68 @@ class WarmStartCheck:
 
 
 @dataclass(frozen=True, eq=False)
+class SolvedRows:
+    """What a region keeps of M solved tension vectors (not their shapes), row by row.
+
+    Attributes
+    ----------
+    tip_position : ndarray, shape (M, 3)
+        Tip position [m] (NaN where not converged).
+    converged : ndarray of bool, shape (M,)
+    stable : ndarray, shape (M,)
+        1.0 stable, 0.0 unstable, NaN not converged or untested.
+    q : ndarray, shape (M, ...)
+        The model's unknowns (NaN where not converged).
+    curvature : ndarray, shape (M,)
+        The largest bending curvature of any subsegment [1/m] (NaN where not converged).
+    plain : ndarray of bool, shape (M,)
+        Reached along the loading path without a fold (a warm start may come from it).
+    residual, atol : ndarray, shape (M,)
+        Each solve's max |residual| and the tolerance it was judged by [N m].
+    at_fold : ndarray of bool, shape (M,)
+        The solve stopped at a fold (a continuation told to stop there).
+    below_base, disks_touch : ndarray of bool, shape (M,)
+        A disk below the base plane; two disks that are not neighbours intersecting (converged rows only).
+    """
+
+    tip_position: np.ndarray
+    converged: np.ndarray
+    stable: np.ndarray
+    q: np.ndarray
+    curvature: np.ndarray
+    plain: np.ndarray
+    residual: np.ndarray
+    at_fold: np.ndarray
+    atol: np.ndarray
+    below_base: np.ndarray
+    disks_touch: np.ndarray
+
+    @classmethod
+    def concatenated(cls, parts: Sequence[SolvedRows]) -> SolvedRows:
+        """The rows of ``parts``, one after the other."""
+        return cls(*(np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(cls)))
+
+    def take(self, rows: np.ndarray | slice) -> SolvedRows:
+        """The rows ``rows`` (indices, a mask or a slice)."""
+        return SolvedRows(*(getattr(self, f.name)[rows] for f in fields(self)))
+
+    def blank_rows(self, count: int) -> SolvedRows:
+        """``count`` unsolved rows shaped like these: NaN, False or 0 (:func:`_blank`)."""
+        return SolvedRows(*(np.full((count, *a.shape[1:]), _blank(a.dtype), dtype=a.dtype)
+                            for a in (getattr(self, f.name) for f in fields(self))))
+
+    def put(self, rows: np.ndarray | slice, other: SolvedRows) -> None:
+        """Write ``other``'s rows into these at ``rows`` (in place: the arrays are this object's own)."""
+        for f in fields(self):
+            getattr(self, f.name)[rows] = getattr(other, f.name)
+
+
+#: the fields of :class:`RegionSamples` that hold one entry per row
+_ROW_FIELDS = ("tensions", "source", "tip_position", "converged", "stable", "below_base", "disks_touch", "q",
+               "stage", "curvature", "residual", "atol")
+
+
+@dataclass(frozen=True, eq=False)
 class RegionSamples:
     """Solved tension vectors of a workspace study and what each equilibrium is.
 
@@ -229,11 +292,8 @@ class RegionSamples:
         def pick(a: np.ndarray | None) -> np.ndarray | None:
             return None if a is None else a[idx]
 
-        return RegionSamples(self.tensions[idx], self.source[idx], self.tip_position[idx], self.converged[idx],
-                             self.stable[idx], self.below_base[idx], self.disks_touch[idx],
-                             int(np.sum(self.source[idx] == 0)), self.warm, self.seconds, pick(self.q),
-                             pick(self.stage), pick(self.curvature), parent, pick(self.residual), pick(self.atol),
-                             self.root)
+        kept = {name: pick(getattr(self, name)) for name in _ROW_FIELDS}
+        return replace(self, **kept, n_base=int(np.sum(self.source[idx] == 0)), parent=parent)
 
     def joined(self, other: RegionSamples) -> RegionSamples:
         """These samples followed by ``other``'s (unknowns, stages, parents and residuals kept when both have
@@ -242,13 +302,18 @@ class RegionSamples:
         def cat(a: np.ndarray | None, b: np.ndarray | None) -> np.ndarray | None:
             return np.concatenate([a, b]) if a is not None and b is not None else None
 
-        return RegionSamples(cat(self.tensions, other.tensions), cat(self.source, other.source),
-                             cat(self.tip_position, other.tip_position), cat(self.converged, other.converged),
-                             cat(self.stable, other.stable), cat(self.below_base, other.below_base),
-                             cat(self.disks_touch, other.disks_touch), self.n_base + other.n_base, self.warm,
-                             self.seconds + other.seconds, cat(self.q, other.q), cat(self.stage, other.stage),
-                             cat(self.curvature, other.curvature), cat(self.parent, other.parent),
-                             cat(self.residual, other.residual), cat(self.atol, other.atol), self.root)
+        both = {name: cat(getattr(self, name), getattr(other, name)) for name in (*_ROW_FIELDS, "parent")}
+        return replace(self, **both, n_base=self.n_base + other.n_base, seconds=self.seconds + other.seconds)
+
+    @classmethod
+    def of(cls, tensions: np.ndarray, source: np.ndarray, got: SolvedRows, n_base: int, stage: np.ndarray, *,
+           warm: WarmStartCheck, seconds: float) -> RegionSamples:
+        """The samples of ``tensions`` (M, n_tendons) [N] with their ``source`` codes (M,), solved as ``got``
+        holds, the first ``n_base`` rows the Sobol points, each counting from the nested size ``stage`` (M,);
+        ``warm`` the warm-start check, ``seconds`` the wall time [s]. Parents and the root are set apart
+        (``dataclasses.replace``) where the samples are continued."""
+        return cls(tensions, source, got.tip_position, got.converged, got.stable, got.below_base, got.disks_touch,
+                   n_base, warm, seconds, got.q, stage, got.curvature, None, got.residual, got.atol)
 
     def start_batch(self, rows: np.ndarray, loads: Loads, model: str) -> BatchSolution:
         """The samples at ``rows`` (indices) as a batch a continuation starts from (``solve_batch(...,
@@ -256,9 +321,7 @@ class RegionSamples:
         if self.q is None or self.residual is None or self.atol is None:
             raise ValueError("these samples keep no unknowns and residuals: they cannot be continued from")
         idx = np.asarray(rows, dtype=np.int64)
-        kept = {"converged": self.converged, "residual": self.residual, "q": self.q,
-                "tip_position": self.tip_position, "atol": self.atol}
-        return _batch_of(kept, self.tensions, idx, loads, model)
+        return _batch_of(self, self.tensions, idx, loads, model)
 
 
 @dataclass
@@ -280,7 +343,7 @@ class _Solver:
         return solve_batch(self.robot, tensions, self.loads, model=self.model, options=options or self.options,
                            q0=q0, threads=self.threads, start=start)
 
-    def keep(self, b: BatchSolution) -> dict[str, np.ndarray]:
+    def keep(self, b: BatchSolution) -> SolvedRows:
         """The tips, flags and unknowns of a solved block."""
         r = self.robot.disk_radius
         pos, rot = b.disk_positions, b.disk_rotations
@@ -291,14 +354,12 @@ class _Solver:
         kappa = bending_curvature(rot, self.robot.subsegment_lengths).max(axis=1)
         kappa[~ok] = np.nan
         atol = np.full(ok.shape, np.nan) if b.atol is None else np.asarray(b.atol, dtype=float)
-        return {"tip_position": b.tip_position, "converged": ok, "stable": stable, "q": q, "curvature": kappa,
-                "plain": np.asarray(b.path == SolvePath.LOADING, dtype=bool), "residual": np.asarray(b.residual, float),
-                "at_fold": np.asarray(b.path == SolvePath.FOLD, dtype=bool),
-                "atol": atol,
-                "below_base": disks_below_base(pos, rot, r) & ok, "disks_touch": disks_touch(pos, rot, r) & ok}
+        return SolvedRows(b.tip_position, ok, stable, q, kappa, np.asarray(b.path == SolvePath.LOADING, dtype=bool),
+                          np.asarray(b.residual, float), np.asarray(b.path == SolvePath.FOLD, dtype=bool), atol,
+                          disks_below_base(pos, rot, r) & ok, disks_touch(pos, rot, r) & ok)
 
     def solve(self, tensions: np.ndarray, q0: np.ndarray | None = None,
-              start: BatchSolution | None = None) -> dict[str, np.ndarray]:
+              start: BatchSolution | None = None) -> SolvedRows:
         """Every row in blocks, warm from ``q0`` (per row) or continued from ``start`` (its row b to row b of
         ``tensions``) when given."""
         parts = []
@@ -308,9 +369,9 @@ class _Solver:
                                               start=None if start is None else start.rows(slice(first, stop)))))
             if self.progress is not None:
                 self.progress(stop - first)
-        if not parts:  # no rows: the same keys, empty (a search round whose steps all left the box)
+        if not parts:  # no rows: the same arrays, empty (a search round whose steps all left the box)
             return self.keep(self.batch(tensions, q0))
-        return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+        return SolvedRows.concatenated(parts)
 
 
 def same_tip(robot: Robot) -> float:
@@ -320,24 +381,24 @@ def same_tip(robot: Robot) -> float:
     return SAME_TIP * (robot.length / SAME_TIP_LENGTH)
 
 
-def _agree(a: dict[str, np.ndarray], b: dict[str, np.ndarray], tol: float) -> np.ndarray:
+def _agree(a: SolvedRows, b: SolvedRows, tol: float) -> np.ndarray:
     """Row by row: the same equilibrium (tips within ``tol`` [m], :func:`same_tip`) or neither converged."""
-    same_flag = a["converged"] == b["converged"]
-    close = np.linalg.norm(np.nan_to_num(a["tip_position"] - b["tip_position"], nan=np.inf), axis=1) <= tol
-    return same_flag & (~a["converged"] | close)
+    same_flag = a.converged == b.converged
+    close = np.linalg.norm(np.nan_to_num(a.tip_position - b.tip_position, nan=np.inf), axis=1) <= tol
+    return same_flag & (~a.converged | close)
 
 
-def _warm_from(anchors: dict[str, np.ndarray], t_anchor: np.ndarray, tensions: np.ndarray,
+def _warm_from(anchors: SolvedRows, t_anchor: np.ndarray, tensions: np.ndarray,
                bounds: TensionBounds) -> np.ndarray | None:
     """Per row of ``tensions``, the unknowns of the nearest anchor that followed the loading path without a
     fold (in tension space scaled by the bounds' span; ties go to the lower index: deterministic)."""
-    usable = anchors["converged"] & anchors["plain"]
+    usable = anchors.converged & anchors.plain
     if not np.any(usable):
         return None
     scale = bounds.span
     tree = cKDTree(t_anchor[usable] / scale)
     _, idx = tree.query(tensions / scale)
-    return np.ascontiguousarray(anchors["q"][usable][idx])
+    return np.ascontiguousarray(anchors.q[usable][idx])
 
 
 def _warm_starts(warm: bool | WarmStarts) -> WarmStarts | None:
@@ -384,19 +445,18 @@ def _waves(m: int) -> list[tuple[int, int]]:
 
 
 def _continued(solver: _Solver, T: np.ndarray,
-               bounds: TensionBounds) -> tuple[dict[str, np.ndarray], np.ndarray, str]:
+               bounds: TensionBounds) -> tuple[SolvedRows, np.ndarray, str]:
     """Every row of ``T`` (M, n_tendons) continued from a parent (see :func:`continue_plan`); returns what
     :meth:`_Solver.keep` keeps, row by row, the parents (:data:`ROOT` for the root; -2 where there was no
     stable equilibrium to continue from) and the root's state (:attr:`RegionSamples.root`)."""
     nt = T.shape[1]
     root = solver.keep(solver.batch(np.zeros((1, nt))))
     # internal rows: 0 the root, k + 1 the plan's row k
-    store = {k: np.concatenate([v, np.full((T.shape[0], *v.shape[1:]), _blank(v.dtype), dtype=v.dtype)])
-             for k, v in root.items()}
+    store = SolvedRows.concatenated([root, root.blank_rows(T.shape[0])])
     tensions = np.concatenate([np.zeros((1, nt)), T])
     parent = np.full(T.shape[0], -2, dtype=np.int64)
     usable = np.zeros(T.shape[0] + 1, dtype=bool)
-    usable[0] = bool(root["converged"][0] and root["stable"][0] != 0.0)
+    usable[0] = bool(root.converged[0] and root.stable[0] != 0.0)
     scale = bounds.span
     for a, b in _waves(T.shape[0]):
         pool = np.flatnonzero(usable)
@@ -408,13 +468,12 @@ def _continued(solver: _Solver, T: np.ndarray,
         p = pool[near]
         start = _batch_of(store, tensions, p, solver.loads, solver.model.name)
         got = solver.solve(T[a:b], start=start)
-        for k, v in got.items():
-            store[k][a + 1:b + 1] = v
+        store.put(slice(a + 1, b + 1), got)
         parent[a:b] = p - 1
-        usable[a + 1:b + 1] = got["converged"] & (got["stable"] != 0.0)
-    state = ("not converged" if not root["converged"][0] else "unstable" if not usable[0]
-             else "stable" if root["stable"][0] == 1.0 else "stability untested")
-    return {k: v[1:] for k, v in store.items()}, parent, state
+        usable[a + 1:b + 1] = got.converged & (got.stable != 0.0)
+    state = ("not converged" if not root.converged[0] else "unstable" if not usable[0]
+             else "stable" if root.stable[0] == 1.0 else "stability untested")
+    return store.take(slice(1, None)), parent, state
 
 
 def _blank(dtype: np.dtype) -> float | int | bool:
@@ -424,15 +483,16 @@ def _blank(dtype: np.dtype) -> float | int | bool:
     return False if np.issubdtype(dtype, np.bool_) else 0
 
 
-def _batch_of(store: dict[str, np.ndarray], tensions: np.ndarray, rows: np.ndarray, loads: Loads,
+def _batch_of(store: SolvedRows | RegionSamples, tensions: np.ndarray, rows: np.ndarray, loads: Loads,
               model: str) -> BatchSolution:
-    """The solved rows ``rows`` of ``store`` (:meth:`_Solver.keep`'s arrays: converged, residual, q,
-    tip_position, atol) at ``tensions``, solved by ``model`` under ``loads``, as a batch to continue from."""
-    return BatchSolution(tensions=tensions[rows], converged=store["converged"][rows],
-                         residual=store["residual"][rows], iterations=np.zeros(rows.size, dtype=np.int64),
-                         q=store["q"][rows], tip_position=store["tip_position"][rows], seconds=0.0,
-                         path=np.full(rows.size, "", dtype=object), model=model, atol=store["atol"][rows],
-                         loads=loads)
+    """The solved rows ``rows`` of ``store`` (its converged, residual, q, tip_position and atol, which samples
+    kept) at ``tensions``, solved by ``model`` under ``loads``, as a batch to continue from."""
+    q, residual, atol = store.q, store.residual, store.atol
+    assert q is not None and residual is not None and atol is not None
+    return BatchSolution(tensions=tensions[rows], converged=store.converged[rows], residual=residual[rows],
+                         iterations=np.zeros(rows.size, dtype=np.int64), q=q[rows],
+                         tip_position=store.tip_position[rows], seconds=0.0,
+                         path=np.full(rows.size, "", dtype=object), model=model, atol=atol[rows], loads=loads)
 
 
 def continue_plan(robot: Robot, loads: Loads, plan: TensionPlan, *, model: str | Model = "pcc",
@@ -453,10 +513,9 @@ def continue_plan(robot: Robot, loads: Loads, plan: TensionPlan, *, model: str |
     solver = _plan_solver(robot, loads, plan, m, opts, threads, progress)
     t0 = time.perf_counter()
     got, parent, root = _continued(solver, plan.tensions, plan.bounds)
-    return RegionSamples(plan.tensions, plan.source, got["tip_position"], got["converged"], got["stable"],
-                         got["below_base"], got["disks_touch"], plan.n_base, WarmStartCheck("continuation"),
-                         time.perf_counter() - t0, got["q"], plan_stages(plan), got["curvature"], parent,
-                         got["residual"], got["atol"], root)
+    samples = RegionSamples.of(plan.tensions, plan.source, got, plan.n_base, plan_stages(plan),
+                               warm=WarmStartCheck("continuation"), seconds=time.perf_counter() - t0)
+    return replace(samples, parent=parent, root=root)
 
 
 def _plan_solver(robot: Robot, loads: Loads, plan: TensionPlan, m: Model, opts: ModelOptions, threads: int | None,
@@ -499,12 +558,10 @@ def solve_plan(robot: Robot, loads: Loads, plan: TensionPlan, *, model: str | Mo
         q0 = _warm_from(anchors, T[:n_anchor], rest, plan.bounds)
         out, report = _checked(solver, rest, q0, how.check, how.seed, n_anchor)
     else:
-        out = solver.solve(rest) if rest.shape[0] else {}
-    keys = ("tip_position", "converged", "stable", "below_base", "disks_touch", "q", "curvature", "residual", "atol")
-    got = {k: np.concatenate([anchors[k], out[k]]) if out else anchors[k] for k in keys}
-    return RegionSamples(T, plan.source, got["tip_position"], got["converged"], got["stable"], got["below_base"],
-                         got["disks_touch"], plan.n_base, report, time.perf_counter() - t0, got["q"],
-                         plan_stages(plan), got["curvature"], None, got["residual"], got["atol"])
+        out = solver.solve(rest) if rest.shape[0] else None
+    got = SolvedRows.concatenated([anchors, out]) if out is not None else anchors
+    return RegionSamples.of(T, plan.source, got, plan.n_base, plan_stages(plan), warm=report,
+                            seconds=time.perf_counter() - t0)
 
 
 def plan_stages(plan: TensionPlan) -> np.ndarray:
@@ -518,7 +575,7 @@ def plan_stages(plan: TensionPlan) -> np.ndarray:
 
 
 def _checked(solver: _Solver, rest: np.ndarray, q0: np.ndarray | None, check: int, seed: int,
-             n_anchor: int) -> tuple[dict[str, np.ndarray], WarmStartCheck]:
+             n_anchor: int) -> tuple[SolvedRows, WarmStartCheck]:
     """Warm-solve ``rest`` if a checked subset agrees with the loading path, else solve it along that path."""
     if q0 is None or check == 0:
         return solver.solve(rest), WarmStartCheck("loading path", anchors=n_anchor)
@@ -534,9 +591,8 @@ def _checked(solver: _Solver, rest: np.ndarray, q0: np.ndarray | None, check: in
     report = WarmStartCheck("warm" if passed else "loading path", n_anchor, int(sub.size), agreed, t1 - t0, t2 - t1)
     others = np.setdiff1d(np.arange(rest.shape[0]), sub)
     out_others = solver.solve(rest[others], q0[others] if passed else None)
-    out = {k: np.empty((rest.shape[0], *v.shape[1:]), dtype=v.dtype) for k, v in cold_sub.items()}
-    for k in out:
-        out[k][sub] = cold_sub[k]
-        if others.size:
-            out[k][others] = out_others[k]
+    out = cold_sub.blank_rows(rest.shape[0])
+    out.put(sub, cold_sub)
+    if others.size:
+        out.put(others, out_others)
     return out, report
