@@ -34,6 +34,7 @@ from ..limits import check_memory
 from ..records import JsonDict
 from ..runtime import default_threads, single_threaded_blas, worker_pool
 from ..statics import TIGHT_ATOL, check_resources
+from ..validate import SettingsError
 from ._problem import INFEASIBLE_COST, ReachProblem
 from ._result import Optimum, ReachResult, SearchFailed
 
@@ -66,7 +67,7 @@ class Termination:
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.tol) and self.tol > 0):
-            raise ValueError(f"tol must be finite and > 0, got {self.tol}")
+            raise SettingsError("tol", f" must be finite and > 0, got {self.tol}")
         _check_int("window", self.window, 1)
         _check_int("max_gen", self.max_gen, 1)
 

@@ -17,7 +17,7 @@ from typing import Literal
 
 import numpy as np
 
-from ..validate import check_count, check_real, show_number
+from ..validate import SettingsError, check_count, check_real, show_number
 
 __all__ = ["DEFAULT_ATOL", "FOLDS", "FOLD_ARCLENGTH", "FOLD_RELAX", "FOLD_STOP", "LOAD_STEPPING", "MAX_ATOL",
            "MIN_ATOL", "MIN_STEP_SCALE", "PATH_CONTINUED", "PATH_DIRECT", "PATH_FALLBACK", "PATH_FOLD",
@@ -153,11 +153,11 @@ def check_common_options(atol: float, load_stepping: str) -> None:
     if isinstance(atol, bool) or not isinstance(atol, (int, float, np.floating)):
         raise TypeError(f"atol must be a real number, got {type(atol).__name__}")
     if not (np.isfinite(atol) and MIN_ATOL <= atol <= MAX_ATOL):
-        raise ValueError(f"atol must be in [{MIN_ATOL:g}, {MAX_ATOL:g}] N m (a looser tolerance passes poses "
+        raise SettingsError("atol", f" must be in [{MIN_ATOL:g}, {MAX_ATOL:g}] N m (a looser tolerance passes poses "
                          f"visibly out of balance; a tighter one is below the rounding of the balance), got "
                          f"{show_number(atol, MIN_ATOL, MAX_ATOL)}")
     if load_stepping not in LOAD_STEPPING:
-        raise ValueError(f"load_stepping must be one of {sorted(LOAD_STEPPING)}, got {load_stepping!r}")
+        raise SettingsError("load_stepping", f" must be one of {sorted(LOAD_STEPPING)}, got {load_stepping!r}")
 
 
 @dataclass(frozen=True)
@@ -205,11 +205,11 @@ class SolverOptions:
                                                           "millions of steps"))
         object.__setattr__(self, "step_iter", check_count(self.step_iter, "step_iter", 1, MAX_ITERATIONS))
         if self.fold not in FOLDS:
-            raise ValueError(f"fold must be one of {sorted(FOLDS)}, got {self.fold!r}")
+            raise SettingsError("fold", f" must be one of {sorted(FOLDS)}, got {self.fold!r}")
         if isinstance(self.step_scale, bool) or not isinstance(self.step_scale, (int, float, np.floating)):
             raise TypeError(f"step_scale must be a real number, got {type(self.step_scale).__name__}")
         if not (np.isfinite(self.step_scale) and MIN_STEP_SCALE <= self.step_scale <= 1.0):
-            raise ValueError(f"step_scale must be in [{MIN_STEP_SCALE:g}, 1] (a fraction of the default load "
+            raise SettingsError("step_scale", f" must be in [{MIN_STEP_SCALE:g}, 1] (a fraction of the default load "
                              f"steps), got {show_number(self.step_scale, MIN_STEP_SCALE, 1.0)}")
 
 

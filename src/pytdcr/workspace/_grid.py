@@ -9,6 +9,7 @@ import numpy as np
 from scipy import ndimage
 
 from ..records import JsonDict
+from ..validate import SettingsError
 
 if TYPE_CHECKING:
     from trimesh import Trimesh
@@ -88,7 +89,7 @@ def region_from_points(points: np.ndarray, voxel: float, closing: int = 1) -> Re
     p = np.asarray(points, dtype=float).reshape(-1, 3)
     p = p[np.all(np.isfinite(p), axis=1)]
     if not (np.isfinite(voxel) and voxel > 0):
-        raise ValueError(f"voxel must be a positive length [m], got {voxel!r}")
+        raise SettingsError("voxel", f" must be a positive length [m], got {voxel!r}")
     pad = closing + 1
     if p.shape[0] == 0:
         return Region(np.zeros(3), float(voxel), np.zeros((1, 1, 1), dtype=bool), closing, 0)

@@ -40,7 +40,7 @@ from ..records import JsonDict, JsonObject
 from ..results import StaticSolution
 from ..runtime import default_threads, worker_pool
 from ..statics import TIGHT_ATOL
-from ..validate import check_count, unit_vectors
+from ..validate import SettingsError, check_count, unit_vectors
 
 __all__ = ["DEFAULT_DIRECTIONS", "LargestReach", "SampleStates", "SupportFunction", "SupportSettings",
            "fibonacci_directions", "largest_reach", "support_function"]
@@ -352,7 +352,7 @@ def _check_samples(problem: ReachProblem, tensions: np.ndarray,
     if t.shape[0] == 0:
         raise ValueError("samples: at least one feasible sample is needed")
     if not (np.all(np.isfinite(t)) and np.all(np.isfinite(p))):
-        raise ValueError("samples must be finite: pass the feasible ones (samples.tensions[samples.feasible], "
+        raise SettingsError("samples", " must be finite: pass the feasible ones (samples.tensions[samples.feasible], "
                          "samples.tip_position[samples.feasible])")
     return t, p
 
@@ -366,9 +366,9 @@ def _check_directions(directions: np.ndarray | None) -> np.ndarray:
     d = np.asarray(directions, dtype=float)
     d = d.reshape(1, 3) if d.shape == (3,) else d
     if d.ndim != 2 or d.shape[1] != 3 or d.shape[0] == 0:
-        raise ValueError(f"directions must have shape (K, 3), K >= 1, got {np.shape(directions)}")
+        raise SettingsError("directions", f" must have shape (K, 3), K >= 1, got {np.shape(directions)}")
     if not (np.all(np.isfinite(d)) and np.all(np.any(d, axis=1))):
-        raise ValueError("directions must be finite and nonzero")
+        raise SettingsError("directions", " must be finite and nonzero")
     return unit_vectors(d, "directions")
 
 
