@@ -73,7 +73,9 @@ def _optimum(r: ReachResult) -> str:
 
 
 def closing_lines(res: ReproduceRun) -> list[str]:
-    """The key results of a reproduce run, one line each."""
+    """The key results of a reproduce run, one line each (a volume only where its error is below it)."""
+    from ..validate import measured, unmeasured_text
+
     smp = res.sampling
     lines = [f"samples: {smp.converged} of {smp.n} converged, reach {smp.reach_min * 1e3:.1f} to "
              f"{smp.reach_max * 1e3:.1f} mm"]
@@ -86,8 +88,8 @@ def closing_lines(res: ReproduceRun) -> list[str]:
               "mm from pcc's" if v.converged else "not converged") for v in res.verdicts]
     for c in res.workspace.cases:
         reach = "none" if c.largest_reach_m is None else f"{c.largest_reach_m * 1e3:.1f} mm"
-        volume = (f"{c.volume_m3 * 1e6:,.0f} +- {c.volume_err_m3 * 1e6:,.0f} cm3" if c.volume_err_m3 < c.volume_m3
-                  else f"volume not measured at this budget (its error, {c.volume_err_m3 * 1e6:,.0f} cm3, exceeds "
-                       "the estimate; tdcr reproduce --full)")
+        err = f"{c.volume_err_m3 * 1e6:,.0f} cm3"
+        volume = (f"{c.volume_m3 * 1e6:,.0f} +- {err}" if measured(c.volume_m3, c.volume_err_m3)
+                  else "volume " + unmeasured_text(err, "tdcr reproduce --full"))
         lines.append(f"workspace, {c.case}: {volume}, largest reach {reach}")
     return lines

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..io import write_robot
 from ..runtime import atomic_write, atomic_write_text, write_json
+from ..validate import measured
 from ..workspace import WorkspaceSettings
 from ._figures import write_design_figures
 from ._optimize import measures_nothing, objective_matrix, pareto_front
@@ -119,10 +120,26 @@ def _versus_reference(study: DesignStudy, ok: pd.DataFrame, case: str, index: in
               *[f"h_{k}_m" for k in study.measures.directions]):
         change = (best[m] / ref[m] - 1.0) * 100 if ref[m] else np.nan
         err = _error_column(m)
-        a, b = ((format_measure(r[m], m) + (f" ± {format_measure(r[err], m)}" if err else ""))
-                for r in (ref, best))
+        a, b = (_with_error(r, m, err) for r in (ref, best))
         lines.append(f"| {m} | {a} | {b} | {f'{change:+.0f} %' if np.isfinite(change) else '—'} |")
     return lines
+
+
+def _with_error(row: pd.Series, measure: str, err: str | None) -> str:
+    """A measure of a table row in its unit, with its error where it has one; a volume whose error is not below
+    it (:func:`~pytdcr.validate.measured`) is "not measured" beside its error, never shown as a result."""
+    if err is None:
+        return format_measure(row[measure], measure)
+    if not measured(row[measure], row[err]) and not (row[measure] == 0.0 and row[err] == 0.0):
+        return f"not measured (± {format_measure(row[err], measure)})"
+    return f"{format_measure(row[measure], measure)} ± {format_measure(row[err], measure)}"
+
+
+def _volume_cell(volume_m3: float, error_m3: float) -> str:
+    """A volume [m³] in cm³ for a table, or "not measured" where its error is not below it (0 ± 0 shows 0)."""
+    if measured(volume_m3, error_m3) or (volume_m3 == 0.0 and error_m3 == 0.0):
+        return f"{volume_m3 * 1e6:.0f}"
+    return "not measured"
 
 
 def _error_column(measure: str) -> str | None:
@@ -203,7 +220,7 @@ def _best_section(study: DesignStudy, ok: pd.DataFrame, best: BestDesign) -> lis
              + "".join(f" {m} |" for m in extra), "|---" * (len(study.parameters) + 5 + len(extra)) + "|"]
     for _, r in sub.iterrows():
         lines.append(f"| {r['design']} | " + " | ".join(f"{r[p]:.6g}" for p in study.parameters)
-                     + f" | {r['volume_m3'] * 1e6:.0f} | {r['volume_err_m3'] * 1e6:.0f} | "
+                     + f" | {_volume_cell(r['volume_m3'], r['volume_err_m3'])} | {r['volume_err_m3'] * 1e6:.0f} | "
                      f"{r['largest_reach_m'] * 1e3:.1f} | {r['peak_stress_pa'] / 1e6:.0f} |"
                      + "".join(f" {format_measure(r[m], m)} |" for m in extra))
     return [*lines, *_versus_reference(study, ok, case, index), *_screening_note(study, ok, case, index, robot_file),

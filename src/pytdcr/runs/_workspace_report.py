@@ -26,6 +26,7 @@ from ..records import RunWarning
 from ..robot import Robot
 from ..runtime import atomic_write, atomic_write_text, write_csv, write_json
 from ..statics import feasible_words, solve
+from ..validate import measured
 from ..workspace import Region, WorkspaceSummary
 from ..workspace.parts import BoundarySearch, RegionNumbers, RegionSamples
 from ._workspace_records import CaseComparison, FailedCase, PairComparison, WorkspaceComparison, WorkspaceSection
@@ -42,6 +43,23 @@ def _cell(value: float | None, fmt: str = ".4f", scale: float = 1.0) -> str:
     if value is None or not np.isfinite(value):
         return "—"
     return format(value * scale, fmt)
+
+
+def _volume_cells(volume_m3: float, error_m3: float) -> str:
+    """Two table cells, ``volume | error`` in cm³: the volume only where its error is below it
+    (:func:`~pytdcr.validate.measured`; a region without volume, 0 ± 0, shows 0), else "not measured" beside the
+    error, so that no table shows as a result a number whose error bar is larger than itself."""
+    err = _cell(error_m3, ".0f", 1e6)
+    if measured(volume_m3, error_m3) or (volume_m3 == 0.0 and error_m3 == 0.0):
+        return f"{_cell(volume_m3, '.0f', 1e6)} | {err}"
+    return f"not measured | {err}"
+
+
+def _ratio_cell(ratio: float | None, *volumes: tuple[float, float]) -> str:
+    """A ratio of volumes, shown only where every volume it divides (``(volume, error)`` [m³]) is measured."""
+    if all(measured(v, e) for v, e in volumes):
+        return _cell(ratio, ".2f")
+    return "—"
 
 
 def format_measure_of(region: RegionNumbers) -> str:
@@ -192,11 +210,12 @@ def _report(case: WorkspaceCase, robot_name: str, command: str) -> str:
              f"Made by `{command}`.", "", *[f"**Warning:** {w}." for w in case.warnings],
              *([""] if case.warnings else []),
              "| region | volume [cm³] | error [cm³] | largest reach [m] | points |", "|---|---|---|---|---|",
-             f"| FSW ({feasible_words(summary.stability_test)}) | {f.volume_m3 * 1e6:.0f} | "
-             f"{f.volume_err_m3 * 1e6:.0f}{pct(f)} | "
+             f"| FSW ({feasible_words(summary.stability_test)}) | "
+             f"{_volume_cells(f.volume_m3, f.volume_err_m3)}{pct(f)} | "
              f"{_cell(f.largest_reach_m)} | {f.points} |",
-             f"| realisable (no disk below the base, no disks touching) | {r.volume_m3 * 1e6:.0f} | "
-             f"{r.volume_err_m3 * 1e6:.0f}{pct(r)} | {_cell(r.largest_reach_m)} | {r.points} |", "",
+             f"| realisable (no disk below the base, no disks touching) | "
+             f"{_volume_cells(r.volume_m3, r.volume_err_m3)}{pct(r)} | {_cell(r.largest_reach_m)} | {r.points} |",
+             "",
              _reach_note(f, r), "", *_untested_note(summary, case.study.model.name),
              "Convergence with the base samples (FSW): "
              + ", ".join(f"n = {s.n_base}: {s.estimate_m3 * 1e6:.0f} cm³" for s in f.volume.scales)
@@ -300,9 +319,10 @@ def _compare_report(rows: Sequence[CaseComparison], cases: Sequence[WorkspaceCas
              "[mm] |", "|---|---|---|---|---|---|---|---|"]
     for r in rows:
         sh = np.asarray(r.centroid_shift_m) * 1e3
-        lines.append(f"| {r.case} | {r.volume_m3 * 1e6:.0f} | {r.volume_err_m3 * 1e6:.0f} | "
-                     f"{r.realisable_m3 * 1e6:.0f} | {r.realisable_err_m3 * 1e6:.0f} | "
-                     f"{_cell(r.largest_reach_m)} | {_cell(r.volume_ratio, '.2f')} | "
+        first = (rows[0].volume_m3, rows[0].volume_err_m3)
+        lines.append(f"| {r.case} | {_volume_cells(r.volume_m3, r.volume_err_m3)} | "
+                     f"{_volume_cells(r.realisable_m3, r.realisable_err_m3)} | {_cell(r.largest_reach_m)} | "
+                     f"{_ratio_cell(r.volume_ratio, (r.volume_m3, r.volume_err_m3), first)} | "
                      + ("—" if not np.all(np.isfinite(sh)) else f"({sh[0]:.0f}, {sh[1]:.0f}, {sh[2]:.0f})") + " |")
     lines += ["", "Models and equilibria: " + "; ".join(f"{r.case}: {r.model}, {r.equilibria}"
                                                        for r in rows) + "."]
@@ -399,8 +419,8 @@ def workspace_text(ws: WorkspaceSection, s: ReproduceSettings) -> list[str]:
              "--compare-loads` for the full one). Slices: workspace_slices.png.", "",
              "| load | FSW volume [cm³] | ± | realisable [cm³] | ± | largest reach [m] |", "|---|---|---|---|---|---|"]
     for r in ws.cases:
-        lines.append(f"| {r.case} | {r.volume_m3 * 1e6:.0f} | {r.volume_err_m3 * 1e6:.0f} | "
-                     f"{r.realisable_m3 * 1e6:.0f} | {r.realisable_err_m3 * 1e6:.0f} | {_cell(r.largest_reach_m)} |")
+        lines.append(f"| {r.case} | {_volume_cells(r.volume_m3, r.volume_err_m3)} | "
+                     f"{_volume_cells(r.realisable_m3, r.realisable_err_m3)} | {_cell(r.largest_reach_m)} |")
     models = ws.models
     if models:
         lines += ["", "### The workspace by model", "",
@@ -409,7 +429,8 @@ def workspace_text(ws: WorkspaceSection, s: ReproduceSettings) -> list[str]:
                   "rod, is the reference): how much of the paper's workspace is its model's error. Slices: "
                   "workspace_models_slices.png.", "",
                   "| model | FSW volume [cm³] | ± | FSW / pcc's |", "|---|---|---|---|"]
-        lines += [f"| {r.model} | {r.volume_m3 * 1e6:.0f} | {r.volume_err_m3 * 1e6:.0f} | "
-                  f"{_cell(r.volume_ratio, '.2f')} |" for r in models.cases]
+        first = (models.cases[0].volume_m3, models.cases[0].volume_err_m3) if models.cases else (0.0, 0.0)
+        lines += [f"| {r.model} | {_volume_cells(r.volume_m3, r.volume_err_m3)} | "
+                  f"{_ratio_cell(r.volume_ratio, (r.volume_m3, r.volume_err_m3), first)} |" for r in models.cases]
         lines += _pairs_lines(models.pairs)
     return [*lines, ""]

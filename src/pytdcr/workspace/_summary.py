@@ -30,6 +30,7 @@ from scipy import ndimage
 
 from ..records import JsonDict, JsonObject, check_schema, optional_part, part
 from ..statics import stability_counts, stability_words
+from ..validate import measured, unmeasured_text
 from ._compute import WorkspaceRegion
 from ._frontier import BoundarySearch
 from ._grid import MIN_MESH_POINTS, Region
@@ -111,9 +112,11 @@ class RegionNumbers:
         return self.points >= MIN_MESH_POINTS and self.dimension == 3
 
     def measure_words(self) -> str:
-        """Its measure in words: its volume with error in cm³, or, below three dimensions, what it is and its
-        area or length."""
+        """Its measure in words: its volume with error in cm³ (where the error is below the volume:
+        :func:`~pytdcr.validate.measured`), or, below three dimensions, what it is and its area or length."""
         if self.dimension == 3:
+            if not measured(self.volume_m3, self.volume_err_m3):
+                return "volume " + unmeasured_text(f"{self.volume_err_m3 * 1e6:.0f} cm³")
             return f"volume {self.volume_m3 * 1e6:.0f} ± {self.volume_err_m3 * 1e6:.0f} cm³"
         if self.dimension == 2:
             area, err = self.area_m2 or 0.0, self.area_err_m2 or 0.0
