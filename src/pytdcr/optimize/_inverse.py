@@ -170,6 +170,10 @@ class InverseSearch:
 class InverseResult:
     """What :func:`inverse_statics` found.
 
+    JSON happens at one boundary: :meth:`to_json` (what ``tdcr inverse --json`` prints for one target, with
+    ``schema_version``: :data:`SCHEMA_VERSION`) and :meth:`from_json`, which reads it back (``path`` as its
+    :class:`InversePath`), a missing key raising :class:`~pytdcr.records.RecordKeyError` naming it.
+
     Attributes
     ----------
     target : ndarray, shape (3,)
@@ -207,10 +211,6 @@ class InverseResult:
         Solves spent.
     seconds : float
         Wall time [s].
-
-    JSON happens at one boundary: :meth:`to_json` (what ``tdcr inverse --json`` prints for one target, with
-    ``schema_version``: :data:`SCHEMA_VERSION`) and :meth:`from_json`, which reads it back (``path`` as its
-    :class:`InversePath`), a missing key raising :class:`~pytdcr.records.RecordKeyError` naming it.
     """
 
     target: np.ndarray
