@@ -13,10 +13,8 @@ $(STAMP): pyproject.toml $(KERNELS)
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --upgrade pip
 	$(BIN)/python -m pip install -e '.[dev]'
-	# numba checks only a cached function's own file: a kernel edited elsewhere leaves stale copies of itself
-	# inside other kernels' caches, so every kernel cache goes when any kernel changes
-	find src -name '*.nbi' -delete -o -name '*.nbc' -delete
-	# compile the numba kernels once (cached on disk for every later run)
+	# compile the numba kernels once, into the user cache folder (PYTDCR_CACHE_DIR or ~/.cache/pytdcr), under a
+	# key of the version and the kernels' sources: an edited kernel compiles afresh, never from a stale copy
 	$(BIN)/python -c "import pytdcr.statics; pytdcr.statics.warmup()"
 	touch $(STAMP)
 

@@ -9,7 +9,8 @@ smooth and exact at zero curvature (no division by the curvature).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from .runtime import njit
 
 __all__ = ["backbone_curve", "forward_kinematics", "frames", "subsegment", "subsegment_derivatives",
            "subsegment_transform", "tip_jacobian"]

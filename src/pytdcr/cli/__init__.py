@@ -68,7 +68,8 @@ def build_parser() -> Parser:
         add(sub)
     for command in sub.choices.values():
         command.add_argument("-q", "--quiet", action="store_true",
-                             help="no progress on stderr (results, warnings and errors still print)")
+                             help="no progress or first-use compiling notice on stderr (results, warnings and "
+                                  "errors still print)")
     return p
 
 

@@ -16,7 +16,7 @@ import threading
 import time
 from typing import TYPE_CHECKING
 
-from ..runtime import duration
+from ..runtime import duration, set_compile_notice
 
 if TYPE_CHECKING:
     from rich.progress import Progress, ProgressColumn, Task
@@ -41,9 +41,11 @@ def line_seconds() -> float:
 
 
 def set_quiet(quiet: bool) -> None:
-    """Show no progress (``--quiet``); results and errors still print."""
+    """Show no progress (``--quiet``) and no line saying kernels compile for first use; results and errors
+    still print."""
     global _QUIET
     _QUIET = bool(quiet)
+    set_compile_notice(not _QUIET)
 
 
 def quiet() -> bool:

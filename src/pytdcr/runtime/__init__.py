@@ -7,6 +7,8 @@ output-folder rule.
 - **Threads** (:func:`run_in_chunks`, :func:`worker_pool`, :func:`default_threads`): batches of independent
   solves on all cores, with BLAS kept on one thread meanwhile; results do not depend on the thread count.
 - **Files** (:func:`atomic_write`, :func:`write_json`, :func:`write_csv`): every file whole or absent.
+- **Compiled kernels** (:func:`njit`, :func:`kernel_cache_dir`, :func:`announce_compiling`): numba's cache in a
+  folder keyed by the version and the kernels' sources; one line on stderr while a first use compiles.
 - **Cache** (:func:`cache_dir`, :func:`read_arrays`, :func:`write_arrays`): entries kept between runs, read only
   when they are this user's whole regular files and written never through a link; a cache that cannot be read
   or written is rebuilt or not kept, never an error.
@@ -43,12 +45,14 @@ from ._folders import (
     resumable_folder,
     versions_record,
 )
+from ._jit import KERNEL_SOURCES, announce_compiling, kernel_cache_dir, kernel_key, njit, set_compile_notice
 from ._lifeline import LIFELINE_POLL_S, PARENT_GONE_EXIT, hold_lifeline, process_pool
 from ._readback import MAX_JSON_BYTES, RunDoc, RunFolder, regular_file_bytes
 from ._stages import duration, end_stage
 from ._threads import MAX_CHUNK, default_threads, run_in_chunks, single_threaded_blas, submit_in_context, worker_pool
 
 __all__ = [
+    "KERNEL_SOURCES",
     "LIFELINE_POLL_S",
     "MANIFEST",
     "MAX_CHUNK",
@@ -65,6 +69,7 @@ __all__ = [
     "RunFolder",
     "RunInterrupted",
     "StudyChanged",
+    "announce_compiling",
     "atomic_write",
     "atomic_write_text",
     "cache_dir",
@@ -77,8 +82,11 @@ __all__ = [
     "duration",
     "end_stage",
     "hold_lifeline",
+    "kernel_cache_dir",
+    "kernel_key",
     "library_versions",
     "mark_saving",
+    "njit",
     "output_folder",
     "process_pool",
     "read_arrays",
@@ -87,6 +95,7 @@ __all__ = [
     "resumable_folder",
     "run_in_chunks",
     "saving",
+    "set_compile_notice",
     "single_threaded_blas",
     "submit_in_context",
     "to_jsonable",

@@ -9,8 +9,12 @@ the feature.
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Literal, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Literal, Protocol, TypeVar, runtime_checkable
+
+from ..runtime import announce_compiling
 
 if TYPE_CHECKING:
     import numpy as np
@@ -21,7 +25,32 @@ if TYPE_CHECKING:
     from ..robot import Robot
     from .options import ModelOptions
 
-__all__ = ["Capabilities", "Model", "UnsupportedFeatureError"]
+__all__ = ["Capabilities", "Model", "UnsupportedFeatureError", "announced", "compile_seconds"]
+
+_M = TypeVar("_M", bound=Callable)
+
+
+def announced(part: str) -> Callable[[_M], _M]:
+    """Decorate a model's method that compiles ``part`` of the model (``"solver"``, ``"continuation"``, ``"tip
+    gradient"``, ...) at its first call: while it runs, the first kernel compile of the process for that part
+    says so once on stderr (:func:`pytdcr.runtime.announce_compiling`), with the time the model's
+    ``compile_seconds[part]`` gives (measured cold on 2 cores by ``bench/compile_profile.py``)."""
+
+    def decorate(method: _M) -> _M:
+        @functools.wraps(method)
+        def call(self: Model, *args: object, **kwargs: object) -> object:
+            with announce_compiling(f"the {self.name} model's {part}", compile_seconds(self, part)):
+                return method(self, *args, **kwargs)
+
+        return call  # type: ignore[return-value]
+
+    return decorate
+
+
+def compile_seconds(model: Model, part: str) -> float:
+    """About how long ``part`` of ``model`` takes to compile at its first use [s] (60 where not measured)."""
+    return float(getattr(model, "compile_seconds", {}).get(part, 60.0))
+
 
 
 class UnsupportedFeatureError(ValueError):

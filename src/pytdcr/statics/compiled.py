@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
-from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, TypeVar
+from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple, Protocol, TypeVar
 
 import numpy as np
 
@@ -20,7 +20,8 @@ from ..limits import Resources
 from ..loads import Loads
 from ..results import BatchSolution, StaticSolution
 from ..robot import Robot
-from ..runtime import MAX_CHUNK, check_cancelled, run_in_chunks
+from ..runtime import MAX_CHUNK, announce_compiling, check_cancelled, run_in_chunks
+from .base import announced, compile_seconds
 from .kernels import loading_path as SV
 from .kernels.stiffness import jacobian_range, largest_residuals
 from .options import (
@@ -255,6 +256,10 @@ class CompiledModel:
     peak_matrices = 5.0
     #: one solve's time per cubed unknown [s] (measured: pcc 1,000 disks 3.0 s, 2,000 disks 20 s)
     seconds_per_cubed_unknown = 1.2e-10
+    #: a cold first use's compile time of each part [s] (2 cores, ``bench/compile_profile.py``), said while it
+    #: compiles (pcc2 shares pcc's compiled code: the same packed type)
+    compile_seconds: ClassVar[dict[str, float]] = {"solver": 95.0, "continuation": 85.0, "tip gradient": 28.0,
+                                                   "stability test": 2.0}
     #: refuse an equilibrium whose backbone passes through itself (:mod:`pytdcr.contact`): the rod models;
     #: the PCC models leave it to the workspace's realisability test, where disks touch long before
     checks_self_contact = False
@@ -277,6 +282,7 @@ class CompiledModel:
         """The packed equations of ``robot`` under ``loads``."""
         raise NotImplementedError
 
+    @announced("solver")
     def solve(self, robot: Robot, loads: Loads, q0: np.ndarray | None, options: SolverOptions) -> StaticSolution:
         """One equilibrium; see :func:`pytdcr.solve`."""
         check_cancelled()
@@ -288,6 +294,7 @@ class CompiledModel:
         out = _solve_rows(eq, Q0, T, kernel_settings(options, q0 is not None), tols, 1)
         return self._single(robot, eq, out, time.perf_counter() - t0, float(tols[0, 0]))
 
+    @announced("continuation")
     def solve_from(self, robot: Robot, loads: Loads, start: StaticSolution, options: SolverOptions) -> StaticSolution:
         """Continue the equilibrium ``start`` (checked by the caller: of this model and robot, under
         ``start.loads``) along its branch to ``loads``; see :func:`pytdcr.solve`."""
@@ -333,6 +340,7 @@ class CompiledModel:
                               atol=atol, _positions=pos, _rotations=rot, model=self.name, _curve=curve,
                               _stability_fn=lambda: self.stability_at(eq, q), loads=eq.loads)
 
+    @announced("solver")
     def solve_batch(self, robot: Robot, tensions: np.ndarray, loads: Loads, q0: np.ndarray | None,
                     options: SolverOptions, threads: int | None = None) -> BatchSolution:
         """Every row of ``tensions`` (B, n_tendons) [N], on ``threads`` threads (default: all cores)."""
@@ -344,6 +352,7 @@ class CompiledModel:
                           self._chunk(robot, options))
         return self._batch(robot, eq, tensions, out, (time.perf_counter() - t0, tols, threads))
 
+    @announced("continuation")
     def solve_batch_from(self, robot: Robot, tensions: np.ndarray, loads: Loads, start: BatchSolution,
                          options: SolverOptions, threads: int | None = None) -> BatchSolution:
         """Continue row b of ``start`` (checked by the caller: this model and robot, the same rows) along its
@@ -404,7 +413,8 @@ class CompiledModel:
                 for k, ev in enumerate(np.linalg.eigvals(K)):  # one LAPACK call a row, the GIL released
                     found[rows[start + k]] = stability_from_eigenvalues(ev)
 
-            run_in_chunks(chunk, rows.size, threads)
+            with announce_compiling(f"the {self.name} model's stability test", compile_seconds(self, "stability test")):
+                run_in_chunks(chunk, rows.size, threads)
             return found
 
         return BatchSolution(tensions=tensions, converged=ok, residual=out.residual, iterations=out.iterations,
@@ -412,11 +422,13 @@ class CompiledModel:
                              path=paths, model=self.name, _stability_fn=stabilities, disk_positions=pos,
                              disk_rotations=rot, atol=tols[:, 0].copy(), loads=eq.loads)
 
+    @announced("solver")
     def equilibrium_residual(self, robot: Robot, loads: Loads, q: np.ndarray, options: SolverOptions) -> float:
         """max |residual| [N m] of ``robot`` under ``loads`` at the unknowns ``q`` (ValueError for a wrong shape)."""
         eq = self.equations(robot, loads, options)
         return float(np.max(np.abs(eq.evaluate(eq.check_q(q)).residual)))
 
+    @announced("tip gradient")
     def tip_gradient(self, robot: Robot, loads: Loads, solution: StaticSolution,
                      options: SolverOptions) -> tuple[np.ndarray, np.ndarray]:
         """Tip position (3,) [m] of an equilibrium and its exact derivative by the tensions (3, n_tendons) [m/N].
@@ -428,6 +440,7 @@ class CompiledModel:
         eq = self.equations(robot, loads, options)
         return solution.tip_position, _tip_derivative(eq, eq.check_q(solution.q))
 
+    @announced("tip gradient")
     def tip_gradients(self, robot: Robot, tensions: np.ndarray, loads: Loads, q: np.ndarray, options: SolverOptions,
                       threads: int | None = None) -> np.ndarray:
         """Derivatives of the tip by the tensions at many equilibria, shape (B, 3, n_tendons) [m/N].

@@ -25,7 +25,7 @@ import math
 import time
 from dataclasses import dataclass, replace
 from functools import cached_property
-from typing import NamedTuple
+from typing import ClassVar, NamedTuple
 
 import numpy as np
 from scipy.optimize import root
@@ -36,7 +36,7 @@ from ..loads import Loads
 from ..results import BatchSolution, StaticSolution
 from ..robot import Robot
 from ..runtime import check_cancelled, run_in_chunks
-from .base import Capabilities
+from .base import Capabilities, announced
 from .kernels import cosserat as CK
 from .kernels.pcc import Packed
 from .options import CosseratOptions, SolvePath
@@ -300,6 +300,8 @@ class CosseratModel:
     capabilities = Capabilities(friction=False, point_wrenches=True, gradient="finite differences")
     unknowns = "q: (3,), the total moment at the base [N m], base frame"
     iteration_unit = "integrations"
+    #: a cold first use's compile time of each part [s] (2 cores, ``bench/compile_profile.py``)
+    compile_seconds: ClassVar[dict[str, float]] = {"solver": 4.0}
 
     def resources(self, robot: Robot, options: CosseratOptions) -> Resources:
         """Peak memory and rough time of one solve: linear in the disks (three unknowns; measured 11 ms for
@@ -310,11 +312,13 @@ class CosseratModel:
         """Default options."""
         return CosseratOptions()
 
+    @announced("solver")
     def solve(self, robot: Robot, loads: Loads, q0: np.ndarray | None, options: CosseratOptions) -> StaticSolution:
         """One equilibrium; see :func:`pytdcr.solve`."""
         check_cancelled()
         return _solve_shooting(CosseratShooting.build(robot, loads, options), q0, options, loads)
 
+    @announced("solver")
     def solve_batch(self, robot: Robot, tensions: np.ndarray, loads: Loads, q0: np.ndarray | None,
                     options: CosseratOptions, threads: int | None = None) -> BatchSolution:
         """Every row of ``tensions`` (B, n_tendons) [N]; ``q0`` is (3,) or (B, 3)."""
@@ -338,16 +342,19 @@ class CosseratModel:
         seconds = time.perf_counter() - t0
         return BatchSolution.from_solutions(tensions, sols, seconds, self.name)
 
+    @announced("solver")
     def equilibrium_residual(self, robot: Robot, loads: Loads, q: np.ndarray, options: CosseratOptions) -> float:
         """max |tip moment residual| [N m] of ``robot`` under ``loads`` at the base moment ``q`` (3,) [N m]."""
         return float(np.max(np.abs(CosseratShooting.build(robot, loads, options).residual(q))))
 
+    @announced("tip gradient")
     def tip_gradient(self, robot: Robot, loads: Loads, solution: StaticSolution,
                      options: CosseratOptions) -> tuple[np.ndarray, np.ndarray]:
         """Tip (3,) [m] and its derivative by the tensions (3, n_tendons) [m/N], by central differences of the
         shooting map (implicit function theorem)."""
         return CosseratShooting.build(robot, loads, options).tip_gradient(solution.q)
 
+    @announced("tip gradient")
     def tip_gradients(self, robot: Robot, tensions: np.ndarray, loads: Loads, q: np.ndarray,
                       options: CosseratOptions, threads: int | None = None) -> np.ndarray:
         """Derivatives of the tip by the tensions at many equilibria ``q`` (B, 3) at ``tensions``

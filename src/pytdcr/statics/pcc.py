@@ -30,7 +30,7 @@ from ..loads import Loads
 from ..results import StaticSolution
 from ..robot import ConstantFriction, ExponentialFriction, NoFriction, Robot
 from ..runtime import run_in_chunks
-from .base import Capabilities
+from .base import Capabilities, announced
 from .compiled import CompiledModel, Evaluation, PackedEquations
 from .kernels import pcc as K
 from .kernels.pcc_gradient import tip_gradient_range
@@ -197,6 +197,7 @@ class PCCModel(CompiledModel):
         """The packed equations of ``robot`` under ``loads``."""
         return PCCEquations.build(robot, loads, self.balance)
 
+    @announced("tip gradient")
     def tip_gradient(self, robot: Robot, loads: Loads, solution: StaticSolution,
                      options: SolverOptions) -> tuple[np.ndarray, np.ndarray]:
         """Tip position (3,) [m] of an equilibrium and its exact derivative by the tensions (3, n_tendons) [m/N]
@@ -207,6 +208,7 @@ class PCCModel(CompiledModel):
         tip_gradient_range(q[None, :], eq.packed, np.array([eq.packed.tension], dtype=float), 0, 1, out)
         return solution.tip_position, out[0]
 
+    @announced("tip gradient")
     def tip_gradients(self, robot: Robot, tensions: np.ndarray, loads: Loads, q: np.ndarray, options: SolverOptions,
                       threads: int | None = None) -> np.ndarray:
         """Derivatives of the tip by the tensions at many equilibria, shape (B, 3, n_tendons) [m/N]: row b at

@@ -18,6 +18,7 @@ solver's loading path from the unloaded robot. Equations and Jacobian:
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -117,6 +118,8 @@ class SSCRModel(CompiledModel):
     description = ("subsegment Cosserat rod: a rod between each pair of disks, tendons as chords, friction "
                    "(the reference)")
     options_type = SSCROptions
+    #: a cold first use's compile time of each part [s] (2 cores, ``bench/compile_profile.py``)
+    compile_seconds: ClassVar[dict[str, float]] = {"solver": 100.0, "continuation": 80.0}
     capabilities = Capabilities(friction=True, point_wrenches=True, gradient="exact", continuation=True)
     unknowns = ("q: (N, 6), per subsegment the internal force times the subsegment's length and the internal "
                 "moment at its base, world frame [N m]")

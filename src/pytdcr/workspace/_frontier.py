@@ -20,6 +20,7 @@ import numpy as np
 
 from ..bounds import TensionBounds
 from ..records import JsonDict, JsonObject
+from ..runtime import announce_compiling
 from ..validate import SettingsError, check_count
 from ._grid import region_from_points
 from ._plan import SOURCES
@@ -217,6 +218,9 @@ def _faces(tip: np.ndarray, rows: np.ndarray, tried: np.ndarray, voxel: float, c
     return r, f
 
 
+#: the boundary step kernel's cold compile time [s] (2 cores), said at its first use
+_STEP_COMPILE_S = 7.0
+
 def tension_step(J: np.ndarray, t: np.ndarray, lower: np.ndarray, upper: np.ndarray, dp: np.ndarray) -> np.ndarray:
     """The tension step ``dt`` (n,) [N] with ``J dt`` closest to ``dp`` (3,) [m] and ``t + dt`` in the bounds,
     the smallest such: the least-norm solution when it stays inside, else bounded least squares with a small
@@ -234,7 +238,8 @@ def tension_step(J: np.ndarray, t: np.ndarray, lower: np.ndarray, upper: np.ndar
         return dt
     damp = 1e-3 * float(np.abs(A).max())
     lo, hi = np.minimum((lower - t)[free], 0.0), np.maximum((upper - t)[free], 0.0)
-    x = box_least_squares(np.ascontiguousarray(A), np.ascontiguousarray(dp, dtype=float), damp, lo, hi)
+    with announce_compiling("the workspace's boundary step", _STEP_COMPILE_S):
+        x = box_least_squares(np.ascontiguousarray(A), np.ascontiguousarray(dp, dtype=float), damp, lo, hi)
     dt[free] = np.clip(x, (lower - t)[free], (upper - t)[free])
     return dt
 

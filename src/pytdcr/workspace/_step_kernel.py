@@ -8,7 +8,8 @@ its set-up costs about 0.5 ms a call, against a few microseconds here.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from ..runtime import njit
 
 __all__ = ["box_least_squares"]
 

@@ -34,7 +34,8 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+
+from ...runtime import njit
 
 __all__ = ["Rod", "constitutive", "rhs", "shoot"]
 

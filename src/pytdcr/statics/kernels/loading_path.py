@@ -17,9 +17,9 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 from numba.extending import overload
 
+from ...runtime import njit
 from ..options import (
     FOLD_ARCLENGTH,
     FOLD_RELAX,

@@ -29,9 +29,9 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
 from ...kinematics import frames, subsegment
+from ...runtime import njit
 
 # No fast-math here (nor in any kernel): numba links a private, separately optimised copy of every kernel these
 # call into each cached entry point (pcc's and sscr's solvers, the evaluate kernels), as ELF weak symbols, and a

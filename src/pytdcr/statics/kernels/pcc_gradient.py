@@ -11,9 +11,9 @@ residual: one batch runs in threads.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from ...kinematics import tip_jacobian
+from ...runtime import njit
 from .pcc import evaluate, make_work, with_tension
 
 __all__ = ["tip_gradient_range"]

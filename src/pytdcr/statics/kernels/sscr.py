@@ -45,8 +45,8 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
+from ...runtime import njit
 from .pcc import tendon_unit_load_jvp
 
 __all__ = ["SSCRPacked", "SSCRWork", "blend", "evaluate", "largest_angle", "make_model_work", "record_shape",

@@ -7,8 +7,8 @@ solver takes (:func:`pytdcr.statics.kernels.loading_path.model_evaluate`): the s
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from ...runtime import njit
 from .loading_path import model_evaluate, model_with_tension, model_work
 
 __all__ = ["jacobian_range", "largest_residuals"]
