@@ -134,7 +134,7 @@ def set_compile_notice(on: bool) -> None:
 
 @contextmanager
 def announce_compiling(label: str, seconds: float) -> Iterator[None]:
-    """Within this block, the first kernel compile of the process for ``label`` (e.g. ``"the pcc solver"``)
+    """Within this block, the first kernel compile of the process for ``label`` (e.g. ``"the pcc model's solver"``)
     prints ``pytdcr: compiling <label> for first use, about <seconds> s, once`` on stderr (once per label and
     process; nothing when every kernel loads from the cache)."""
     _listen()
