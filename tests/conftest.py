@@ -9,8 +9,13 @@ import numpy as np
 import pytest
 
 from pytdcr import Backbone, Robot, Segment, paper_robot, rao_robot
+from pytdcr.runtime import cache_dir
 
-# the tests keep inverse statics' start pools in a folder of their own, not in the user's cache
+# the tests keep inverse statics' start pools in a folder of their own, not in the user's cache; the compiled
+# kernels stay in the user's (a kernel cache is keyed by its sources, so no test can see a stale one), or every
+# command a test runs in a new process would compile them afresh
+if "PYTDCR_KERNEL_CACHE_DIR" not in os.environ and (_user_cache := cache_dir()) is not None:
+    os.environ["PYTDCR_KERNEL_CACHE_DIR"] = str(_user_cache / "kernels")
 os.environ["PYTDCR_CACHE_DIR"] = tempfile.mkdtemp(prefix="pytdcr-test-cache-")
 
 #: solver tolerance on max |residual| [N m] (the library default)

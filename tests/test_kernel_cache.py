@@ -82,8 +82,22 @@ def test_key_changes_with_a_source_or_the_version(tmp_path: Path, monkeypatch: p
 
 
 def _choose(monkeypatch: pytest.MonkeyPatch, folder: str) -> Path | None:
+    monkeypatch.delenv("PYTDCR_KERNEL_CACHE_DIR", raising=False)
     monkeypatch.setenv("PYTDCR_CACHE_DIR", folder)
     return _jit._choose()
+
+
+@pytest.mark.skipif(not hasattr(os, "geteuid"), reason="POSIX permissions")
+def test_kernel_folder_of_its_own(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """PYTDCR_KERNEL_CACHE_DIR puts the kernels apart from the rest of the cache (as the tests do)."""
+    monkeypatch.setenv("PYTDCR_CACHE_DIR", str(tmp_path / "rest"))
+    monkeypatch.setenv("PYTDCR_KERNEL_CACHE_DIR", str(tmp_path / "kernels"))
+    where = _jit._choose()
+    assert where == tmp_path / "kernels" / kernel_key()
+    assert stat.S_IMODE(where.stat().st_mode) == 0o700
+    assert not (tmp_path / "rest").exists()
+    monkeypatch.setenv("PYTDCR_KERNEL_CACHE_DIR", "")
+    assert _jit._choose() is None  # set empty: numba's own places
 
 
 @pytest.mark.skipif(not hasattr(os, "geteuid"), reason="POSIX permissions")
@@ -185,6 +199,7 @@ def test_first_use_from_a_read_only_install(tmp_path: Path) -> None:
         path.chmod(path.stat().st_mode & ~0o222)
     env = {**os.environ, "PYTHONPATH": str(target), "PYTDCR_CACHE_DIR": str(cache)}
     env.pop("NUMBA_CACHE_DIR", None)
+    env.pop("PYTDCR_KERNEL_CACHE_DIR", None)
     try:
         runs = [subprocess.run([sys.executable, "-c", _FIRST_SOLVE], env=env, capture_output=True, text=True,
                                check=True, cwd=tmp_path) for _ in range(2)]

@@ -1,7 +1,9 @@
 """Compiled kernels: where numba keeps them between runs, and the one line a first use prints while it compiles.
 
 - **Where** (:func:`kernel_cache_dir`): ``<cache>/kernels/<version>-<digest>`` in the one cache folder
-  (:func:`~pytdcr.runtime.cache_dir`: ``PYTDCR_CACHE_DIR``, else the user's cache folder), never beside the
+  (:func:`~pytdcr.runtime.cache_dir`: ``PYTDCR_CACHE_DIR``, else the user's cache folder), or
+  ``$PYTDCR_KERNEL_CACHE_DIR/<version>-<digest>`` when that variable names a folder for the kernels alone (the
+  tests keep the rest of the cache in a folder of their own, the kernels in the user's); never beside the
   installed sources, so a read-only ``site-packages`` works. The key names the package's version and a digest
   of every source a kernel is compiled from (:data:`KERNEL_SOURCES`) and of numba's version: a cache written by
   another version, or before a kernel (or a constant it reads) was edited, is never loaded, since numba itself
@@ -68,8 +70,9 @@ def kernel_key() -> str:
 
 def kernel_cache_dir() -> Path | None:
     """The folder the kernels are cached in (made, mode 0700, on the first call; older key folders beyond
-    :data:`KEPT_KEYS` removed then), or None when the cache folder is off or not a private folder of this
-    user's: numba's own places are used then."""
+    :data:`KEPT_KEYS` removed then), or None when the cache folder is off (``PYTDCR_CACHE_DIR``, or
+    ``PYTDCR_KERNEL_CACHE_DIR`` when set, set empty) or not a private folder of this user's: numba's own places
+    are used then."""
     with _lock:
         if not _chosen:
             _chosen.append(_choose())
@@ -77,17 +80,24 @@ def kernel_cache_dir() -> Path | None:
 
 
 def _choose() -> Path | None:
-    base = cache_dir()
-    if base is None:
-        return None
-    folders = [base, base / "kernels", base / "kernels" / kernel_key()]
+    explicit = os.environ.get("PYTDCR_KERNEL_CACHE_DIR")
+    if explicit is not None:  # the kernels' own folder, apart from the rest of the cache
+        if not explicit.strip():
+            return None
+        base = Path(explicit).expanduser()
+        folders = [base, base / kernel_key()]
+    else:
+        root = cache_dir()
+        if root is None:
+            return None
+        folders = [root, root / "kernels", root / "kernels" / kernel_key()]
     for folder in folders:
         fd = _open_folder(folder, create=True)
         if fd is None:
             return None
         os.close(fd)
-    _prune(folders[1], folders[2])
-    return folders[2]
+    _prune(folders[-2], folders[-1])
+    return folders[-1]
 
 
 def _prune(kernels: Path, keep: Path) -> None:
