@@ -22,7 +22,7 @@ LAYERS = [
     {"robot", "loads", "bounds", "paper", "kinematics", "contact", "results", "io"},
     {"statics"},
     {"workspace", "optimize", "compare", "accuracy"},
-    {"plotting"},
+    {"plotting", "palette"},  # presentation: figures and their shared colours
     {"runs", "designs"},
     {"explore"},  # the local web page (Dash, imported when the app is built)
     {"cli"},

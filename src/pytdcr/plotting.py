@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .palette import PALETTE
 from .results import StaticSolution
 from .robot import Robot
 from .runtime import atomic_write
@@ -44,6 +45,7 @@ __all__ = [
     "plot_robots",
     "plot_support_map",
     "pyplot",
+    "region_colours",
     "save_figure",
     "save_figure_as",
     "set_equal_aspect",
@@ -120,7 +122,7 @@ def save_figure_as(fig: Figure, path: Path) -> Path:
 
 
 def _frame_arrows(ax: Axes3D, origin: np.ndarray, rot: np.ndarray, size: float) -> None:
-    for k, colour in enumerate(("tab:red", "tab:green", "tab:blue")):
+    for k, colour in enumerate((PALETTE.frame_x, PALETTE.frame_y, PALETTE.frame_z)):
         ax.quiver(*origin, *(rot[:, k] * size), color=colour, linewidth=1.5, arrow_length_ratio=0.25)
 
 
@@ -133,7 +135,7 @@ class RobotStyle:
     disks : bool
         The disks, as rings.
     tendons : bool
-        The tendons, one colour each.
+        The tendons' paths (the palette's tendon colour).
     frames : bool
         The base and tip frames (red, green, blue: x, y, z).
     equal : bool
@@ -170,11 +172,11 @@ def plot_robot(
         What to draw besides the backbone (default: everything, on equal axes).
     loads : sequence of (point, vector), (point, vector, colour) or (point, vector, colour, label)
         Arrows to draw (e.g. the tip force) from ``point`` (3,) along ``vector`` (3,),
-        both in the base frame, already scaled to metres (default colour purple); a label names it in the
-        legend.
+        both in the base frame, already scaled to metres (default colour: the palette's tip force); a label
+        names it in the legend.
     **kwargs
-        Passed to the backbone's ``plot`` call (default ``color="k"``, ``linewidth=2.0``; ``label`` names it in
-        a legend).
+        Passed to the backbone's ``plot`` call (default the palette's backbone colour, ``linewidth=2.0``;
+        ``label`` names it in a legend).
     """
     style = style if style is not None else RobotStyle()
     if ax is None:
@@ -182,7 +184,8 @@ def plot_robot(
     pos = solution.disk_positions  # raises if not converged
     rot = solution.disk_rotations
     curve = solution.backbone_points(robot)
-    ax.plot(curve[:, 0], curve[:, 1], curve[:, 2], **{"color": "k", "linewidth": 2.0, "label": None, **kwargs})
+    ax.plot(curve[:, 0], curve[:, 1], curve[:, 2],
+            **{"color": PALETTE.backbone, "linewidth": 2.0, "label": None, **kwargs})
     holes = robot.tendon_holes
     ring_r = float(np.max(np.linalg.norm(holes, axis=1))) * 1.2 if robot.n_tendons else 0.01
     pts = [curve]
@@ -191,25 +194,24 @@ def plot_robot(
         circle = np.stack([np.cos(phi), np.sin(phi), np.zeros_like(phi)]) * ring_r
         for i in range(pos.shape[0]):
             ring = pos[i][:, None] + rot[i] @ circle
-            ax.plot(ring[0], ring[1], ring[2], color="0.45", linewidth=0.8)
+            ax.plot(ring[0], ring[1], ring[2], color=PALETTE.disks, linewidth=0.8)
             pts.append(ring.T)
     if style.tendons and robot.n_tendons:
         anchors = robot.anchor_disks
-        cmap = pyplot().get_cmap("tab10")
         for c in range(robot.n_tendons):
             path = np.array([pos[i] + rot[i] @ holes[c] for i in range(anchors[c] + 1)])
-            ax.plot(path[:, 0], path[:, 1], path[:, 2], color=cmap(c % 10), linewidth=0.9)
+            ax.plot(path[:, 0], path[:, 1], path[:, 2], color=PALETTE.tendons, linewidth=0.9)
     if style.frames:
         size = 0.12 * robot.length
         _frame_arrows(ax, pos[0], rot[0], size)
         _frame_arrows(ax, pos[-1], rot[-1], size)
     keys: list[tuple[str, str]] = []
     if style.frames:
-        keys += [("tab:red", "frame x"), ("tab:green", "frame y"), ("tab:blue", "frame z")]
+        keys += [(PALETTE.frame_x, "frame x"), (PALETTE.frame_y, "frame y"), (PALETTE.frame_z, "frame z")]
     for arrow in loads:
         point = np.asarray(arrow[0], dtype=float)
         vec = np.asarray(arrow[1], dtype=float)
-        colour = arrow[2] if len(arrow) > 2 else "tab:purple"
+        colour = arrow[2] if len(arrow) > 2 else PALETTE.tip_force
         ax.quiver(*point, *vec, color=colour, linewidth=2.0, arrow_length_ratio=0.2)
         pts.append(np.stack([point, point + vec]))
         if len(arrow) > 3:
@@ -230,18 +232,39 @@ def plot_robot(
 def plot_robots(
     robot: Robot, solutions: Sequence[StaticSolution], ax: Axes3D | None = None, **kwargs
 ) -> Axes3D:
-    """Several converged shapes on one axis (non-converged ones are skipped)."""
+    """Several converged shapes on one axis (non-converged ones are skipped), each coloured by its reach
+    ||tip|| [mm] on a colour bar, its tip marked, the base as a black dot.
+
+    Parameters
+    ----------
+    robot : Robot
+    solutions : sequence of StaticSolution
+    ax : Axes3D, optional
+    **kwargs
+        Passed to each backbone's ``plot`` call.
+    """
+    from matplotlib import colors as mcolors
+
     if ax is None:
-        ax = new_3d_axes()
+        ax = new_3d_axes((7.0, 6.0))
+    good = sorted((s for s in solutions if s.converged), key=lambda s: s.reach)
+    if not good:
+        return ax
+    reach = np.array([s.reach for s in good]) * 1e3
+    norm = mcolors.Normalize(float(reach.min()), float(max(reach.max(), reach.min() + 1e-9)))
     cmap = pyplot().get_cmap("viridis")
-    good = [s for s in solutions if s.converged]
-    pts = []
-    for k, s in enumerate(good):
-        plot_robot(robot, s, ax, style=RobotStyle(tendons=False, frames=False, equal=False),
-                   **{"color": cmap(k / max(1, len(good) - 1)), **kwargs})
+    pts = [np.zeros((1, 3))]
+    for s, r in zip(good, reach, strict=True):
+        colour = cmap(norm(r))
+        plot_robot(robot, s, ax, style=RobotStyle(disks=False, tendons=False, frames=False, equal=False),
+                   **{"color": colour, "linewidth": 1.6, **kwargs})
+        tip = s.tip_position
+        ax.scatter(*tip, color=colour, s=14, depthshade=False)
         pts.append(s.disk_positions)
-    if pts:
-        set_equal_aspect(ax, np.vstack(pts))
+    ax.scatter(0.0, 0.0, 0.0, color=PALETTE.backbone, s=18, depthshade=False)
+    set_equal_aspect(ax, np.vstack(pts))
+    bar = ax.figure.colorbar(pyplot().cm.ScalarMappable(norm=norm, cmap=cmap), ax=ax, shrink=0.6, pad=0.1)
+    bar.set_label("reach ||tip|| [mm]")
     return ax
 
 
@@ -259,7 +282,6 @@ def plot_model_overlay(
     """
     if ax is None:
         ax = new_3d_axes()
-    cmap = pyplot().get_cmap("tab10")
     pts = []
     k = 0
     styles = ("-", "--", ":", "-.")
@@ -273,7 +295,7 @@ def plot_model_overlay(
         for m, (sol, name) in enumerate(zip(group, names, strict=True)):
             style = styles[m % len(styles)]
             plot_robot(robot, sol, ax, style=RobotStyle(disks=False, tendons=False, frames=False, equal=False),
-                       color=cmap(k % 10), linestyle=style, label=f"case {cid} {name}" if k < 10 else None)
+                       color=PALETTE.nth(k), linestyle=style, label=f"case {cid} {name}" if k < 10 else None)
             pts.append(sol.backbone_points(robot))
         k += 1
     if pts:
@@ -302,14 +324,14 @@ def plot_reach_samples(reach: np.ndarray, converged: np.ndarray, ax: Axes | None
     reach = np.asarray(reach, dtype=float)
     ok = np.asarray(converged, dtype=bool)
     idx = np.arange(1, reach.size + 1)
-    ax.plot(idx[ok], reach[ok], "o", mfc="none", color="tab:blue", label="converged samples", **kwargs)
+    ax.plot(idx[ok], reach[ok], "o", ms=4, color=PALETTE.samples, label="converged samples", **kwargs)
     if ok.sum() >= 5:
         spline = make_smoothing_spline(idx[ok].astype(float), reach[ok])
         xs = np.linspace(idx[ok][0], idx[ok][-1], 400)
-        ax.plot(xs, spline(xs), "-", color="tab:red", label="smoothing spline")
+        ax.plot(xs, spline(xs), "-", color=PALETTE.fit, label="smoothing spline")
     if np.any(~ok):
         lo = np.nanmin(reach[ok]) if np.any(ok) else 0.0
-        ax.plot(idx[~ok], np.full((~ok).sum(), lo), "x", color="k", label=f"not converged ({(~ok).sum()})")
+        ax.plot(idx[~ok], np.full((~ok).sum(), lo), "x", color=PALETTE.failed, label=f"not converged ({(~ok).sum()})")
     ax.set_xlabel("sample number")
     ax.set_ylabel(r"$\|{}^0P_n\|_2$ [m]")
     ax.legend(loc="best", fontsize=8)
@@ -321,8 +343,8 @@ def plot_convergence(best: Sequence[float], mean: Sequence[float], ax: Axes | No
     if ax is None:
         ax = pyplot().figure(figsize=(6.0, 4.0)).add_subplot()
     gens = np.arange(1, len(best) + 1)
-    ax.plot(gens, best, "o-", color="tab:blue", markersize=4, label="best cost", **kwargs)
-    ax.plot(gens, mean, "s", color="tab:red", markersize=3, label="mean cost (feasible)")
+    ax.plot(gens, best, "o-", color=PALETTE.fit, markersize=4, label="best cost", **kwargs)
+    ax.plot(gens, mean, "s", color=PALETTE.samples, markersize=3, label="mean cost (feasible)")
     ax.set_xlabel("generation")
     ax.set_ylabel(r"cost $1/\|{}^0P_n\|_2$ [1/m]")
     ax.legend(loc="best", fontsize=8)
@@ -341,11 +363,11 @@ def plot_order(studies: Sequence[OrderStudy], ax: Axes | None = None, **kwargs: 
         ax = pyplot().figure(figsize=(6.5, 4.5)).add_subplot()
     markers = ("o", "s", "^", "D")
     styles = ("-", "--", ":", "-.")
-    cmap = pyplot().get_cmap("tab10")
     for g, st in enumerate(studies):
         for j, (name, e) in enumerate(st.errors_mm.items()):
             ok = np.isfinite(e) & (e > 0)
-            ax.loglog(st.spacing[ok] * 1e3, e[ok], marker=markers[j % 4], color=cmap(g % 10), linestyle=styles[j % 4],
+            ax.loglog(st.spacing[ok] * 1e3, e[ok], marker=markers[j % 4], color=PALETTE.model(name),
+                      linestyle=styles[g % 4],
                       label=f"{name}, {st.group}: order {st.order[name]:.2f}", **kwargs)
     ax.set_xlabel("disk spacing [mm]")
     ax.set_ylabel("tip error against sscr [mm]")
@@ -354,57 +376,111 @@ def plot_order(studies: Sequence[OrderStudy], ax: Axes | None = None, **kwargs: 
     return ax
 
 
-def plot_region_slices(regions: dict[str, Region], length: float, title: str = "") -> Figure:
-    """Slices of workspace regions (:class:`pytdcr.workspace.Region`), overlaid (a line style each, so that equal
-    boundaries stay visible): the xz plane (y = 0), the yz plane (x = 0) and the xy plane at 1/4, 1/2 and 3/4
-    of ``length`` [m]. Returns the figure."""
+def region_colours(labels: Sequence[str]) -> list[str]:
+    """The colour of each region drawn together: the first the palette's region colour, one labelled
+    ``realisable`` the realisable colour, the others the numbered series (skipping those two)."""
+    others = [c for c in PALETTE.series if c not in (PALETTE.region_edge, PALETTE.realisable)]
+    out, k = [], 0
+    for n, label in enumerate(labels):
+        if n == 0:
+            out.append(PALETTE.region_edge)
+        elif label == "realisable":
+            out.append(PALETTE.realisable)
+        else:
+            out.append(others[k % len(others)])
+            k += 1
+    return out
+
+
+def _note(fig: Figure, title: str, note: str) -> None:
+    """``title`` as the figure's title, with ``note`` (a warning, e.g. an unconverged run) on a line below it;
+    a title with a note is drawn in the palette's warning colour."""
+    text = "\n".join(t for t in (title, note) if t)
+    if text:
+        fig.suptitle(text, color=PALETTE.warning if note else "black")
+
+
+def _occupied_box(regions: Sequence[Region]) -> tuple[np.ndarray, np.ndarray] | None:
+    """The smallest box [m] (lower and upper corners, (3,) each) holding every occupied voxel of ``regions``
+    and the base's centre (the origin); None when no region has a voxel."""
+    lo, hi = np.zeros(3), np.zeros(3)
+    found = False
+    for region in regions:
+        idx = np.argwhere(region.occupied)
+        if idx.size == 0:
+            continue
+        found = True
+        lo = np.minimum(lo, region.origin + idx.min(axis=0) * region.voxel)
+        hi = np.maximum(hi, region.origin + (idx.max(axis=0) + 1) * region.voxel)
+    return (lo, hi) if found else None
+
+
+def plot_region_slices(regions: dict[str, Region], length: float, title: str = "", note: str = "") -> Figure:
+    """Slices of workspace regions (:class:`pytdcr.workspace.Region`), overlaid: each region's voxels in the
+    plane filled in its colour (translucent) and outlined along the voxels' edges (a line style each, so that
+    equal boundaries stay visible); the xz plane (y = 0), the yz plane (x = 0) and the xy plane at 1/4, 1/2 and
+    3/4 of ``length`` [m]. The axes hold every region's voxels and the base (x = y = z = 0); ``note`` (e.g.
+    that the run did not converge) is written under the title in the warning colour. Returns the figure."""
+    from matplotlib.patches import Patch
+
     plt = pyplot()
-    fig, axes = plt.subplots(1, 5, figsize=(20, 4.4), layout="constrained")
-    cuts = [("xz (y = 0)", 1, 0.0), ("yz (x = 0)", 0, 0.0)] + [
-        (f"xy (z = {f * length * 1e3:.0f} mm)", 2, f * length) for f in (0.25, 0.5, 0.75)]
-    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
-    for ax, (name, axis, at) in zip(axes, cuts, strict=True):
+    box = _occupied_box(list(regions.values()))
+    lo, hi = box if box is not None else (np.array([-length, -length, -0.5 * length]), np.full(3, length))
+    pad = 0.04 * float(np.max(hi - lo)) + 1e-3
+    lo, hi = lo - pad, hi + pad
+    planar = ((0, 2), (1, 2), (0, 1), (0, 1), (0, 1))
+    widths = [hi[u] - lo[u] for u, _ in planar]
+    fig, axes = plt.subplots(1, 5, figsize=(18, 4.8), layout="constrained", gridspec_kw={"width_ratios": widths})
+    cuts = [("xz plane (y = 0)", 1, 0.0), ("yz plane (x = 0)", 0, 0.0)] + [
+        (f"xy plane (z = {f * length * 1e3:.0f} mm)", 2, f * length) for f in (0.25, 0.5, 0.75)]
+    colours = region_colours(list(regions))
+    styles = ("-", "--", ":", "-.")
+    for ax, (name, axis, at), (u, v) in zip(axes, cuts, planar, strict=True):
         for k, region in enumerate(regions.values()):
-            _slice_contour(ax, region, axis, at, colours[k % len(colours)], ("-", "--", ":", "-.")[k % 4])
+            _slice_cells(ax, region, axis, at, colours[k], styles[k % 4])
         ax.set_title(name)
         ax.set_aspect("equal")
-        ax.set_xlim(-length, length)
-        ax.set_ylim(-length if axis == 2 else -0.5 * length, length)
-        ax.set_xlabel("x [m]" if axis != 0 else "y [m]")
-        ax.set_ylabel("z [m]" if axis != 2 else "y [m]")
-    for k, (label, region) in enumerate(regions.items()):  # one legend entry per region, drawn or empty
-        empty = "" if region.occupied.any() else " (empty)"
-        axes[0].plot([], [], color=colours[k % len(colours)], linestyle=("-", "--", ":", "-.")[k % 4],
-                     label=label + empty)
-    axes[0].legend(loc="lower left", fontsize=8)
-    if title:
-        fig.suptitle(title)
+        ax.set_xlim(lo[u], hi[u])
+        ax.set_ylim(lo[v], hi[v])
+        ax.set_xlabel("xyz"[u] + " [m]")
+        ax.set_ylabel("xyz"[v] + " [m]")
+        ax.grid(alpha=0.25)
+    handles = [Patch(facecolor=colours[k], alpha=_FILL_ALPHA, edgecolor=colours[k], linestyle=styles[k % 4],
+                     label=label + ("" if region.occupied.any() else " (empty)"))
+               for k, (label, region) in enumerate(regions.items())]  # one entry per region, drawn or empty
+    fig.legend(handles=handles, loc="outside lower center", ncols=min(len(handles), 6), fontsize=9)
+    _note(fig, title, note)
     return fig
 
 
 def plot_multistability(tips: np.ndarray, checked: np.ndarray, other: np.ndarray, distinct: np.ndarray,
                         length: float, labels: tuple[str, str], title: str = "") -> Figure:
-    """Where a region's equilibria depend on the robot's history: the region's tips ``tips`` (M, 3) [m] in grey,
-    the checked ones ``checked`` (K, 3) [m], and where the other history reaches another equilibrium
-    (``distinct`` (K,) of bool) both tips joined by a line, ``other`` (K, 3) [m] the other history's.
-    ``labels`` name the two histories (the region's, the other). Three projections (xz, yz, xy). Returns the
-    figure."""
+    """Where a region's equilibria depend on the robot's history: the region's tips ``tips`` (M, 3) [m] in the
+    samples' colour, the checked ones ``checked`` (K, 3) [m], and where the other history reaches another
+    equilibrium (``distinct`` (K,) of bool) both tips joined by a line, ``other`` (K, 3) [m] the other
+    history's. ``labels`` name the two histories (the region's, the other). Three projections (xz, yz, xy),
+    whose axes hold every point drawn and the base. Returns the figure."""
     plt = pyplot()
     fig, axes = plt.subplots(1, 3, figsize=(15, 5.2), layout="constrained")
     same = ~distinct
+    drawn = np.vstack([np.zeros((1, 3)), *(np.asarray(p, dtype=float).reshape(-1, 3) for p in (tips, checked, other))])
+    drawn = drawn[np.all(np.isfinite(drawn), axis=1)]
+    pad = 0.05 * float(np.ptp(drawn, axis=0).max()) + 1e-3
+    lo, hi = drawn.min(axis=0) - pad, drawn.max(axis=0) + pad
     for ax, (u, v, name) in zip(axes, ((0, 2, "xz"), (1, 2, "yz"), (0, 1, "xy")), strict=True):
-        ax.scatter(tips[:, u], tips[:, v], s=2, color="0.8", label="region", rasterized=True)
-        ax.scatter(checked[same, u], checked[same, v], s=9, color="tab:blue", label="checked: the same equilibrium")
+        ax.scatter(tips[:, u], tips[:, v], s=2, color=PALETTE.samples, label="region's tips", rasterized=True)
+        ax.scatter(checked[same, u], checked[same, v], s=9, color=PALETTE.region_edge,
+                   label="checked: the same equilibrium")
         for a, b in zip(checked[distinct], other[distinct], strict=True):
-            ax.plot([a[u], b[u]], [a[v], b[v]], color="tab:red", linewidth=0.6)
-        ax.scatter(checked[distinct, u], checked[distinct, v], s=16, color="tab:red",
+            ax.plot([a[u], b[u]], [a[v], b[v]], color=PALETTE.warning, linewidth=0.6)
+        ax.scatter(checked[distinct, u], checked[distinct, v], s=16, color=PALETTE.warning,
                    label=f"another equilibrium: {labels[0]}")
-        ax.scatter(other[distinct, u], other[distinct, v], s=16, facecolors="none", edgecolors="tab:red",
+        ax.scatter(other[distinct, u], other[distinct, v], s=16, facecolors="none", edgecolors=PALETTE.warning,
                    label=f"... and {labels[1]}")
         ax.set_title(f"{name} projection")
         ax.set_aspect("equal")
-        ax.set_xlim(-length, length)
-        ax.set_ylim(-length if v != 2 else -0.5 * length, length)
+        ax.set_xlim(lo[u], hi[u])
+        ax.set_ylim(lo[v], hi[v])
         ax.set_xlabel("xyz"[u] + " [m]")
         ax.set_ylabel("xyz"[v] + " [m]")
     fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", ncols=4, fontsize=9)
@@ -413,22 +489,40 @@ def plot_multistability(tips: np.ndarray, checked: np.ndarray, other: np.ndarray
     return fig
 
 
-def _slice_contour(ax: Axes, region: Region, axis: int, at: float, colour: str, style: str) -> None:
-    """The boundary of ``region`` in the plane ``coordinate[axis] = at``, as a contour line."""
+#: the opacity of a region's fill in a slice (and of its legend entry)
+_FILL_ALPHA = 0.35
+
+
+def _slice_cells(ax: Axes, region: Region, axis: int, at: float, colour: str, style: str) -> None:
+    """The voxels of ``region`` in the plane ``coordinate[axis] = at``: filled (translucent) and outlined along
+    the edges between an occupied and an empty voxel."""
+    from matplotlib.collections import LineCollection
+    from matplotlib.colors import ListedColormap
+
     i = int(np.floor((at - region.origin[axis]) / region.voxel))
     if not (0 <= i < region.occupied.shape[axis]):
         return
-    plane = np.take(region.occupied, i, axis=axis).astype(float)
-    keep = [a for a in range(3) if a != axis]
-    u = region.origin[keep[0]] + (np.arange(plane.shape[0]) + 0.5) * region.voxel
-    v = region.origin[keep[1]] + (np.arange(plane.shape[1]) + 0.5) * region.voxel
-    if plane.shape[0] < 2 or plane.shape[1] < 2 or not plane.any():
+    plane = np.take(region.occupied, i, axis=axis)
+    if not plane.any():
         return
-    ax.contour(u, v, plane.T, levels=[0.5], colors=[colour], linewidths=1.2, linestyles=style)
-
-
-def _colours() -> list[str]:
-    return list(pyplot().rcParams["axes.prop_cycle"].by_key()["color"])
+    keep = [a for a in range(3) if a != axis]
+    h = region.voxel
+    u = region.origin[keep[0]] + np.arange(plane.shape[0] + 1) * h
+    v = region.origin[keep[1]] + np.arange(plane.shape[1] + 1) * h
+    ax.pcolormesh(u, v, np.ma.masked_where(~plane.T, np.ones(plane.T.shape)), cmap=ListedColormap([colour]),
+                  alpha=_FILL_ALPHA, shading="flat", rasterized=True, linewidth=0)
+    padded = np.pad(plane, 1)
+    segments = []
+    for du, dv in ((1, 0), (0, 1)):  # edges where a voxel and its neighbour along u (then v) differ
+        diff = padded[du:, dv:] != padded[:padded.shape[0] - du, :padded.shape[1] - dv]
+        for a, b in np.argwhere(diff):
+            if du:  # between (a - 1, b - 1) and (a, b - 1): an edge at u[a] from v[b - 1] to v[b]
+                if 1 <= b <= plane.shape[1]:
+                    segments.append([(u[a], v[b - 1]), (u[a], v[b])])
+            elif 1 <= a <= plane.shape[0]:
+                segments.append([(u[a - 1], v[b]), (u[a], v[b])])
+    ax.add_collection(LineCollection(segments, colors=[colour], linewidths=1.2, linestyles=style),
+                      autolim=False)
 
 
 def _decimated(mesh: Trimesh, faces: int) -> tuple[np.ndarray, np.ndarray]:
@@ -439,42 +533,49 @@ def _decimated(mesh: Trimesh, faces: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def plot_region_3d(meshes: Mapping[str, Trimesh | None], robot_positions: np.ndarray | None = None, title: str = "",
-                   max_faces: int = 12_000) -> Figure:
-    """Workspace boundaries (``trimesh.Trimesh``, base frame, metres) as translucent surfaces, one colour each,
-    overlaid; the robot's disk centres ``robot_positions`` (N+1, 3) [m] as a line with markers (its largest-reach
-    configuration, say) and the base plane's outline. Big meshes are thinned to ``max_faces`` faces for the
-    drawing. Returns the figure."""
+                   max_faces: int = 12_000, note: str = "") -> Figure:
+    """Workspace boundaries (``trimesh.Trimesh``, base frame, metres) as translucent surfaces, one colour each
+    (:func:`region_colours`), overlaid; the robot's disk centres ``robot_positions`` (N+1, 3) [m] as a line
+    with markers (its largest-reach configuration, say) and the base plane's outline. Big meshes are thinned to
+    ``max_faces`` faces for the drawing; the regions after the first (e.g. the realisable part, inside it) are
+    drawn more opaque and over it, so that their colour is not blended with the first's. Each legend entry has
+    its surface's colour and opacity; ``note`` (e.g. that the run did not converge) is written under the title,
+    both in the warning colour. Returns the figure."""
+    from matplotlib.colors import to_rgba
+    from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    ax = new_3d_axes((7.5, 7.0))
-    colours, handles, pts = _colours(), [], [np.zeros((1, 3))]
+    fig = pyplot().figure(figsize=(7.5, 7.4), layout="constrained")
+    ax = fig.add_subplot(projection="3d")
+    ax.computed_zorder = False  # drawn in order (first region, those inside it, the robot): each keeps its colour
+    colours, handles, pts = region_colours(list(meshes)), [], [np.zeros((1, 3))]
     for k, (label, mesh) in enumerate(meshes.items()):
         if mesh is None or len(mesh.faces) == 0:
             continue
         v, f = _decimated(mesh, max_faces // max(len(meshes), 1))
-        c = colours[k % len(colours)]
-        ax.add_collection3d(Poly3DCollection(v[f], facecolor=c, edgecolor="none", alpha=0.18))
-        handles.append(Patch(facecolor=c, alpha=0.5, label=label))
+        face = to_rgba(colours[k], 0.12 if k == 0 else 0.5)
+        ax.add_collection3d(Poly3DCollection(v[f], facecolors=[face], edgecolors="none", shade=False, zorder=k + 1))
+        handles.append(Patch(facecolor=face, edgecolor=colours[k], label=label))
         pts.append(v)
     if robot_positions is not None:
         p = np.asarray(robot_positions)
-        ax.plot(p[:, 0], p[:, 1], p[:, 2], "-o", color="black", markersize=3, linewidth=2)
-        handles.append(Patch(facecolor="black", label="robot at the largest reach"))
+        ax.plot(p[:, 0], p[:, 1], p[:, 2], "-o", color=PALETTE.backbone, markersize=3, linewidth=2, zorder=10)
+        handles.append(Line2D([], [], color=PALETTE.backbone, marker="o", markersize=3, linewidth=2,
+                              label="robot at the largest reach"))
         pts.append(p)
     allp = np.vstack(pts)
     r = float(np.abs(allp[:, :2]).max()) if allp.size else 0.1
     ring = np.linspace(0, 2 * np.pi, 90)
-    ax.plot(r * np.cos(ring), r * np.sin(ring), 0 * ring, color="grey", linewidth=0.8, linestyle=":")
+    ax.plot(r * np.cos(ring), r * np.sin(ring), 0 * ring, color=PALETTE.disks, linewidth=0.8, linestyle=":")
     set_equal_aspect(ax, allp)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_zlabel("z [m]")
     ax.view_init(elev=18, azim=-60)
     if handles:
-        ax.legend(handles=handles, loc="upper left", fontsize=8)
-    if title:
-        ax.set_title(title)
+        ax.figure.legend(handles=handles, loc="outside lower center", ncols=min(len(handles), 3), fontsize=8)
+    _note(fig, title, note)
     return ax.figure
 
 
@@ -522,7 +623,7 @@ def write_region_html(path: str | Path, meshes: Mapping[str, Trimesh | None],
     import plotly.graph_objects as go
 
     traces = []
-    colours = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"]
+    colours = region_colours(list(meshes))
     for k, (label, mesh) in enumerate(meshes.items()):
         if mesh is None or len(mesh.faces) == 0:
             continue
@@ -534,11 +635,12 @@ def write_region_html(path: str | Path, meshes: Mapping[str, Trimesh | None],
         p = p[np.all(np.isfinite(p), axis=1)]
         p = p[:: max(1, int(np.ceil(p.shape[0] / max_points)))]
         traces.append(go.Scatter3d(x=p[:, 0], y=p[:, 1], z=p[:, 2], mode="markers", name=label,
-                                   marker={"size": 1.5, "color": "#444444"}, visible="legendonly"))
+                                   marker={"size": 1.5, "color": PALETTE.samples}, visible="legendonly"))
     if robot_positions is not None:
         r = np.asarray(robot_positions)
         traces.append(go.Scatter3d(x=r[:, 0], y=r[:, 1], z=r[:, 2], mode="lines+markers", name="robot",
-                                   line={"color": "black", "width": 6}, marker={"size": 3, "color": "black"}))
+                                   line={"color": PALETTE.backbone, "width": 6},
+                                   marker={"size": 3, "color": PALETTE.backbone}))
     fig = go.Figure(traces)
     fig.update_layout(title=title, scene={"aspectmode": "data", "xaxis_title": "x [m]", "yaxis_title": "y [m]",
                                           "zaxis_title": "z [m]"}, legend={"itemsizing": "constant"})

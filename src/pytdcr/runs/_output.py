@@ -11,6 +11,7 @@ import numpy as np
 from .._version import __version__
 from ..io import robot_to_dict
 from ..loads import Loads
+from ..palette import PALETTE
 from ..records import JsonDict
 from ..results import StaticSolution
 from ..robot import Robot
@@ -34,7 +35,8 @@ def inputs_record(robot: Robot, loads: Loads, **extra: object) -> JsonDict:
 
 
 def load_arrows(sol: StaticSolution, loads: Loads, robot: Robot) -> list[tuple[np.ndarray, np.ndarray, str, str]]:
-    """Arrows for the tip force (purple) and the tip moment's axis (orange), scaled to a quarter of the length.
+    """Arrows for the tip force and the tip moment's axis (their :data:`~pytdcr.palette.PALETTE` colours), scaled
+    to a quarter of the length.
 
     Each arrow is its load's unit vector (:func:`~pytdcr.validate.direction_or_none`, safe at any scale); a load
     whose components are all below :data:`~pytdcr.validate.MIN_DIRECTION` (zero, or too small to have a
@@ -42,8 +44,8 @@ def load_arrows(sol: StaticSolution, loads: Loads, robot: Robot) -> list[tuple[n
     """
     arrows: list[tuple[np.ndarray, np.ndarray, str, str]] = []
     scale = 0.25 * robot.length
-    for load, length, colour, what, unit in ((loads.tip_force, scale, "tab:purple", "tip force", "N"),
-                                             (loads.tip_moment, scale * 0.6, "tab:orange", "tip moment axis",
+    for load, length, colour, what, unit in ((loads.tip_force, scale, PALETTE.tip_force, "tip force", "N"),
+                                             (loads.tip_moment, scale * 0.6, PALETTE.tip_moment, "tip moment axis",
                                               "N m")):
         v = np.asarray(load, dtype=float)
         d = direction_or_none(v, what)

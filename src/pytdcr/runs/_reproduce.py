@@ -177,8 +177,8 @@ def _sample_and_passive(robot: Robot, loads: Loads, bounds: TensionBounds, s: Re
     passive = solve(robot, loads)
     if passive.converged:
         ax = plot_robot(robot, passive, loads=load_arrows(passive, loads, robot))
-        ax.set_title(f"no tension; tip force {tuple(loads.tip_force.tolist())} N (purple),\n"
-                     f"moment {tuple(loads.tip_moment.tolist())} N m (orange: axis)")
+        ax.set_title(f"robot '{robot.name}', no tension: tip force {tuple(loads.tip_force.tolist())} N,\n"
+                     f"tip moment {tuple(loads.tip_moment.tolist())} N m (arrows: the legend)", fontsize=10)
         files += save_figure(ax.figure, out, "fig3b_loaded")
     return sampling, PassiveSolveRecord.of(bool(passive.converged), passive.tip_position, passive.reach)
 
@@ -303,7 +303,8 @@ def _reproduce(robot: Robot, out: Path, seed: int, progress: Progress | None, s:
         # Fig. 5 (each population, under the paper's load) and Fig. 6 (under a payload along gravity), drawn as
         # the runs finish
         if key.startswith("pop") or key == "payload":
-            files.extend(write_optimize(r, jobs[key].problem, out, stem=key))
+            words = f"a {PAYLOAD_MASS * 1e3:g} g payload" if key == "payload" else "the paper's tip wrench"
+            files.extend(write_optimize(r, jobs[key].problem, out, stem=key, load_words=words))
         if key.startswith("pop"):
             pops[jobs[key].pop] = r
             if len(pops) == len(set(s.pops)):  # the optimum is known: each better model takes it up beside the GA

@@ -313,7 +313,7 @@ def _sample_into(out: Path, settings: SampleSettings, inputs: RunInputs,
         shapes = [solve(robot, loads.with_tensions(samples.tensions[k]), model=m, q0=samples.q[k], options=opts)
                   for k in ok]
         ax = plot_robots(robot, shapes)
-        ax.set_title(f"{len(shapes)} sampled configurations")
+        ax.set_title(f"robot '{robot.name}' ({m.name}): {len(shapes)} sampled configurations, coloured by reach")
         files += save_figure(ax.figure, out, "fig4_configurations")
         writer.write_record(samples, files)
     return SampleRun(robot, samples, [*files, "sample_run.json"], m.name)
@@ -451,9 +451,12 @@ def run_optimize(settings: OptimizeSettings, out: str | Path | None, *, robot: R
             return OptimizeRun(problem, res, write_optimize(res, problem, run.staging))
 
 
-def write_optimize(res: ReachResult, problem: ReachProblem, out: Path, *, stem: str = "") -> list[str]:
+def write_optimize(res: ReachResult, problem: ReachProblem, out: Path, *, stem: str = "",
+                   load_words: str = "") -> list[str]:
     """Fig. 5, Fig. 6, the history CSV and the JSON record (:class:`OptimizeRecord`) of a GA run into ``out``, a
-    folder the caller manages; returns the file names. ValueError for the result of a polish alone (no GA)."""
+    folder the caller manages; returns the file names. ``load_words`` names the load case in the figures' titles
+    (e.g. "the paper's tip wrench", "a payload"; default "the given loads"). ValueError for the result of a
+    polish alone (no GA)."""
     s = res.ga_settings
     if s is None:
         raise ValueError("write_optimize: the result of a polish alone has no GA to report")
@@ -462,12 +465,12 @@ def write_optimize(res: ReachResult, problem: ReachProblem, out: Path, *, stem: 
     sfx = f"_{stem}" if stem else ""
     h = res.per_generation
     ax = plot_convergence(h.best.tolist(), h.mean.tolist())
-    ax.set_title(f"GA, population {s.pop_size}: {res.generations} generations, {res.evaluations} solves")
+    where = f"robot '{robot.name}' ({problem.model.name}), {load_words or 'the given loads'}"
+    ax.set_title(f"{where}\nGA, population {s.pop_size}: {res.generations} generations, {res.evaluations} solves")
     files += save_figure(ax.figure, out, f"fig5_convergence{sfx}")
     sol = problem.solve(res.tensions, atol=TIGHT_ATOL)
     ax = plot_robot(robot, sol, loads=load_arrows(sol, loads, robot))
-    ax.set_title(f"optimal robot: reach {sol.reach:.4f} m\n(purple: tip force, orange: tip moment axis)"
-                 if np.any(loads.tip_moment) else f"optimal robot: reach {sol.reach:.4f} m (purple: tip force)")
+    ax.set_title(f"{where}\nthe optimum: reach {sol.reach:.4f} m")
     files += save_figure(ax.figure, out, f"fig6_optimum{sfx}")
     write_csv(out / f"history{sfx}.csv",
               ["generation", "best_cost_per_m", "mean_cost_per_m", "evaluations", "nonconverged"],

@@ -141,6 +141,17 @@ def _save_samples(out: Path, s: RegionSamples) -> None:
     atomic_write(out / "samples.npz", write)
 
 
+def unfinished_note(cases: Sequence[WorkspaceCase]) -> str:
+    """A figure's warning line naming the ``cases`` whose boundary search stopped at its budget before the
+    region converged (their regions are unfinished: the drawn region is close to a lower bound); "" for none."""
+    short = [c.name for c in cases
+             if c.summary.boundary_search is not None and c.summary.boundary_search.stop == "budget"]
+    if not short:
+        return ""
+    what = f" under {', '.join(short)}" if len(cases) > 1 else ""
+    return f"not converged{what}: the boundary search stopped at its budget (the region drawn is unfinished)"
+
+
 def _robot_at(case: WorkspaceCase, robot: Robot) -> np.ndarray | None:
     """Disk centres (N+1, 3) [m] at the reach search's tensions, or None."""
     if case.reach is None:
@@ -178,10 +189,11 @@ def _write_case(out: Path, case: WorkspaceCase, robot: Robot, command: str) -> l
               "realisable": wr.realisable_region.mesh() if meshed["fsw_realisable.ply"] else None}
     pose = _robot_at(case, robot)
     files += save_figure(plot_region_slices({"FSW": wr.fsw_region, "realisable": wr.realisable_region},
-                                            robot.length, f"robot '{robot.name}': workspace slices, {case.name}"),
+                                            robot.length, f"robot '{robot.name}' ({case.study.model.name}): "
+                                            f"workspace slices, {case.name}", unfinished_note([case])),
                          out, "slices")
-    files += save_figure(plot_region_3d(meshes, pose, f"robot '{robot.name}': FSW boundary, {case.name}"),
-                         out, "boundary_3d")
+    files += save_figure(plot_region_3d(meshes, pose, f"robot '{robot.name}' ({case.study.model.name}): FSW "
+                                        f"boundary, {case.name}", note=unfinished_note([case])), out, "boundary_3d")
     ms = wr.multistability
     if ms is not None and ms.checked:
         files += save_figure(plot_multistability(s.tip_position[s.feasible], s.tip_position[ms.rows], ms.other_tip,
@@ -364,10 +376,11 @@ def _write_comparison(out: Path, cases: Sequence[WorkspaceCase], robot: Robot, c
         write_json(out / "comparison.json", replace(comparison, files=("comparison.md", "comparison.json")).to_json())
         return ["comparison.md", "comparison.json"]
     files = save_figure(plot_region_slices({c.name: c.region.fsw_region for c in cases}, robot.length,
-                                           f"robot '{robot.name}': FSW of each case"), out, "slices_compare")
+                                           f"robot '{robot.name}': FSW of each case", unfinished_note(cases)),
+                        out, "slices_compare")
     meshes = {c.name: c.region.fsw_region.mesh() for c in cases if c.region.fsw.has_volume}
-    files += save_figure(plot_region_3d(meshes, None, f"robot '{robot.name}': FSW boundaries"), out,
-                         "boundaries_compare")
+    files += save_figure(plot_region_3d(meshes, None, f"robot '{robot.name}': FSW boundaries",
+                                        note=unfinished_note(cases)), out, "boundaries_compare")
     write_region_html(out / "comparison.html", meshes, None, None, f"robot '{robot.name}': FSW of each case")
     files.append("comparison.html")
     supports = [c.support for c in cases if c.support is not None]
@@ -404,7 +417,7 @@ def _write_section(out: Path, cases: Sequence[WorkspaceCase], robot: Robot, titl
         case.region.fsw_region.mesh().export(out / name, file_type="ply")
         files.append(name)
     files += save_figure(plot_region_slices({c.name: c.region.fsw_region for c in cases}, robot.length,
-                                            f"robot '{robot.name}': {title}"), out, stem)
+                                            f"robot '{robot.name}': {title}", unfinished_note(cases)), out, stem)
     return files
 
 
