@@ -30,6 +30,8 @@ import numpy as np
 import pytest
 
 from pytdcr import Loads, solve
+from pytdcr.explore._app import OK, STATUS_COLOURS
+from pytdcr.palette import PALETTE
 from pytdcr.paper import paper_bounds, paper_robot
 
 CHROMIUM = Path("/usr/bin/chromium")
@@ -126,7 +128,7 @@ def test_the_page_callback_shows_the_tip_of_solve():
     made = solve(paper_robot(), Loads(np.array(TARGET_TENSIONS))).tip_position
     context_value.set(AttributeDict(triggered_inputs=[{"prop_id": "reach-target.n_clicks", "value": 1}]))
     out = on_change(t, [0] * 7, options, [0, 0, 1, 0], (made * 1e3).tolist(), sid)
-    assert "target reached: tip" in _plain(out["status"]), out["status"]
+    assert _plain(out["status"]).startswith("target reached · tip at ("), out["status"]
     shown = np.array([float(v) for v in out["tip"].split()])
     assert np.linalg.norm(shown - made) <= 1e-4
     assert len(out["tensions"]) == 8 and all(0.0 <= v <= 20.0 for v in out["tensions"])
@@ -189,7 +191,7 @@ def test_a_target_out_of_reach_is_said_so():
     assert out.answer.distance_m >= 0.05
     assert np.isclose(np.linalg.norm(out.solution.tip_position - target), out.answer.distance_m, rtol=0, atol=1e-12)
     text = _plain(_status(out)[0])
-    assert "out of reach: nearest point found" in text and "target reached" not in text
+    assert text.startswith("target out of reach · nearest tip found at (") and "target reached" not in text
     # the nearest point found is an equilibrium: the next change continues from it
     assert ex.session("s").last is out.solution
 
@@ -404,11 +406,16 @@ def _reach_in_browser(page) -> None:
                   "() => { window.__reach = performance.now(); })")
     n = page.evaluate("window.__tip.length")
     page.click("#reach-target")
-    page.wait_for_function("/target reached|out of reach|not solved|NOT converged/.test("
+    page.wait_for_function("/target reached|out of reach|not solved|not converged|workspace sample/.test("
                            "document.getElementById('status').textContent)", timeout=60_000)
     ms = page.evaluate(f"window.__tip[{n}] - window.__reach")  # from the click to the new tip shown
     status = page.text_content("#status")
     assert "target reached" in status, status
+    head, kind, colour = _headline(page)
+    # "target reached" alone, in the good colour, only for a stable equilibrium on the path asked for
+    assert (kind, colour) == (("status-ok", _rgb(STATUS_COLOURS[OK])) if head == "target reached" else
+                              ("status-warning", _rgb(PALETTE.warning))), (head, kind, colour)
+    assert head == "target reached" or head.startswith("target reached, but "), head
     shown = np.array([float(v) for v in page.text_content("#tip").split()])
     assert np.linalg.norm(shown - target) <= 1e-4, (shown, target)
     marker = page.evaluate("Array.from(document.querySelector('#graph .js-plotly-plot').data)"
@@ -418,8 +425,20 @@ def _reach_in_browser(page) -> None:
     assert "target reached" in page.text_content("#status")
     tensions = [float(page.input_value(f"#tension-{k}")) for k in range(8)]
     assert any(v > 0 for v in tensions) and all(0 <= v <= 20 for v in tensions), tensions
+    assert all(len(page.input_value(f"#tension-{k}").partition(".")[2]) <= 2 for k in range(8)), tensions  # 0.01 N
     print(f"\nexplore target (pcc, paper robot, forward-made target): {ms:.0f} ms from the click to the answer "
           f"shown; {status[:110]}")
+
+
+def _rgb(colour: str) -> str:
+    """A hex colour as the browser's computed style says it (``rgb(r, g, b)``)."""
+    return "rgb({}, {}, {})".format(*(int(colour[i:i + 2], 16) for i in (1, 3, 5)))
+
+
+def _headline(page) -> tuple[str, str, str]:
+    """The status line's headline in the page: its text, its class and its computed colour."""
+    return tuple(page.evaluate("""() => { const h = document.querySelector('#status > span');
+        return [h.textContent, h.className, getComputedStyle(h).color]; }"""))
 
 
 @pytest.mark.slow
@@ -445,6 +464,12 @@ def test_the_page_in_a_browser(page_url):
             ref = solve(paper_robot(), Loads(np.array([5.0, 0, 0, 0, 0, 0, 0, 0])))
             assert np.allclose(shown, ref.tip_position, atol=1e-6, rtol=0), (shown, ref.tip_position)
             assert "converged" in page.text_content("#status") and "continued" in page.text_content("#status")
+            # one status line: the state in words, the tip in mm to 0.1 mm said once; the tip [m] never shown
+            assert _headline(page) == ("stable equilibrium", "status-ok", _rgb(STATUS_COLOURS[OK]))
+            status = page.text_content("#status")
+            assert status.count("tip at") == 1 and "tip at ({:.1f}, {:.1f}, {:.1f}) mm".format(
+                *(ref.tip_position * 1e3)) in status, status
+            assert not page.is_visible("#tip") and "tip [m]" not in page.inner_text("body")
             assert page.get_attribute("#slider-0 [role=slider]", "aria-valuenow") == "5"
 
             # the workspace's boundary is drawn

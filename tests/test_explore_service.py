@@ -17,6 +17,7 @@ import threading
 import time
 import uuid
 from dataclasses import replace
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -289,7 +290,7 @@ def test_extra_and_repeated_entries_are_dropped(explorer, client):
     body = update_body(app, tensions=t, extra=extra)
     body["changedPropIds"] = ["reset.n_clicks.x", "graph.figure", 5]
     resp = post(client, body)
-    assert resp.status_code == 200 and "converged" in status_text(resp)
+    assert resp.status_code == 200 and status_text(resp).startswith("stable equilibrium")
     ref = solve(paper_robot(), Loads(np.array(t))).tip_position
     assert np.allclose(shown_tip(resp), ref, atol=1e-9, rtol=0)
 
@@ -322,24 +323,34 @@ def test_one_session_never_sees_another(explorer, client):
 
 
 # ---------------------------------------------------------------- never claim a test that was not run
-def test_an_untested_equilibrium_is_never_called_stable(explorer):
-    from pytdcr.explore._app import _status
-    from pytdcr.explore._session import Outcome
+def _head(parts: Any) -> tuple[str, str, str]:
+    """The status line's headline: its text, its class and its colour."""
+    first = parts[0]
+    return first.children, first.className, first.style["color"]
 
+
+def test_an_untested_equilibrium_is_never_called_stable(explorer):
+    from pytdcr.explore._app import OK, STATUS_COLOURS, WARNING, _status
+    from pytdcr.explore._session import Outcome
+    from pytdcr.palette import PALETTE
+
+    assert STATUS_COLOURS[WARNING] == PALETTE.warning and STATUS_COLOURS[OK] != PALETTE.warning
     ex, _ = explorer
     target = solve(paper_robot(), Loads(np.array([6.0, 0, 0, 0, 0, 4.0, 0, 0]))).tip_position
     sid = uuid.uuid4().hex
     reached = ex.reach(sid, ex.defaults, target)
-    assert reached.answer.reached and reached.solution.stable is True
-    assert "target reached:" in _plain(_status(reached)[0])
+    assert reached.answer.reached and reached.solution.stable is True and not reached.answer.departs
+    assert _head(_status(reached)[0]) == ("target reached", OK, STATUS_COLOURS[OK])
 
     untested = replace(reached.solution, _stability_fn=None)  # as a model without a stability test answers
     assert untested.stable is None
-    text = _plain(_status(replace(reached, solution=untested))[0])
-    assert "target reached (stability untested)" in text and "stable ·" not in text and "· stable" not in text
+    parts = _status(replace(reached, solution=untested))[0]
+    assert _head(parts) == ("target reached, but the equilibrium's stability is untested", WARNING, PALETTE.warning)
+    assert "stable" not in _plain(parts).replace("stability", "")
     moved = ex.step(sid, replace(ex.defaults, tensions=np.array([1.0, 0, 0, 0, 0, 0, 0, 0])))
-    text = _plain(_status(Outcome(moved.robot, moved.loads, replace(moved.solution, _stability_fn=None)))[0])
-    assert "stability untested" in text and "· stable" not in text
+    parts = _status(Outcome(moved.robot, moved.loads, replace(moved.solution, _stability_fn=None)))[0]
+    assert _head(parts) == ("equilibrium, stability untested", WARNING, PALETTE.warning)
+    assert _head(_status(moved)[0]) == ("stable equilibrium", OK, STATUS_COLOURS[OK])
 
     from pytdcr.explore._figure import BACKBONE, pose_data
 
@@ -348,13 +359,83 @@ def test_an_untested_equilibrium_is_never_called_stable(explorer):
 
     stab = reached.solution.stability
     unstable = replace(reached.solution, _stability_fn=lambda: replace(stab, stable=False))
-    text = _plain(_status(replace(reached, solution=unstable))[0])
-    assert "target reached by an UNSTABLE equilibrium" in text and "· stable" not in text
+    parts = _status(replace(reached, solution=unstable))[0]
+    assert _head(parts) == ("target reached, but the equilibrium is unstable", WARNING, PALETTE.warning)
     assert pose_data(ex.robot, unstable, reached.loads)[BACKBONE]["name"] == "backbone (UNSTABLE)"
     # the loading path's answer from rest says its own stability too
     rest = ex.step(sid, replace(ex.defaults, tensions=np.array([1.0, 0, 0, 0, 0, 0, 0, 0])), _rest_action())
     text = _plain(_status(replace(rest, rest=replace(rest.rest, _stability_fn=None)))[0])
-    assert "loading path from rest" in text and text.rstrip().endswith("stability untested")
+    assert "loading path from rest" in text and text.rstrip().endswith("equilibrium, stability untested")
+
+
+def test_a_target_is_reached_only_on_the_path_asked_for(explorer):
+    """A stable equilibrium on another branch, or one the pose shown does not get to by moving its tendons, is no
+    "target reached": the status says which, in the warning colour; so is a solve that does not converge."""
+    from pytdcr.explore._app import OK, WARNING, _status
+    from pytdcr.explore._session import Outcome
+    from pytdcr.palette import PALETTE
+
+    ex, _ = explorer
+    target = solve(paper_robot(), Loads(np.array([6.0, 0, 0, 0, 0, 4.0, 0, 0]))).tip_position
+    reached = ex.reach(uuid.uuid4().hex, ex.defaults, target)
+    assert _head(_status(reached)[0])[1] == OK
+    branch = replace(reached, answer=replace(reached.answer, path="another branch", departs=True))
+    assert _head(_status(branch)[0]) == ("target reached, but it is on another branch than the loading path",
+                                         WARNING, PALETTE.warning)
+    departs = replace(reached, answer=replace(reached.answer, path="loading path", departs=True))
+    assert _head(_status(departs)[0]) == ("target reached, but moving the tendons from the pose shown does not get "
+                                          "there (reached from rest only)", WARNING, PALETTE.warning)
+    fresh = replace(reached, answer=replace(reached.answer, path="loading path", departs=False))
+    assert _head(_status(fresh)[0])[:2] == ("target reached", OK)  # no pose shown: from rest is the path asked
+    stab = reached.solution.stability
+    both = replace(branch, solution=replace(reached.solution, _stability_fn=lambda: replace(stab, stable=False)))
+    assert _head(_status(both)[0])[0] == ("target reached, but the equilibrium is unstable and it is on another "
+                                          "branch than the loading path")
+    far = replace(reached, answer=replace(reached.answer, reached=False, distance_m=0.01234))
+    head, kind, _ = _head(_status(far)[0])
+    assert (head, kind) == ("target out of reach", WARNING) and "12.3 mm from the target" in _plain(_status(far)[0])
+
+    failed = replace(reached.solution, converged=False, residual=3.2e-3, failure="the step became too small")
+    parts, tip = _status(Outcome(reached.robot, reached.loads, failed, note="continued"))
+    head, kind, colour = _head(parts)
+    assert (kind, colour, tip) == (WARNING, PALETTE.warning, "not converged")
+    assert head.startswith("not converged: largest residual 3.2e-03 N m, above the tolerance")
+    assert "the step became too small" in head and "target reached" not in _plain(parts)
+
+
+def test_the_status_line_rounds_to_what_the_numbers_mean(explorer, client):
+    """One status line: the tip in mm to 0.1 mm, said once; the tip [m] for scripts in a hidden element; the
+    tensions written back to the boxes to 0.01 N."""
+    import re
+
+    from pytdcr.explore._app import _status
+
+    ex, app = explorer
+    t = [5.0, 0, 0, 0, 0, 0, 0, 0]
+    resp = post(client, update_body(app, tensions=t))
+    text = status_text(resp)
+    ref = solve(paper_robot(), Loads(np.array(t))).tip_position
+    shown = "({:.1f}, {:.1f}, {:.1f}) mm".format(*(ref * 1e3))
+    assert text.count("tip at") == 1 and f"tip at {shown}" in text, text
+    assert not re.search(r"\d\.\d{2,}", text.replace(" ms", "")), text  # no more than 0.1 mm (one decimal) shown
+    layout = app.layout()
+    tip = next(c for c in _walk(layout) if getattr(c, "id", None) == "tip")
+    assert tip.hidden is True
+    target = solve(paper_robot(), Loads(np.array([6.0, 0, 0, 0, 0, 4.0, 0, 0]))).tip_position * 1e3
+    reach = post(client, update_body(app, aim=target.tolist(), changed="reach-target.n_clicks")).get_json()
+    boxes = [reach["response"][f"tension-{k}"]["value"] for k in range(8)]
+    assert all(round(v, 2) == v for v in boxes) and any(round(v, 6) != round(v, 1) for v in boxes), boxes
+    assert "target reached" in status_text(SimpleNamespace(get_json=lambda: reach))
+    parts, _ = _status(ex.reach(uuid.uuid4().hex, ex.defaults, target / 1e3))
+    assert _plain(parts).count("tip at") == 1
+
+
+def _walk(component: Any):
+    yield component
+    children = getattr(component, "children", None)
+    for child in children if isinstance(children, list) else [children] if children is not None else []:
+        if hasattr(child, "children") or hasattr(child, "id"):
+            yield from _walk(child)
 
 
 def _rest_action():

@@ -21,13 +21,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 from dash import Dash, Input, Output, Patch, State, ctx, dcc, html, no_update
 
+from ..palette import PALETTE
 from ..results import StaticSolution
 from ..statics import MODELS
 from ..validate import MAX_FORCE_N, MAX_MOMENT_NM, finite_real
 from ._figure import MM, MOVING, REST, base_figure, pose_data, rest_data, target_data
 from ._guard import MAX_BODY_BYTES, Guard
 from ._session import FRICTIONS, Action, Controls, Explorer, Outcome, same_equilibrium
-from ._target import INVERSE, SEARCH, show_distance
+from ._target import CONTINUED, INVERSE, TargetAnswer, show_distance
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -47,19 +48,23 @@ _WRENCH_RANGE = {**dict.fromkeys(_WRENCH[:3], (-MAX_FORCE_N, MAX_FORCE_N, "N")),
 TARGET_SPAN = 10.0
 #: the form of a session id the page issues (``uuid.uuid4().hex``)
 _SID = re.compile("[0-9a-f]{32}")
-#: tensions written back into the boxes are rounded to this many decimals [N]
-_DECIMALS = 6
-_RED, _GREEN = {"color": "#c0392b", "fontWeight": "bold"}, {"color": "#1e8449", "fontWeight": "bold"}
-_AMBER = {"color": "#b9770e", "fontWeight": "bold"}
-_BOX = {"width": "86px", "marginLeft": "6px"}
-_SMALL = {"width": "70px", "marginRight": "4px"}
+#: tensions written back into the boxes are rounded to this many decimals [N] (0.01 N)
+_DECIMALS = 2
+#: the status line's classes: a stable equilibrium (or a target reached by one on the path asked for), a state
+#: said in words that needs the reader's care (unstable, untested, another branch, not converged, refused), neutral
+OK, WARNING, NEUTRAL = "status-ok", "status-warning", "status-note"
+#: the colour of each class (the shared palette's warning colour; Okabe and Ito's bluish green for a good state)
+STATUS_COLOURS = {OK: PALETTE.series[2], WARNING: PALETTE.warning, NEUTRAL: "#5f6b7a"}
+_BOX = {"width": "80px", "marginLeft": "8px"}
 # the slider and the number box of one tendon, kept equal; the one the user moved wins
 _SYNC_JS = """
 function(drag, box) {
     const nu = window.dash_clientside.no_update;
     const trig = window.dash_clientside.callback_context.triggered.map(t => t.prop_id);
     if (trig.length && trig[0].startsWith('slider-')) {
-        return (drag === null || drag === undefined || drag === box) ? [nu, nu] : [nu, drag];
+        if (drag === null || drag === undefined) { return [nu, nu]; }
+        const shown = Math.round(drag * 100) / 100;  // 0.01 N
+        return shown === box ? [nu, nu] : [nu, shown];
     }
     if (box === null || box === undefined || Number.isNaN(box)) { return [nu, nu]; }
     return [box, nu];
@@ -84,22 +89,37 @@ function(n) {
 """
 
 
+def _status_span(text: str, kind: str) -> Component:
+    """``text`` in the status line's class ``kind`` (:data:`OK`, :data:`WARNING`, :data:`NEUTRAL`) and colour."""
+    return html.Span(text, className=kind, style={"color": STATUS_COLOURS[kind]})
+
+
+def _button(label: str, ident: str, primary: bool = False) -> Component:
+    """A styled button (``explorer.css``'s ``explore-button``; ``primary``: the page's main action)."""
+    return html.Button(label, id=ident, n_clicks=0, className="explore-button" + (" primary" if primary else ""))
+
+
+def _number(ident: str, value: float | None, **extra: object) -> Component:
+    """A styled number box, read by the server when the user presses Enter or leaves it (``debounce``)."""
+    return dcc.Input(id=ident, type="number", step="any", value=value, debounce=True, className="explore-input",
+                     **extra)
+
+
 def _tension_rows(ex: Explorer) -> list[Component]:
-    """One row per tendon: its label, a slider over its bounds [N] and a number box."""
-    rows = []
+    """One row per tendon: its label, a slider over its bounds [N] and a number box (0.01 N)."""
+    rows = [html.Div("tendon tensions [N]", className="explore-heading")]
     for k, t in enumerate(ex.robot.tendons):
         lo, hi = float(ex.bounds.lower[k]), float(ex.bounds.upper[k])
         marks = {f"{v:g}": f"{v:g}" for v in np.linspace(lo, hi, 5)}
-        value = float(ex.defaults.tensions[k])
+        value = round(float(ex.defaults.tensions[k]), _DECIMALS)
         rows.append(html.Div([
-            html.Div(f"T{k + 1} (segment {t.segment}, {t.angle_deg:g}°) [N]", style={"fontSize": "12px"}),
+            html.Div(f"T{k + 1} · segment {t.segment}, {t.angle_deg:g}°", className="explore-label"),
             html.Div([
                 html.Div(dcc.Slider(id=f"slider-{k}", min=lo, max=hi, step=(hi - lo) / 400 or None, value=value,
                                     marks=marks, updatemode="mouseup"), style={"flex": "1", "minWidth": "0"}),
-                dcc.Input(id=f"tension-{k}", type="number", min=lo, max=hi, step="any", value=value, debounce=True,
-                          style=_BOX),
-            ], style={"display": "flex", "alignItems": "flex-start"}),
-        ], style={"marginBottom": "2px"}))
+                _number(f"tension-{k}", value, min=lo, max=hi, style=_BOX),
+            ], className="explore-tendon-row"),
+        ], className="explore-tendon"))
     return rows
 
 
@@ -109,42 +129,44 @@ def _load_rows(ex: Explorer) -> list[Component]:
     values = [*d.tip_force.tolist(), *d.tip_moment.tolist(), d.payload_kg]
 
     def box(i: int) -> Component:
-        return dcc.Input(id=_WRENCH[i], type="number", step="any", value=values[i], debounce=True, style=_SMALL,
-                         min=0 if _WRENCH[i] == "payload" else None)
+        return _number(_WRENCH[i], values[i], placeholder="xyz"[i % 3] if i < 6 else "",
+                       min=0 if _WRENCH[i] == "payload" else None)
 
     law = ex.robot.friction.law
-    return [
-        html.Div(["tip force [N] ", *[box(i) for i in range(3)]], style={"marginTop": "8px"}),
-        html.Div(["tip moment [N m] ", *[box(i) for i in range(3, 6)]]),
-        html.Div(["payload at the tip [kg] ", box(6)]),
+    return [html.Div([
+        html.Div("loads", className="explore-heading"),
+        html.Div([html.Span("tip force [N]", className="explore-label"), *[box(i) for i in range(3)]],
+                 className="explore-row"),
+        html.Div([html.Span("tip moment [N m]", className="explore-label"), *[box(i) for i in range(3, 6)]],
+                 className="explore-row"),
+        html.Div([html.Span("payload at the tip [kg]", className="explore-label"), box(6)], className="explore-row"),
         dcc.Checklist(id="gravity", options=[{"label": " gravity", "value": "on"}],
-                      value=["on"] if d.gravity else [], style={"marginTop": "6px"}),
-        html.Div("friction", style={"marginTop": "6px"}),
+                      value=["on"] if d.gravity else [], style={"marginTop": "4px"}),
+    ], className="explore-section"), html.Div([
+        html.Div("model", className="explore-heading"),
+        html.Div("friction", className="explore-label"),
         dcc.Dropdown(id="friction", clearable=False, searchable=False, value=d.friction,
                      options=[{"label": f"the robot's own ({law})", "value": FRICTIONS[0]},
                               {"label": "none", "value": FRICTIONS[1]}]),
-        html.Div("model", style={"marginTop": "6px"}),
+        html.Div("model", className="explore-label", style={"marginTop": "6px"}),
         dcc.Dropdown(id="model", clearable=False, searchable=False, value=d.model,
                      options=[{"label": label, "value": name, "title": text}
                               for name, label, text in ex.model_choices()]),
-        html.Div([html.Button("Reset", id="reset", n_clicks=0),
-                  html.Button("Solve from rest", id="rest", n_clicks=0, style={"marginLeft": "8px"})],
+        html.Div([_button("Reset", "reset"), _button("Solve from rest", "rest")], className="explore-row",
                  style={"marginTop": "10px"}),
-        *_target_rows(ex),
-    ]
+    ], className="explore-section"), *_target_rows(ex)]
 
 
 def _target_rows(ex: Explorer) -> list[Component]:
     """The target point x, y, z [mm] (base frame), "Reach target" and "Clear"."""
-    boxes = [dcc.Input(id=i, type="number", step="any", value=None, placeholder=i[-1], debounce=True, style=_SMALL)
-             for i in _TARGET]
-    hint = " or click the FSW boundary" if ex.workspace is not None and ex.workspace.faces is not None else ""
-    return [
-        html.Div(f"target [mm], base frame{hint}", style={"marginTop": "12px"}),
-        html.Div([*boxes, html.Button("Reach target", id="reach-target", n_clicks=0),
-                  html.Button("Clear", id="clear-target", n_clicks=0, style={"marginLeft": "4px"})],
-                 style={"display": "flex", "alignItems": "center", "flexWrap": "wrap"}),
-    ]
+    hint = "; or click the boundary" if ex.workspace is not None and ex.workspace.faces is not None else ""
+    return [html.Div([
+        html.Div("target", className="explore-heading"),
+        html.Div(f"x, y, z [mm] in the base frame{hint}", className="explore-muted"),
+        html.Div([_number(i, None, placeholder=i[-1]) for i in _TARGET], className="explore-row"),
+        html.Div([_button("Reach target", "reach-target", primary=True), _button("Clear", "clear-target")],
+                 className="explore-row"),
+    ], className="explore-section")]
 
 
 def _workspace_text(ex: Explorer) -> str:
@@ -164,27 +186,28 @@ def _workspace_text(ex: Explorer) -> str:
 
 
 def _layout(ex: Explorer) -> Callable[[], Component]:
-    """The page: controls on the left, status and figure on the right; a fresh session id per page load."""
+    """The page: controls on the left, status and figure on the right; a fresh session id per page load.
+
+    The status line (``#status``) is the one line the reader reads; ``#tip`` holds the tip [m] to 9 decimals for
+    scripts and tests, never shown."""
     r = ex.robot
 
     def layout() -> Component:
         controls = html.Div([
-            html.H3("pytdcr explore", style={"margin": "4px 0"}),
+            html.H3("pytdcr explore"),
             html.Div(f"robot '{r.name}': {len(r.segments)} segments, {r.n_tendons} tendons, {r.n_disks} disks, "
-                     f"{r.length * MM:g} mm", style={"fontSize": "12px", "marginBottom": "6px"}),
+                     f"{r.length * MM:g} mm long", className="explore-muted", style={"marginBottom": "10px"}),
             *_tension_rows(ex), *_load_rows(ex),
-        ], style={"width": "400px", "padding": "8px", "overflowY": "auto", "height": "97vh",
-                  "fontFamily": "sans-serif", "fontSize": "13px"})
+        ], className="explore-controls")
         view = html.Div([
-            html.Div(id="status", style={"fontFamily": "monospace", "fontSize": "13px", "minHeight": "3.6em"}),
-            html.Div(["tip [m]: ", html.Span(id="tip")], style={"fontFamily": "monospace", "fontSize": "11px",
-                                                                 "color": "#666"}),
-            html.Div(_workspace_text(ex), id="workspace-info", style={"fontSize": "12px", "color": "#555"}),
-            dcc.Graph(id="graph", figure=base_figure(r, ex.workspace), style={"height": "86vh"},
-                      config={"displaylogo": False}),
-        ], style={"flex": "1", "padding": "8px", "fontFamily": "sans-serif"})
-        return html.Div([controls, view, dcc.Store(id="session", data=uuid.uuid4().hex)],
-                        style={"display": "flex"})
+            html.Div(id="status", className="explore-status"),
+            html.Div(id="tip", hidden=True),
+            html.Div(_workspace_text(ex), id="workspace-info", className="explore-muted",
+                     style={"marginTop": "4px"}),
+            dcc.Graph(id="graph", figure=base_figure(r, ex.workspace), className="explore-graph",
+                      style={"height": "100%"}, config={"displaylogo": False}),
+        ], className="explore-view")
+        return html.Div([controls, view, dcc.Store(id="session", data=uuid.uuid4().hex)], className="explore-page")
 
     return layout
 
@@ -240,77 +263,116 @@ def _session_id(sid: object) -> str | None:
     return sid if isinstance(sid, str) and _SID.fullmatch(sid) else None
 
 
-def _stability(sol: StaticSolution) -> str:
-    """An equilibrium's stability as the page says it: tested stable, UNSTABLE, or untested."""
-    return {True: "stable", False: "UNSTABLE", None: "stability untested"}[sol.stable]
+def _mm(point: np.ndarray) -> str:
+    """A point [m] as the page says it: ``(x, y, z) mm`` to 0.1 mm."""
+    return "({:.1f}, {:.1f}, {:.1f}) mm".format(*(np.asarray(point, dtype=float) * MM))
+
+
+def _equilibrium_words(sol: StaticSolution) -> tuple[str, str]:
+    """A converged equilibrium's headline and class: ``stable equilibrium`` (:data:`OK`) only when tested
+    stable; ``unstable equilibrium`` or ``equilibrium, stability untested`` (:data:`WARNING`)."""
+    return {True: ("stable equilibrium", OK), False: ("unstable equilibrium", WARNING),
+            None: ("equilibrium, stability untested", WARNING)}[sol.stable]
 
 
 def _status(out: Outcome) -> tuple[list[Component | str], str]:
-    """The status line's parts and the tip text (metres, 9 decimals; "not converged" without an equilibrium)."""
+    """The status line's parts and the tip [m] for scripts (9 decimals; "not converged" without an equilibrium).
+
+    The line's first part says the state in words in its class (:func:`_status_span`); then the tip [mm, 0.1 mm],
+    the path and the time; then notes, smaller."""
     if out.error:
-        return [html.Span(f"not solved: {out.error}", style=_RED)], "not solved"
+        return [_status_span(f"not solved: {out.error}", WARNING)], "not solved"
     sol = out.solution
     if sol is None or not sol.converged:
         why = f" ({sol.failure})" if sol is not None and sol.failure else ""
-        res = f"max |residual| {sol.residual:.3g} N m > atol {sol.atol:.1g}" if sol is not None else ""
+        res = f": largest residual {sol.residual:.1e} N m, above the tolerance {sol.atol:.0e} N m" \
+            if sol is not None else ""
         note = out.answer.note if out.answer is not None else out.note
-        return [html.Span(f"NOT converged: {res}{why}; nothing drawn (the last equilibrium is kept for the next "
-                          "change)", style=_RED), html.Br(), note], "not converged"
+        return [_status_span(f"not converged{res}{why}", WARNING), " · nothing drawn; the last equilibrium is kept "
+                "for the next change", *_notes(note)], "not converged"
     tip = sol.tip_position
     text = " ".join(f"{v:.9f}" for v in tip)
     if out.answer is not None:
         return _answer_text(out), text
-    aim = "" if out.target is None else f" · target {show_distance(float(np.linalg.norm(tip - out.target)))} away"
-    parts: list[Component | str] = [
-        html.Span("converged", style=_GREEN), " · ", _stability_span(sol),
-        f" · path {sol.path} · tip ({tip[0] * MM:.3f}, {tip[1] * MM:.3f}, {tip[2] * MM:.3f}) mm{aim} · "
-        f"{out.seconds * 1e3:.1f} ms", html.Br(), out.note]
+    word, kind = _equilibrium_words(sol)
+    aim = "" if out.target is None else f" · target {_gap(float(np.linalg.norm(tip - out.target)))} away"
+    parts: list[Component | str] = [_status_span(word, kind), f" · tip at {_mm(tip)}{aim} · path {sol.path} · "
+                                    f"converged in {out.seconds * 1e3:.0f} ms", *_notes(out.note)]
     if out.rest is not None:
         parts += [html.Br(), _rest_text(out)]
     return parts, text
 
 
-def _stability_span(sol: StaticSolution) -> Component:
-    """The equilibrium's stability, said in the colour of what it means (:func:`_stability`)."""
-    return html.Span(_stability(sol), style={True: {}, False: _RED, None: _AMBER}[sol.stable])
+def _gap(metres: float) -> str:
+    """A distance [m] to 0.1 mm, or under 0.1 mm as the tolerance-scale text of :func:`show_distance`."""
+    return show_distance(metres) if metres < 1e-4 else f"{metres * MM:.1f} mm"
+
+
+def _notes(note: str) -> list[Component]:
+    """A note under the status line, smaller (none when empty)."""
+    return [html.Br(), html.Span(note, className="status-note")] if note else []
+
+
+def reach_words(answer: TargetAnswer, sol: StaticSolution) -> tuple[str, str]:
+    """What a target answer says and its class: ``target reached`` (:data:`OK`) only for a target reached by a
+    tested-stable equilibrium on the path asked for (the pose shown, its tendons moved there; or, with no pose to
+    move from, the loading path from rest); else the state in words, in :data:`WARNING`.
+
+    Parameters
+    ----------
+    answer : TargetAnswer
+        How the target was answered (:mod:`._target`).
+    sol : StaticSolution
+        The answer's converged equilibrium.
+
+    Returns
+    -------
+    words, kind : str
+        The headline (e.g. ``"target reached, but the equilibrium is unstable"``) and its class.
+    """
+    if answer.method != INVERSE:
+        return "nearest workspace sample, not a search (no inverse statics for this model)", WARNING
+    if not answer.reached:
+        return "target out of reach", WARNING
+    but = {True: [], False: ["the equilibrium is unstable"], None: ["the equilibrium's stability is untested"]}[
+        sol.stable]
+    if answer.path == "another branch":
+        but.append("it is on another branch than the loading path")
+    elif answer.path != CONTINUED and answer.departs:
+        but.append("moving the tendons from the pose shown does not get there (reached from rest only)")
+    return ("target reached", OK) if not but else ("target reached, but " + " and ".join(but), WARNING)
 
 
 def _answer_text(out: Outcome) -> list[Component | str]:
-    """The status line of a target answered (a converged equilibrium drawn); a reached target is called so
-    without a qualifier only for an equilibrium tested stable."""
+    """The status line of a target answered (a converged equilibrium drawn), headed by :func:`reach_words`."""
     a = out.answer
     sol = out.solution
-    tip = sol.tip_position * MM
-    how = f"path {a.path}, {a.evaluations} solves, {out.seconds * 1e3:.0f} ms"
+    word, kind = reach_words(a, sol)
+    how = f"path {a.path}, {a.evaluations} solves in {out.seconds:.1f} s"
     if a.method == INVERSE and a.reached:
-        word, style = {True: ("target reached", _GREEN),
-                       False: ("target reached by an UNSTABLE equilibrium", _RED),
-                       None: ("target reached (stability untested)", _AMBER)}[sol.stable]
-        head = [html.Span(word, style=style), f": tip {show_distance(a.distance_m)} away, {how}"]
+        where = f"tip at {_mm(sol.tip_position)}, {show_distance(a.distance_m)} from the target"
     elif a.method == INVERSE:
-        head = [html.Span("out of reach", style=_RED), f": nearest point found {show_distance(a.distance_m)} "
-                f"away (inverse statics, tolerance {show_distance(SEARCH.tol)}), {how}"]
+        where = f"nearest tip found at {_mm(sol.tip_position)}, {_gap(a.distance_m)} from the target"
     else:
-        head = [html.Span("nearest workspace sample", style=_AMBER),
-                f" (no inverse statics for this model): its tensions solved from rest put the tip "
-                f"{show_distance(a.distance_m)} from the target, {how}"]
-    return [*head, " · ", _stability_span(sol), f" · tip ({tip[0]:.3f}, {tip[1]:.3f}, {tip[2]:.3f}) mm", html.Br(),
-            "the tendons are set to its tensions; the next change continues from this pose",
-            *([html.Br(), a.note] if a.note else [])]
+        where = f"its tensions solved from rest put the tip {_gap(a.distance_m)} from the target"
+    stable = "" if a.method == INVERSE and a.reached else f" · {_equilibrium_words(sol)[0]}"
+    return [_status_span(word, kind), f" · {where}{stable} · {how}", html.Br(),
+            html.Span("the tendons are set to its tensions; the next change continues from this pose",
+                      className="status-note"), *_notes(a.note)]
 
 
 def _rest_text(out: Outcome) -> Component:
     """How the loading path from rest compares with the equilibrium shown."""
     rest, sol = out.rest, out.solution
     if not rest.converged:
-        return html.Span(f"loading path from rest: NOT converged (max |residual| {rest.residual:.3g} N m)",
-                         style={"color": "#c0392b"})
+        return _status_span(f"the loading path from rest does not converge (largest residual {rest.residual:.1e} "
+                            "N m)", WARNING)
     same, gap = same_equilibrium(sol, rest)
-    t = rest.tip_position * MM
-    word = "the same equilibrium" if same else "ANOTHER equilibrium"
-    return html.Span(f"loading path from rest (translucent): {word}, tips {gap * MM:.4g} mm apart; its tip "
-                     f"({t[0]:.3f}, {t[1]:.3f}, {t[2]:.3f}) mm, path {rest.path}, {_stability(rest)}",
-                     style={"color": "#b9770e" if same else "#c0392b", "fontWeight": "normal" if same else "bold"})
+    if same:
+        return html.Span(f"the loading path from rest (drawn translucent) ends on the same equilibrium: "
+                         f"{_equilibrium_words(rest)[0]}", className="status-note")
+    return _status_span(f"the loading path from rest (drawn translucent) ends on another equilibrium, tip at "
+                        f"{_mm(rest.tip_position)}, {_gap(gap)} away; {_equilibrium_words(rest)[0]}", WARNING)
 
 
 def _patch(out: Outcome | None) -> Patch:
@@ -330,7 +392,7 @@ def _patch(out: Outcome | None) -> Patch:
 
 def _refused(text: str, keep: dict[str, object]) -> dict[str, object]:
     """The callback's answer to controls it cannot solve: the status says which control and what it takes."""
-    return {"figure": no_update, "status": html.Span(f"not solved: {text}", style={"color": "#c0392b"}),
+    return {"figure": no_update, "status": _status_span(f"not solved: {text}", WARNING),
             "tip": no_update, **keep}
 
 
@@ -345,7 +407,7 @@ def _respond(ex: Explorer, action: Action, tensions: object, wrench: object, opt
         return _refused("session: the page's session id is not one this explorer issued; reload the page", keep)
     if action is Action.CLEAR:
         ex.clear_target(session)
-        return {"figure": _patch(None), "status": html.Span("target cleared", style={"color": "#666"}),
+        return {"figure": _patch(None), "status": _status_span("target cleared", NEUTRAL),
                 "tip": no_update, **keep}
     if action is Action.RESET:
         d = ex.defaults

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..loads import Loads
+from ..palette import PALETTE
 from ..records import JsonDict
 from ..results import StaticSolution
 from ..robot import Robot
@@ -55,6 +56,14 @@ REALISABLE_NAME = "realisable part"
 #: the name of the target marker's trace
 TARGET_NAME = "target"
 _RING = 24  # points on a disk's circle
+#: the workspace boundaries' opacity: light enough that the robot inside reads through them
+BOUNDARY_OPACITY = 0.07
+
+
+def _rgba(colour: str, alpha: float) -> str:
+    """The hex ``colour`` (``"#rrggbb"``) with opacity ``alpha`` as plotly's ``rgba(r,g,b,a)``."""
+    r, g, b = (int(colour[i:i + 2], 16) for i in (1, 3, 5))
+    return f"rgba({r},{g},{b},{alpha:g})"
 
 
 def _line(name: str, colour: str, width: float, **extra: object) -> JsonDict:
@@ -80,22 +89,25 @@ def _broken(parts: list[np.ndarray]) -> np.ndarray:
 def base_figure(robot: Robot, workspace: WorkspaceView | None) -> JsonDict:
     """The figure of ``robot`` with no pose drawn yet (its traces empty), the workspace run's boundary and
     largest-reach pose when given; axes span the robot's length around the base [mm]."""
-    data = [_line("backbone", "#1f3b73", 8), _line("disks", "#7f8c8d", 3), _line("tendons", "#c0392b", 2),
-            _line("tip x", "#e74c3c", 6, showlegend=False), _line("tip y", "#27ae60", 6, showlegend=False),
-            _line("tip z", "#2f6fd6", 6, showlegend=False), _line("tip force", "#e67e22", 5),
-            _line("tip moment (double head)", "#8e44ad", 5),
-            _line("loading path from rest", "rgba(255,140,0,0.45)", 14),
+    c = PALETTE
+    data = [_line("backbone", c.backbone, 8), _line("disks", c.disks, 3), _line("tendons", c.tendons, 2),
+            _line("tip x", c.frame_x, 6, showlegend=False), _line("tip y", c.frame_y, 6, showlegend=False),
+            _line("tip z", c.frame_z, 6, showlegend=False), _line("tip force", c.tip_force, 5),
+            _line("tip moment (double head)", c.tip_moment, 5),
+            _line("loading path from rest", _rgba(c.reference, 0.45), 14),
             {"type": "scatter3d", "mode": "markers", "name": TARGET_NAME, "x": [], "y": [], "z": [],
-             "marker": {"size": 11, "color": "#d10fbe", "symbol": "circle-open", "line": {"width": 3}},
+             "marker": {"size": 11, "color": c.target, "symbol": "circle-open", "line": {"width": 3}},
              "hoverinfo": "text", "hovertext": []},
-            _line("tip to target", "#d10fbe", 3, showlegend=False)]
+            _line("tip to target", c.target, 3, showlegend=False)]
     data[MISS]["line"]["dash"] = "dash"
     if workspace is not None:
         data += _workspace_traces(workspace)
     span = 1.05 * robot.length * MM
     axis = {"range": [-span, span], "autorange": False, "zeroline": False, "showspikes": False}
-    layout = {"uirevision": "explore", "margin": {"l": 0, "r": 0, "t": 0, "b": 0},
-              "legend": {"x": 0.01, "y": 0.99, "bgcolor": "rgba(255,255,255,0.6)"},
+    layout = {"uirevision": "explore", "margin": {"l": 0, "r": 0, "t": 0, "b": 0}, "paper_bgcolor": "#ffffff",
+              "font": {"family": "system-ui, -apple-system, 'Segoe UI', Roboto, Arial, sans-serif", "size": 12},
+              "legend": {"x": 0.01, "y": 0.99, "bgcolor": "rgba(255,255,255,0.8)", "bordercolor": "#dde1e6",
+                         "borderwidth": 1},
               "scene": {"aspectmode": "cube", "xaxis": {**axis, "title": {"text": "x [mm]"}},
                         "yaxis": {**axis, "title": {"text": "y [mm]"}},
                         "zaxis": {**axis, "title": {"text": "z [mm]"}},
@@ -110,20 +122,22 @@ def _workspace_traces(ws: WorkspaceView) -> list[JsonDict]:
         v, f = np.round(ws.vertices * MM, 3), ws.faces
         out.append({"type": "mesh3d", "name": WORKSPACE_NAME, "x": v[:, 0].tolist(), "y": v[:, 1].tolist(),
                     "z": v[:, 2].tolist(), "i": f[:, 0].tolist(), "j": f[:, 1].tolist(), "k": f[:, 2].tolist(),
-                    "color": "#5dade2", "opacity": 0.16, "flatshading": True, "showlegend": True,
+                    "color": PALETTE.region, "opacity": BOUNDARY_OPACITY, "flatshading": True, "showlegend": True,
+                    "lighting": {"ambient": 0.9, "diffuse": 0.2, "specular": 0.0},
                     "hovertemplate": "(%{x:.1f}, %{y:.1f}, %{z:.1f}) mm<br>click: the target<extra></extra>"})
     if ws.realisable is not None and len(ws.realisable[1]):
         v, f = np.round(ws.realisable[0] * MM, 3), ws.realisable[1]
         out.append({"type": "mesh3d", "name": REALISABLE_NAME, "x": v[:, 0].tolist(), "y": v[:, 1].tolist(),
                     "z": v[:, 2].tolist(), "i": f[:, 0].tolist(), "j": f[:, 1].tolist(), "k": f[:, 2].tolist(),
-                    "color": "#f5b041", "opacity": 0.1, "flatshading": True, "showlegend": True,
+                    "color": PALETTE.realisable, "opacity": BOUNDARY_OPACITY, "flatshading": True, "showlegend": True,
+                    "lighting": {"ambient": 0.9, "diffuse": 0.2, "specular": 0.0},
                     "hoverinfo": "skip"})
     r = ws.reach
     if r is not None:
         if r.backbone is not None:
-            out.append(_line("largest reach (recorded)", "rgba(39,174,96,0.55)", 5, **_columns(r.backbone)))
+            out.append(_line("largest reach (recorded)", _rgba(PALETTE.region_edge, 0.5), 5, **_columns(r.backbone)))
         out.append({"type": "scatter3d", "mode": "markers", "name": "largest-reach tip", **_columns(r.tip[None]),
-                    "marker": {"size": 5, "color": "#27ae60", "symbol": "diamond"},
+                    "marker": {"size": 5, "color": PALETTE.region_edge, "symbol": "diamond"},
                     "hovertext": [f"largest reach {np.linalg.norm(r.tip) * MM:.1f} mm"], "hoverinfo": "text"})
     return out
 
@@ -163,8 +177,8 @@ def pose_data(robot: Robot, sol: StaticSolution | None, loads: Loads | None) -> 
     tip, Rt, size = p[-1], R[-1], 0.1 * robot.length
     for k, i in enumerate(TIP_AXES):
         out[i] = _columns(np.vstack([tip, tip + size * Rt[:, k]]))
-    for i, vec, what, heads in ((FORCE, loads.tip_force, "tip force {:.3g} N", 1),
-                                (MOMENT, loads.tip_moment, "tip moment {:.3g} N m (double head)", 2)):
+    for i, vec, what, heads in ((FORCE, loads.tip_force, "tip force {:.2f} N", 1),
+                                (MOMENT, loads.tip_moment, "tip moment {:.3f} N m (double head)", 2)):
         v = np.asarray(vec, dtype=float)
         out[i] = {**_columns(_arrow(tip, v, 0.2 * robot.length, heads)), "name": what.format(np.linalg.norm(v))}
     out[REST] = empty
@@ -185,7 +199,7 @@ def target_data(target: np.ndarray | None, sol: StaticSolution | None) -> dict[i
         return {TARGET: {**empty, "hovertext": []}, MISS: empty}
     t = np.asarray(target, dtype=float)
     mm = t * MM
-    marker = {**_columns(t[None]), "hovertext": [f"target ({mm[0]:.2f}, {mm[1]:.2f}, {mm[2]:.2f}) mm"]}
+    marker = {**_columns(t[None]), "hovertext": [f"target ({mm[0]:.1f}, {mm[1]:.1f}, {mm[2]:.1f}) mm"]}
     if sol is None or not sol.converged:
         return {TARGET: marker, MISS: empty}
     return {TARGET: marker, MISS: _columns(np.vstack([sol.tip_position, t]))}

@@ -68,6 +68,9 @@ class TargetAnswer:
         What else the page should say (the continuation from the last pose, the nearest sample's distance).
     sample : NearestSample or None
         The nearest workspace sample, when a run is loaded.
+    departs : bool
+        A pose was shown, and moving its tendons straight to the answer's tensions does not end on the answer's
+        equilibrium (another one, or no converged one): the page's robot does not get there by continuation.
     """
 
     target: np.ndarray
@@ -78,6 +81,7 @@ class TargetAnswer:
     evaluations: int
     note: str = ""
     sample: NearestSample | None = None
+    departs: bool = False
 
 
 def can_inverse(model: Model) -> bool:
@@ -146,7 +150,7 @@ def answer_by_inverse(robot: Robot, loads: Loads, model: Model, bounds: TensionB
     notes.append(_sample_note(sample))
     answer = TargetAnswer(np.array(target, dtype=float), INVERSE, bool(res.reachable),
                           float(np.linalg.norm(sol.tip_position - target)), path, count,
-                          "; ".join(n for n in notes if n), sample)
+                          "; ".join(n for n in notes if n), sample, departs=last is not None and path != CONTINUED)
     return answer, sol, res.tensions
 
 
