@@ -35,9 +35,14 @@ $(DOCS_STAMP): $(STAMP) pyproject.toml
 	touch $(DOCS_STAMP)
 
 # the documentation site, from docs/ (the tutorial executed, the CLI and API references generated), into site/;
-# any warning fails the build
+# any warning fails the build, and so does a Sphinx role left as raw text (docs/_hooks/griffe_sphinx_roles.py
+# turns the docstrings' roles into links)
+SPHINX_ROLE := :(py:)?(func|class|data|meth|attr|mod|exc|obj|const|type|ref):(<code>|`)
+
 docs: $(DOCS_STAMP)
 	NO_MKDOCS_2_WARNING=1 MPLBACKEND=Agg $(BIN)/mkdocs build --strict
+	@if grep -rnoE '$(SPHINX_ROLE)[^<`]*' site --include='*.html'; then \
+	  echo "error: the Sphinx roles above are raw text in the built site"; exit 1; fi
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests bench examples

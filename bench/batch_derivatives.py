@@ -21,7 +21,7 @@ from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
-from _common import write_result
+from _common import add_out_argument, write_result
 
 from pytdcr.paper import paper_loads, paper_robot
 from pytdcr.statics import solve_batch, warmup
@@ -47,6 +47,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true", help="also print the result as one JSON line")
+    add_out_argument(ap, "batch_derivatives")
     args = ap.parse_args()
     warmup()
     robot, loads = paper_robot(), paper_loads()
@@ -72,7 +73,7 @@ def main() -> None:
     print(f"{args.model}, {rows} of {args.n} rows converged; ms a row (medians of {args.repeat}):")
     for k, v in ms.items():
         print(f"  {k:28s} {v:.3f}")
-    write_result("batch_derivatives", out, args.json)
+    write_result("batch_derivatives", out, args.json, out=args.out)
 
 
 if __name__ == "__main__":

@@ -22,7 +22,7 @@ import time
 from collections import defaultdict
 from pathlib import Path
 
-from _common import write_result
+from _common import add_out_argument, write_result
 
 
 def _calls(name: str) -> list[tuple[str, object]]:
@@ -117,6 +117,7 @@ def main() -> None:
     ap.add_argument("--models", default=None, help="comma-separated registered models (default: all)")
     ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
     ap.add_argument("--json", action="store_true", help="also print the result as one JSON line")
+    add_out_argument(ap, "compile_profile")
     args = ap.parse_args()
     if args.child is not None:
         print(json.dumps(child(args.child.split(","))))
@@ -141,7 +142,7 @@ def main() -> None:
     for f in result["cold_all"]["functions"][:15]:
         print(f"  {f['exclusive_s']:7.1f} s own, {f['inclusive_s']:7.1f} s with callees, {f['signatures']:3d} "
               f"signatures  {f['function']}")
-    write_result("compile_profile", result, args.json)
+    write_result("compile_profile", result, args.json, out=args.out)
 
 
 if __name__ == "__main__":

@@ -19,7 +19,7 @@ import argparse
 import time
 
 import numpy as np
-from _common import write_result
+from _common import add_out_argument, write_result
 
 from pytdcr.paper import paper_loads, paper_robot
 from pytdcr.runtime import default_threads
@@ -70,6 +70,7 @@ def main() -> None:
     ap.add_argument("--model", choices=[m for m, v in MODELS.items() if v.capabilities.continuation], default="pcc")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true")
+    add_out_argument(ap, "continuation")
     args = ap.parse_args()
     if not 10 <= args.samples <= 100_000:
         ap.error(f"--samples must be in [10, 100000], got {args.samples}")
@@ -94,7 +95,7 @@ def main() -> None:
           f"converged {s['cold_converged']}/{s['steps']}")
     print(f"  continued / cold (medians): {s['median_ratio']:.2f}; same tip as cold: {s['same_as_cold']}")
     print(f"  batch on {b['threads']} threads: continued {b['continued_per_s']:.0f} /s, cold {b['cold_per_s']:.0f} /s")
-    write_result("continuation", result, args.json)
+    write_result("continuation", result, args.json, out=args.out)
 
 
 if __name__ == "__main__":

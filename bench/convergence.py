@@ -22,7 +22,7 @@ import platform
 from collections import Counter
 
 import numpy as np
-from _common import write_result
+from _common import add_out_argument, write_result
 
 from pytdcr import ConstantFriction, NoFriction, paper_loads, paper_robot, solve_batch
 from pytdcr.statics import warmup
@@ -60,6 +60,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--models", default=",".join(MODEL_LAWS), help="comma-separated, of " + ",".join(MODEL_LAWS))
     ap.add_argument("--json", action="store_true", help="print one JSON object as the last line")
+    add_out_argument(ap, "convergence")
     args = ap.parse_args()
     warmup()
     T = np.random.default_rng(args.seed).uniform(0.0, 20.0, (max(args.n, args.n_sscr), 8))
@@ -78,7 +79,7 @@ def main() -> None:
                   f"{r['mean_ms']:8.2f} {r['mean_iterations']:8.1f}  {r['paths']}"
                   + (f"  ({r['converged_out_of_tolerance']} converged out of tolerance!)"
                      if r["converged_out_of_tolerance"] else ""))
-    write_result("convergence", result, args.json)
+    write_result("convergence", result, args.json, out=args.out)
 
 
 if __name__ == "__main__":

@@ -22,7 +22,7 @@ import argparse
 import time
 
 import numpy as np
-from _common import write_result
+from _common import add_out_argument, write_result
 
 from pytdcr import CosseratOptions, Loads, NoFriction, paper_robot, solve
 from pytdcr.compare import compare_models
@@ -40,6 +40,7 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=200, help="solves per timed case")
     ap.add_argument("--seed", type=int, default=2026)
     ap.add_argument("--json", action="store_true", help="print one JSON object as the last line")
+    add_out_argument(ap, "cosserat")
     args = ap.parse_args()
     t0 = time.perf_counter()
     warmup()
@@ -76,7 +77,7 @@ def main() -> None:
     e = result["e_compare_100"]
     print(f"{'e_compare_100':32s} {e['seconds']:.2f} s; both converged {e['all_converged']}/100; tip difference "
           f"median {e['cosserat_difference_median_mm']:.3f} mm, max {e['cosserat_difference_max_mm']:.3f} mm")
-    write_result("cosserat", result, args.json)
+    write_result("cosserat", result, args.json, out=args.out)
 
 
 if __name__ == "__main__":

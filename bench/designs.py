@@ -28,7 +28,7 @@ import time
 from pathlib import Path
 
 import pandas as pd
-from _common import write_result
+from _common import add_out_argument, write_result
 
 from pytdcr.designs import DesignsRunOptions, run_designs, study_from_dict
 
@@ -92,6 +92,7 @@ def main() -> None:
     ap.add_argument("--design-seconds", type=float, default=15.0,
                     help="per-design seconds of a real study, for the 1,000-design estimate [15]")
     ap.add_argument("--json", action="store_true", help="also print the result as one JSON line")
+    add_out_argument(ap, "designs")
     args = ap.parse_args()
     sizes = (args.designs, 2 * args.designs)
     studies = [_study(n, args.samples, args.search) for n in sizes]
@@ -119,7 +120,7 @@ def main() -> None:
         print(f"1,000 designs at {sec:.1f} s each ({label}): {e['2_processes_h']:.2f} h on 2 local processes; "
               + ", ".join(f"{e[f'{n}_dask_workers_h'] * 60:.1f} min on {n} Dask workers" for n in (2, 8, 32, 128)))
     result["estimate_1000_designs"] = est
-    write_result("designs", result, args.json)
+    write_result("designs", result, args.json, out=args.out)
 
 
 if __name__ == "__main__":

@@ -22,7 +22,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _common import write_result
+from _common import add_out_argument, write_result
 
 from pytdcr.io import write_robot
 from pytdcr.paper import paper_robot
@@ -70,6 +70,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--json", action="store_true")
+    add_out_argument(ap, "interrupt")
     a = ap.parse_args()
     rng = np.random.default_rng(0)
     result: dict = {"repeats": a.repeats, "commands": {}}
@@ -84,7 +85,7 @@ def main() -> None:
                                         "last_line": runs[-1]["line"]}
             print(f"{name:10s} Ctrl-C to exit: median {np.median(secs):.2f} s, max {max(secs):.2f} s; exit "
                   f"{[r['exit'] for r in runs]}; {runs[-1]['line']}", flush=True)
-    write_result("interrupt", result, a.json)
+    write_result("interrupt", result, a.json, out=a.out)
 
 
 if __name__ == "__main__":

@@ -21,7 +21,7 @@ import statistics
 import time
 
 import numpy as np
-from _common import write_result
+from _common import add_out_argument, write_result
 
 from pytdcr import TensionBounds, inverse_path, inverse_statics, solve
 from pytdcr.paper import paper_loads, paper_robot
@@ -76,6 +76,7 @@ def main() -> None:
     ap.add_argument("--model", default="pcc")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true", help="also print the result as one JSON line")
+    add_out_argument(ap, "inverse")
     args = ap.parse_args()
     warmup()
     robot, loads = paper_robot(), paper_loads()
@@ -105,7 +106,7 @@ def main() -> None:
               f"{', '.join(f'{x:.3f}' for x in out['far']['distances_m'])} m away; "
               f"median {out['far']['median_s']:.2f} s")
     print(f"first call (builds the start pool): {out['first_call_s']:.2f} s")
-    write_result("inverse", out, args.json)
+    write_result("inverse", out, args.json, out=args.out)
 
 
 if __name__ == "__main__":

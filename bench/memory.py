@@ -15,7 +15,7 @@ import json
 import subprocess
 import sys
 
-from _common import write_result
+from _common import add_out_argument, write_result
 
 CHILD = """
 import json, resource, sys, time
@@ -43,6 +43,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--disks", default="250,500,1000", help="disks per segment, comma-separated")
     ap.add_argument("--json", action="store_true", help="also print the result as one JSON line")
+    add_out_argument(ap, "memory")
     args = ap.parse_args()
     rows = []
     for per_segment in (int(x) for x in args.disks.split(",")):
@@ -54,7 +55,7 @@ def main() -> None:
               f"{row['estimate_bytes'] / 1e9:6.2f} GB, {row['estimate_bytes'] / max(row['peak_bytes'], 1):.2f}x), "
               f"solve {row['seconds']:6.1f} s (estimate {row['estimate_seconds']:6.1f} s), "
               f"converged {row['converged']}", flush=True)
-    write_result("memory", {"model": "pcc", "robot": "paper", "rows": rows}, args.json)
+    write_result("memory", {"model": "pcc", "robot": "paper", "rows": rows}, args.json, out=args.out)
 
 
 if __name__ == "__main__":

@@ -22,7 +22,7 @@ import time
 from collections import Counter
 
 import numpy as np
-from _common import write_result
+from _common import add_out_argument, write_result
 
 from pytdcr import MODELS, NoFriction, paper_loads, paper_robot, solve, solve_batch
 from pytdcr.statics import UnsupportedFeatureError, resolve, warmup
@@ -57,6 +57,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--models", default=",".join(MODELS), help="comma-separated registered models")
     ap.add_argument("--json", action="store_true", help="print one JSON object as the last line")
+    add_out_argument(ap, "models")
     args = ap.parse_args()
     warmup()
     T = np.random.default_rng(args.seed).uniform(0.0, 20.0, (args.n, 8))
@@ -74,7 +75,7 @@ def main() -> None:
             print(f"  {name:9s} cold solve median {r['median_ms']:7.2f} ms (mean {r['mean_ms']:7.2f}, p90 "
                   f"{r['p90_ms']:7.2f}, max {r['max_ms']:8.1f}); converged {r['converged']}/{r['cases']} "
                   f"{r['paths']}; batch {r['batch_per_s']:7.1f} solves/s")
-    write_result("models", result, args.json)
+    write_result("models", result, args.json, out=args.out)
 
 
 if __name__ == "__main__":

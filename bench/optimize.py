@@ -15,7 +15,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from _common import write_result
+from _common import add_out_argument, write_result
 
 from pytdcr import paper_loads, paper_robot
 from pytdcr.optimize import MemeticGA, ReachProblem, Termination, maximize_reach
@@ -27,6 +27,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seeds", type=int, default=8, help="seeds 0..N-1")
     ap.add_argument("--json", action="store_true", help="print one JSON object as the last line")
+    add_out_argument(ap, "optimize")
     args = ap.parse_args()
     warmup()
     problem = ReachProblem.create(paper_robot(), paper_loads(), paper_bounds())
@@ -53,7 +54,8 @@ def main() -> None:
     ok = [r_ for r_ in rows if r_["generations"] <= 10 and r_["evaluations"] <= 500
           and abs(r_["polish_cost_change"]) < 1e-6]
     print(f"seeds meeting <= 10 generations, <= 500 solves and polish change < 1e-6: {len(ok)} of {len(rows)}")
-    write_result("optimize", {"memetic": rows, "plain_seed0": plain_row, "meeting_target": len(ok)}, args.json)
+    write_result("optimize", {"memetic": rows, "plain_seed0": plain_row, "meeting_target": len(ok)},
+                 args.json, out=args.out)
 
 
 if __name__ == "__main__":

@@ -19,7 +19,7 @@ import statistics
 import time
 
 import numpy as np
-from _common import write_result
+from _common import add_out_argument, write_result
 
 from pytdcr import equilibrium_jacobians, solve, tip_compliance
 from pytdcr.paper import paper_loads, paper_robot
@@ -33,6 +33,7 @@ def main() -> None:
     ap.add_argument("--model", default="pcc")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true", help="also print the result as one JSON line")
+    add_out_argument(ap, "sensitivity")
     args = ap.parse_args()
     warmup()
     robot = paper_robot()
@@ -71,7 +72,7 @@ def main() -> None:
     print(f"tip translational stiffness over the {len(stiff_lo)} stable ones: {s['smallest']:.3g} to "
           f"{s['largest']:.3g} N/m (medians of each pose's softest and stiffest direction "
           f"{s['median_smallest']:.3g} and {s['median_largest']:.3g})")
-    write_result("sensitivity", out, args.json)
+    write_result("sensitivity", out, args.json, out=args.out)
 
 
 if __name__ == "__main__":

@@ -25,7 +25,7 @@ import subprocess
 import sys
 
 import numpy as np
-from _common import write_result
+from _common import add_out_argument, write_result
 
 
 def startup_seconds() -> float:
@@ -46,6 +46,7 @@ def main() -> None:
     ap.add_argument("--batch", type=int, default=4000, help="tension vectors in the throughput case")
     ap.add_argument("--seed", type=int, default=2026)
     ap.add_argument("--json", action="store_true", help="print one JSON object as the last line")
+    add_out_argument(ap, "solve")
     args = ap.parse_args()
 
     startup = [startup_seconds() for _ in range(3)]
@@ -120,7 +121,7 @@ def main() -> None:
     print(f"d throughput under the paper load   {result['throughput_paper_load_per_s']:.0f} solves/s")
     print(f"d throughput, load_stepping='auto'  {result['throughput_auto_per_s']:.0f} solves/s")
     print(f"converged: {result['converged_fraction']}")
-    write_result("solve", result, args.json)
+    write_result("solve", result, args.json, out=args.out)
 
 
 if __name__ == "__main__":

@@ -19,7 +19,7 @@ import argparse
 from collections import Counter
 
 import numpy as np
-from _common import write_result
+from _common import add_out_argument, write_result
 
 from pytdcr import paper_loads, paper_robot, solve_batch
 from pytdcr.statics import MODELS, configure, warmup
@@ -58,6 +58,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--model", default="pcc", choices=sorted(MODELS))
     ap.add_argument("--json", action="store_true")
+    add_out_argument(ap, "solve_agreement_<model>")
     args = ap.parse_args()
     if not 10 <= args.samples <= 1_000_000:
         ap.error(f"--samples must be in [10, 1000000], got {args.samples}")
@@ -77,7 +78,7 @@ def main() -> None:
           f"{r['unstable_where_reference_stable']} unstable where the reference is stable; "
           f"paths (solver / reference): {r['differ_paths_solver_reference']}")
     print(f"  mean time per solve, one thread: {t_fast * 1e3:.2f} ms (reference {t_ref * 1e3:.2f} ms)")
-    write_result(f"solve_agreement_{args.model}", result, args.json)
+    write_result(f"solve_agreement_{args.model}", result, args.json, out=args.out)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """Where a cold solve's time goes, and whether warm starts could replace it (paper robot, paper load).
 
 ``--model``: ``pcc`` (default), ``pcc2`` or ``sscr``. The workspace's sampling speed is bound by the
-loading-path solve under the paper's load (docs/speed.md).
+loading-path solve under the paper's load (docs/validation.md).
 This script measures what a faster solver would have to attack:
 
 - kernel: one residual, one exact Jacobian and one inverse of it (the quasi-Newton's pieces) [us, medians];
@@ -26,7 +26,7 @@ import time
 from dataclasses import replace
 
 import numpy as np
-from _common import write_result
+from _common import add_out_argument, write_result
 from numba import njit
 from scipy.spatial import cKDTree
 
@@ -142,6 +142,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--model", default="pcc", choices=COMPILED)
     ap.add_argument("--json", action="store_true")
+    add_out_argument(ap, "solve_profile_<model>")
     args = ap.parse_args()
     if not 20 <= args.samples <= 1_000_000:
         ap.error(f"--samples must be in [20, 1000000], got {args.samples}")
@@ -173,7 +174,7 @@ def main() -> None:
     for name, rows in w["filters"].items():
         print(f"  kept by {name}: " + ", ".join(f"{100 * r['kept']:.0f} % kept -> {100 * r['agreement']:.1f} %"
                                                 for r in rows))
-    write_result(f"solve_profile_{args.model}", result, args.json)
+    write_result(f"solve_profile_{args.model}", result, args.json, out=args.out)
 
 
 if __name__ == "__main__":

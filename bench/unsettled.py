@@ -22,7 +22,7 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-from _common import write_result
+from _common import add_out_argument, write_result
 
 from pytdcr import ConstantFriction, Loads, NoFriction, paper_robot, solve_batch
 from pytdcr.paper import PAPER_TIP_FORCE, PAPER_TIP_MOMENT
@@ -88,6 +88,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--flow-steps", type=int, default=3000)
     ap.add_argument("--json", action="store_true", help="print one JSON object as the last line")
+    add_out_argument(ap, "unsettled")
     args = ap.parse_args()
     warmup()
     T = np.random.default_rng(args.seed).uniform(0.0, 20.0, (args.n, 8))
@@ -110,7 +111,7 @@ def main() -> None:
                 case[f"converged_with_moment_x{scale}"] = int(c.converged.sum())
                 print(f"  the same rows with the tip moment x {scale}: converged {int(c.converged.sum())}/{rows.size}")
         result[name] = case
-    write_result("unsettled", result, args.json)
+    write_result("unsettled", result, args.json, out=args.out)
 
 
 if __name__ == "__main__":

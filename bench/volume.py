@@ -19,7 +19,7 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-from _common import write_result
+from _common import add_out_argument, write_result
 
 from pytdcr.workspace._volume import estimate_volume
 
@@ -61,6 +61,7 @@ def main() -> None:
     ap.add_argument("--points", type=int, default=400_000)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true", help="also print the result as one JSON line")
+    add_out_argument(ap, "volume")
     args = ap.parse_args()
     rng = np.random.default_rng(args.seed)
     rows = []
@@ -71,20 +72,21 @@ def main() -> None:
             est, _ = estimate_volume(p, stage, args.points, LENGTH / div)
             sc = est.scales[-1]
             row = {"shape": kind, "voxel": f"L/{div}", "true_cm3": true * 1e6,
-                   "outer_pct": 100 * (sc["voxel_m3"] - true) / true,
-                   "inner_pct": 100 * (sc["centre_m3"] - true) / true,
+                   "outer_pct": 100 * (sc.voxel_m3 - true) / true,
+                   "inner_pct": 100 * (sc.centre_m3 - true) / true,
                    "mean_pct": 100 * (est.volume_m3 - true) / true, "claimed_pct": 100 * est.discretisation_m3 / true}
             row["misses"] = abs(row["mean_pct"]) > row["claimed_pct"]
             # an alternative to weigh: the inner estimate, its error the change from twice the voxel edge
             coarse, _ = estimate_volume(p, stage, args.points, 2 * LENGTH / div)
-            row["inner_2h_pct"] = 100 * (coarse.scales[-1]["centre_m3"] - true) / true
+            row["inner_2h_pct"] = 100 * (coarse.scales[-1].centre_m3 - true) / true
             row["two_scale_pct"] = abs(row["inner_pct"] - row["inner_2h_pct"])
             rows.append(row)
             print(f"{kind:5s} {row['voxel']:5s} true {row['true_cm3']:7.0f} cm3: outer {row['outer_pct']:+6.1f} %, "
                   f"inner {row['inner_pct']:+6.1f} %, mean {row['mean_pct']:+6.1f} %, "
                   f"claimed ±{row['claimed_pct']:.1f} %{' MISSES' if row['misses'] else ''}; inner at 2h "
                   f"{row['inner_2h_pct']:+6.1f} % (two-scale ±{row['two_scale_pct']:.1f} %)", flush=True)
-    write_result("volume", {"points": args.points, "seed": args.seed, "length_m": LENGTH, "rows": rows}, args.json)
+    write_result("volume", {"points": args.points, "seed": args.seed, "length_m": LENGTH, "rows": rows},
+                 args.json, out=args.out)
 
 
 if __name__ == "__main__":

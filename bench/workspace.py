@@ -1,6 +1,6 @@
 """The workspace study's speed on the paper robot under the paper's load, tensions in [0, 20] N.
 
-Three measurements (2-core figures are in docs/speed.md and docs/workspace.md):
+Three measurements (their tables are in docs/validation.md):
 - sampling: ``solve_plan`` on ``--samples`` Sobol points (with the box's corners and edges, and the checked
   warm starts), solves per second; the issue's target is 20,000 samples in 10 s (2,000 solves/s);
 - support: h(d) on ``--directions`` Fibonacci directions from ``--n`` samples continued from the root, stable
@@ -22,7 +22,7 @@ import statistics
 import time
 
 import numpy as np
-from _common import write_result
+from _common import add_out_argument, write_result
 
 from pytdcr.optimize import ReachProblem
 from pytdcr.paper import paper_bounds, paper_loads, paper_robot
@@ -90,6 +90,7 @@ def main() -> None:
                     help="what a boundary-search step does at a fold (region)")
     ap.add_argument("--skip", default="", help="comma-separated: sampling, support, region")
     ap.add_argument("--json", action="store_true", help="also print the result as one JSON line")
+    add_out_argument(ap, "workspace")
     args = ap.parse_args()
     warmup()
     skip = set(filter(None, args.skip.split(",")))
@@ -104,7 +105,7 @@ def main() -> None:
         print(f"{name}: " + ", ".join(f"{k} {v:.4g}" if isinstance(v, float) else f"{k} {v}"
                                       for k, v in out[name].items()), flush=True)
     write_result("workspace", {"robot": "paper", "load": "paper wrench", "bounds_N": [0, 20],
-                               "repeat": args.repeat, **out}, args.json)
+                               "repeat": args.repeat, **out}, args.json, out=args.out)
 
 
 if __name__ == "__main__":

@@ -1,5 +1,11 @@
-"""The README's and the getting-started page's Python runs as printed, and every relative link of the README and
-of the documentation pages leads to a file that exists (the site's build, ``make docs``, checks them too)."""
+"""The README's and every how-to page's Python runs as printed, and every relative link of the README and of the
+documentation pages leads to a file that exists (the site's build, ``make docs``, checks them too).
+
+Each page's ```python blocks run in order as one script, in one subprocess per page, in a scratch folder (so a
+later block may use a name an earlier block made). A block that is shown but not meant to run (a fragment, or one
+that needs files or minutes the tests do not have) is fenced as ```text, or as ```python with the marker
+``# doc: no-run`` on its first line; use the marker sparingly: every block that can run should.
+"""
 
 from __future__ import annotations
 
@@ -42,14 +48,47 @@ def test_the_site_has_a_page_for_every_command():
         assert f"## `tdcr {name}`" in text and f"usage: tdcr {name}" in text
 
 
+#: the how-to pages whose Python runs as printed (each in one subprocess)
+HOW_TO = ("getting-started.md", "robot.md", "solve.md", "choose-model.md", "inverse.md", "workspace.md",
+          "designs.md", "explore.md", "run-files.md")
+#: a ```python block with this on its first line is shown, not run
+NO_RUN = "# doc: no-run"
+
+
+def python_blocks(text: str) -> list[str]:
+    """The ```python blocks of a Markdown text, in order, less those marked :data:`NO_RUN`."""
+    blocks = re.findall(r"^```python\n(.*?)^```", text, flags=re.S | re.M)
+    return [b for b in blocks if not b.startswith(NO_RUN)]
+
+
+def run_blocks(blocks: list[str], folder: Path) -> subprocess.CompletedProcess:
+    script = folder / "page.py"
+    script.write_text("\n".join(blocks))
+    return subprocess.run([sys.executable, str(script)], cwd=folder, capture_output=True, text=True, timeout=900,
+                          check=False)
+
+
+def test_python_blocks_are_found():
+    """The block finder keeps a page's blocks in order and leaves out the marked ones."""
+    text = "a\n```python\nx = 1\n```\n```python\n# doc: no-run\ny\n```\n```text\nz\n```\n```python\nprint(x)\n```\n"
+    assert python_blocks(text) == ["x = 1\n", "print(x)\n"]
+
+
 @pytest.mark.slow
 def test_readme_python_tour_runs(tmp_path):
-    blocks = re.findall(r"```python\n(.*?)```", README, flags=re.S)
+    blocks = python_blocks(README)
     assert blocks, "the README has no Python block"
-    blocks += re.findall(r"```python\n(.*?)```", (ROOT / "docs" / "getting-started.md").read_text(), flags=re.S)
-    script = tmp_path / "tour.py"
-    script.write_text("\n".join(blocks))
-    proc = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True, timeout=600,
-                          check=False)
+    proc = run_blocks(blocks, tmp_path)
     assert proc.returncode == 0, proc.stderr[-3000:]
     assert "True" in proc.stdout
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("page", HOW_TO)
+def test_how_to_python_runs(page, tmp_path):
+    """Every Python block of a how-to page runs as printed (a page still a stub has none and is skipped)."""
+    blocks = python_blocks((ROOT / "docs" / page).read_text())
+    if not blocks:
+        pytest.skip(f"{page} has no Python block yet")
+    proc = run_blocks(blocks, tmp_path)
+    assert proc.returncode == 0, f"{page}:\n{proc.stderr[-3000:]}"
