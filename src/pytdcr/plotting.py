@@ -70,6 +70,13 @@ def new_3d_axes(figsize: tuple[float, float] = (6.0, 6.0)) -> Axes3D:
 SAVE_DPI = 150
 
 
+def drawn_points(ax: Axes3D) -> np.ndarray:
+    """The points (K, 3) [m] of every line drawn on the 3D axes ``ax`` (backbones, disks' rings, tendons): what
+    limits shared by several axes must hold."""
+    lines = [np.column_stack([np.ravel(a) for a in line.get_data_3d()]) for line in ax.lines]
+    return np.vstack(lines).astype(float) if lines else np.zeros((0, 3))
+
+
 def set_equal_aspect(ax: Axes3D, points: np.ndarray, margin: float = 0.05) -> None:
     """Equal scale on x, y, z around ``points`` (K, 3) [m], with at most five ticks an axis (more overlap in a
     3D view's foreshortened axes)."""
@@ -101,6 +108,8 @@ def save_figure(fig: Figure, out: Path, stem: str) -> list[str]:
     # engine places the axes only when the figure is drawn, and a box measured before that clips
     fig.set_dpi(SAVE_DPI)
     fig.canvas.draw()
+    if fig.get_layout_engine() is not None:  # the placement measured is the one written: a constrained layout
+        fig.set_layout_engine("none")      # drawn again can move axes with an equal aspect and cut a label
     bbox = fig.get_tightbbox(fig.canvas.get_renderer()).padded(0.1)
     names = []
     for ext in ("png", "pdf"):
@@ -567,8 +576,9 @@ def plot_region_3d(meshes: Mapping[str, Trimesh | None], robot_positions: np.nda
     allp = np.vstack(pts)
     r = float(np.abs(allp[:, :2]).max()) if allp.size else 0.1
     ring = np.linspace(0, 2 * np.pi, 90)
-    ax.plot(r * np.cos(ring), r * np.sin(ring), 0 * ring, color=PALETTE.disks, linewidth=0.8, linestyle=":")
-    set_equal_aspect(ax, allp)
+    outline = np.column_stack([r * np.cos(ring), r * np.sin(ring), 0 * ring])
+    ax.plot(*outline.T, color=PALETTE.disks, linewidth=0.8, linestyle=":")
+    set_equal_aspect(ax, np.vstack([allp, outline]))  # the limits hold the base plane's outline too
     ax.set_xlabel("x [m]")
     ax.set_ylabel("y [m]")
     ax.set_zlabel("z [m]")
@@ -579,25 +589,39 @@ def plot_region_3d(meshes: Mapping[str, Trimesh | None], robot_positions: np.nda
     return ax.figure
 
 
+def _wrapped_triangulation(az: np.ndarray, el: np.ndarray, h: np.ndarray):
+    """A triangulation of the map's values ``h`` at azimuths ``az`` and elevations ``el`` [deg] that covers the
+    map up to its seam at ±180 deg and not past it: ``h`` on the seam is interpolated linearly across it (from
+    copies of the points shifted by a full turn) and added at -180 and +180 deg. Returns (triangulation, values)
+    as ``tricontourf`` takes them."""
+    import matplotlib.tri as mtri
+
+    az3, el3, h3 = np.concatenate([az - 360, az, az + 360]), np.tile(el, 3), np.tile(h, 3)
+    seam_el = np.unique(np.concatenate([el, [-90.0, 90.0]]))
+    seam_h = np.ma.filled(mtri.LinearTriInterpolator(mtri.Triangulation(az3, el3), h3)(
+        np.full_like(seam_el, 180.0), seam_el), np.nan)
+    keep = np.isfinite(seam_h)
+    inside = np.abs(az) < 180.0
+    a = np.concatenate([az[inside], np.full(keep.sum(), -180.0), np.full(keep.sum(), 180.0)])
+    e = np.concatenate([el[inside], seam_el[keep], seam_el[keep]])
+    return mtri.Triangulation(a, e), np.concatenate([h[inside], seam_h[keep], seam_h[keep]])
+
+
 def plot_support_map(directions: np.ndarray, h: np.ndarray, title: str = "") -> Figure:
     """The support function h(d) [m] over the sphere of directions ``directions`` (K, 3): azimuth against
     elevation [deg], filled contours in mm (the map wraps at ±180 deg), the directions as dots; directions too
     few to contour (one, or all on one parallel) are drawn as coloured dots. Returns the figure."""
-    import matplotlib.tri as mtri
-
     plt = pyplot()
     d = np.asarray(directions, dtype=float)
     az = np.degrees(np.arctan2(d[:, 1], d[:, 0]))
     el = np.degrees(np.arcsin(np.clip(d[:, 2], -1, 1)))
     hm = np.asarray(h, dtype=float) * 1e3
-    # copies shifted by a full turn, so that the triangulation wraps across the seam
-    az3, el3, h3 = np.concatenate([az - 360, az, az + 360]), np.tile(el, 3), np.tile(hm, 3)
     fig, ax = plt.subplots(figsize=(9, 4.6))
     spread = np.unique(np.round(el, 9)).size > 1 and np.ptp(hm) > 0 if hm.size else False
     try:  # contours need directions that span an area of the sphere and an h(d) that varies
         if not spread:
             raise ValueError("too few directions to contour")
-        cs = ax.tricontourf(mtri.Triangulation(az3, el3), h3, levels=14, cmap="viridis")
+        cs = ax.tricontourf(*_wrapped_triangulation(az, el, hm), levels=14, cmap="viridis")
         ax.plot(az, el, ".", color="white", markersize=2.5)
     except (ValueError, RuntimeError):  # one direction, a great circle, or a constant h: the directions alone
         cs = ax.scatter(az, el, c=hm, cmap="viridis", s=60, edgecolors="black")

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..palette import PALETTE
-from ..plotting import pyplot, save_figure, set_equal_aspect
+from ..plotting import RobotStyle, drawn_points, plot_robot, pyplot, save_figure, set_equal_aspect
 from ..robot import Robot
 from ._optimize import measures_nothing
 from ._records import DesignRecord
@@ -202,12 +202,10 @@ def _best_figure(study: DesignStudy, robot: Robot, table: pd.DataFrame, records:
         if sol is None or not sol.converged:
             ax.set_title(f"{title}: farthest shape not converged", fontsize=9)
             continue
-        from ..plotting import RobotStyle, plot_robot
-
         if abs(float(np.linalg.norm(sol.tip_position)) - row.largest_reach_m) > 1e-3:
             title += " (re-solved on another branch)"
         plot_robot(case_robot, sol, ax, style=RobotStyle(frames=False, equal=False))
-        points.append(sol.disk_positions)
+        points.append(drawn_points(ax))  # the disks' rings reach past the backbone
         ax.set_title(f"{title}\nreach {row.largest_reach_m * 1e3:.0f} mm, FSW {row.volume_m3 * 1e6:.0f} cm³",
                      fontsize=9)
     if points:

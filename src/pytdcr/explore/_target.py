@@ -101,12 +101,13 @@ def nearest_sample(tensions: np.ndarray, tips: np.ndarray, target: np.ndarray) -
 
 
 def show_distance(metres: float) -> str:
-    """A distance [m] as text: in nm below 1 µm, in µm below 1 mm, else in mm."""
+    """A distance [m] as text: in nm below 1 µm, in µm below 1 mm, else in mm to 0.1 mm (the page's rounding of
+    positions)."""
     if not np.isfinite(metres):
         return "-"
     if metres < 1e-6:
         return f"{metres * 1e9:.3g} nm"
-    return f"{metres * 1e6:.3g} µm" if metres < 1e-3 else f"{metres * 1e3:.2f} mm"
+    return f"{metres * 1e6:.3g} µm" if metres < 1e-3 else f"{metres * 1e3:.1f} mm"
 
 
 def _sample_note(sample: NearestSample | None) -> str:
