@@ -113,3 +113,12 @@ def test_bench_write_result_goes_to_out(tmp_path: Path, monkeypatch: pytest.Monk
     d = json.loads(out.read_text())
     assert d["x"] == 1 and d["command"] == "python bench/solve.py --runs 3"
     assert d["machine"]["cores"] >= 1 and d["machine"]["cpu"] and len(d["machine"]["load_average_end"]) == 3
+
+
+def test_a_volume_whose_error_exceeds_it_is_not_shown_as_a_result() -> None:
+    assert hook._cm3(55740.0, 4702.0) == "55,740 ± 4,702 cm³"
+    shown = hook._cm3(4338.0, 124912.0)
+    assert "4,338" not in shown and shown.startswith("not measured")
+    page = hook.render_markdown(PAGE.read_text())
+    for value, error in re.findall(r"([\d,.]+) ± ([\d,.]+) cm³", page):
+        assert float(error.replace(",", "")) < float(value.replace(",", "")), (value, error)

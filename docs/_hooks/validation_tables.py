@@ -64,6 +64,14 @@ def _of(part: int, whole: int) -> str:
 # ----------------------------------------------------------------------------------------------- renderers
 
 
+def _cm3(value: float, error: float) -> str:
+    """A volume [cm³] with its error, or, when the error is larger than the value, no value: the run did not
+    measure it."""
+    if not error < value:
+        return f"not measured (error ± {_num(error)} cm³ exceeds the estimate)"
+    return f"{_num(value)} ± {_num(error)} cm³"
+
+
 def _solve_speed(d: dict, view: str | None) -> str:
     c = d["converged_fraction"]
     det = d["detail"]
@@ -191,9 +199,8 @@ def _workspace(d: dict, view: str | None) -> str:
                      f"{r['solves']:,} sampling + {r['search_solves']:,} search solves ("
                      + ("stopped at its budget: the volume is not converged; " if r["search_stop"] == "budget"
                         else f"{r['search_stop']}; ")
-                     + "FSW "
-                     f"{_num(r['volume_cm3'])} ± {_num(r['error_cm3'])} cm³, realisable "
-                     f"{_num(r['realisable_cm3'])} ± {_num(r['realisable_error_cm3'])} cm³)"])
+                     + f"FSW {_cm3(r['volume_cm3'], r['error_cm3'])}, realisable "
+                     f"{_cm3(r['realisable_cm3'], r['realisable_error_cm3'])})"])
     return _table(["step (paper robot, paper load, tensions in [0, 20] N)", "seconds", "what"], rows)
 
 
