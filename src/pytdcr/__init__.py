@@ -23,6 +23,7 @@ from .robot import (
 from .statics import (
     MODELS,
     CosseratOptions,
+    DisplacementSolution,
     Jacobians,
     Model,
     PCCEquations,
@@ -32,8 +33,10 @@ from .statics import (
     UnsupportedFeatureError,
     equilibrium_jacobians,
     get_model,
+    pulled_in,
     solve,
     solve_batch,
+    solve_displacements,
     tip_compliance,
     tip_gradient,
 )
@@ -59,6 +62,7 @@ __all__ = [
     "BatchSolution",
     "ConstantFriction",
     "CosseratOptions",
+    "DisplacementSolution",
     "ExponentialFriction",
     "InverseResult",
     "InverseSearch",
@@ -86,9 +90,11 @@ __all__ = [
     "inverse_statics",
     "paper_loads",
     "paper_robot",
+    "pulled_in",
     "rao_robot",
     "solve",
     "solve_batch",
+    "solve_displacements",
     "tip_compliance",
     "tip_gradient",
 ]
