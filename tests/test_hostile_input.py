@@ -281,7 +281,13 @@ def test_ctrl_c_to_the_process_group_stops_a_design_study_in_one_line(tmp_path):
     proc = subprocess.Popen([sys.executable, "-m", "pytdcr.cli", "designs", example, "--out", str(tmp_path / "d"),
                              "--no-figures"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             start_new_session=True, preexec_fn=_as_from_a_terminal)
-    time.sleep(3.0)  # the worker processes are starting (importing): a terminal's Ctrl-C reaches them all
+    # the study has begun (its folder holds its manifest) and its worker processes are starting (importing): a
+    # terminal's Ctrl-C reaches them all. Waiting for the folder, not a fixed time: on a loaded machine the
+    # start-up takes longer, and a Ctrl-C before the study begins rightly saves nothing.
+    deadline = time.monotonic() + 120.0
+    while not (tmp_path / "d" / "manifest.json").exists() and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+    time.sleep(0.5)
     os.killpg(proc.pid, signal.SIGINT)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 130
