@@ -13,7 +13,13 @@ from pytdcr.loads import Loads
 from pytdcr.paper import RAO_BACKBONE, paper_robot
 from pytdcr.robot import NoFriction, Robot, Segment, Tendon
 from pytdcr.statics import solve
-from pytdcr.statics.displacement import lcp, pulled_in, solve_displacements, tendon_stiffness
+from pytdcr.statics.displacement import (
+    DisplacementOptions,
+    lcp,
+    pulled_in,
+    solve_displacements,
+    tendon_stiffness,
+)
 
 ANGLES = (0.0, 90.0, 180.0, 270.0)
 
@@ -141,7 +147,7 @@ def test_a_held_antagonist_locks_the_segment():
 def test_a_solve_that_does_not_converge_says_so():
     r = paper_robot()
     got = solve_displacements(r, Loads(np.zeros(8)), [0.02, None, None, None, 0.03, None, None, None],
-                              model="pcc2", max_iterations=1)
+                              model="pcc2", drive=DisplacementOptions(max_iterations=1))
     assert not got.converged
     assert got.residual > 1e-7 and got.message
 
@@ -177,9 +183,97 @@ def test_bad_input_is_named():
     r = paper_robot()
     with pytest.raises(ValueError, match="displacements must give one value"):
         solve_displacements(r, Loads(np.zeros(8)), [0.01, None])
-    with pytest.raises(ValueError, match="displacements must be finite"):
+    with pytest.raises(ValueError, match="displacements: value 1 = inf m must be finite"):
         solve_displacements(r, Loads(np.zeros(8)), [np.inf] + [None] * 7)
+    with pytest.raises(ValueError, match=r"max_tension must be in \(0, 1e4\] N"):
+        DisplacementOptions(max_tension=0.0)
     with pytest.raises(ValueError, match="stiffness must be > 0"):
         tendon_stiffness(r, -1.0)
     with pytest.raises(ValueError, match="stiffness must give one value or one per tendon"):
         tendon_stiffness(r, [1e4, 1e4])
+
+
+# ---------------------------------------------------------------- the command line and the records
+
+def _tdcr(capsys, *args: str) -> tuple[int, str, str]:
+    from pytdcr.cli import main
+
+    code = main(list(args))
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_tdcr_solve_reports_pull_ins_and_drives_by_displacement(capsys):
+    import json
+
+    code, text, _ = _tdcr(capsys, "solve", "--tensions", "4,0,0,0,2,0,0,0", "--tip-force=0.1,0.1,-0.1",
+                          "--tendon-stiffness", "35000", "--json")
+    assert code == 0
+    asked = json.loads(text)
+    pull = asked["pulled_in_m"]
+    assert len(pull) == 8 and "drive" not in asked
+    drive = f"{pull[0]!r},-,-,-,{pull[4]!r},-,-,-"
+    code, text, _ = _tdcr(capsys, "solve", "--displacements", drive, "--tip-force=0.1,0.1,-0.1",
+                          "--tendon-stiffness", "35000", "--json")
+    assert code == 0
+    got = json.loads(text)
+    assert got["drive"]["converged"] and got["drive"]["residual_m"] <= 1e-7
+    assert np.allclose(got["drive"]["tensions_n"], [4, 0, 0, 0, 2, 0, 0, 0], atol=2e-3)
+    assert got["drive"]["displacements_m"][1] is None and got["drive"]["stiffness_n_per_m"] == [35000.0] * 8
+    assert np.allclose(got["tip_position"], asked["tip_position"], atol=1e-5)
+    code, text, _ = _tdcr(capsys, "solve", "--displacements", drive, "--tip-force=0.1,0.1,-0.1",
+                          "--tendon-stiffness", "35000")
+    assert code == 0 and "displacements met" in text and "slack: tendons 2, 3, 4, 6, 7, 8" in text
+
+
+def test_a_solve_record_reads_back_its_drive(capsys):
+    import json
+
+    from pytdcr.runs import SolveRecord
+
+    _, text, _ = _tdcr(capsys, "solve", "--displacements", "0.005,-,-0.006,-,-,-,-,-", "--json")
+    record = SolveRecord.from_json(json.loads(text))
+    assert record.drive is not None and record.drive.converged
+    assert np.isinf(record.drive.stiffness).all() and np.isnan(record.drive.displacements[1])
+    assert record.to_json() == json.loads(text)
+    old = json.loads(text)
+    del old["pulled_in_m"], old["drive"]  # a result written before displacements existed
+    assert SolveRecord.from_json(old).drive is None
+
+
+def test_a_displacement_beyond_max_tension_is_not_met():
+    got = solve_displacements(one_segment(), Loads(np.zeros(4)), [0.01, None, None, None], model="pcc2",
+                              drive=DisplacementOptions(max_tension=1.0))
+    assert not got.converged and "more than max_tension = 1 N" in got.message
+
+
+def test_unmet_displacements_exit_1_and_say_why(capsys, monkeypatch):
+    import functools
+
+    import pytdcr.runs._solve as runs_solve
+
+    monkeypatch.setattr(runs_solve, "solve_displacements",
+                        functools.partial(solve_displacements, drive=DisplacementOptions(max_tension=1.0)))
+    code, text, _ = _tdcr(capsys, "solve", "--displacements", "0.01,-,-,-,-,-,-,-", "--model", "pcc2")
+    assert code == 1
+    assert "NOT converged: the displacements are not met" in text and "max_tension = 1 N" in text
+    assert "tip position" not in text
+
+
+@pytest.mark.parametrize(("args", "words"), [
+    (["--displacements", "0.01,-,-"], "--displacements: robot 'paper' has 8 tendons, got 3 values"),
+    (["--displacements", "2,-,-,-,-,-,-,-"], "--displacements: value 1 = 2.0 must be a finite number in [-1, 1] m"),
+    (["--displacements", "0.5,-,-,-,-,-,-,-"], "--displacements: value 1 = 0.5 m must be finite and within ±0.4 m"),
+    (["--displacements", "0.01,x,-,-,-,-,-,-"], "--displacements: value 2 is not a number"),
+    (["--displacements", "-,-,-,-,-,-,-,-"], "--displacements: give at least one tendon a displacement"),
+    (["--displacements", "0.01,-,-,-,-,-,-,-", "--tendon-stiffness", "1,-3"],
+     "--tendon-stiffness: value 2 = -3.0 must be a finite number in (0, inf] N/m"),
+    (["--displacements", "0.01,-,-,-,-,-,-,-", "--tendon-stiffness", "1,2"],
+     "--tendon-stiffness: robot 'paper' has 8 tendons, got 2 values (or give one for all)"),
+    (["--displacements", "0.01,-,-,-,-,-,-,-", "--cases", "x.csv"], "--displacements solves one case"),
+    ([], "give --tensions, --displacements or --cases"),
+])
+def test_bad_displacement_input_is_one_line_exit_2(capsys, args, words):
+    code, _, err = _tdcr(capsys, "solve", *args)
+    assert code == 2
+    assert words in err and err.count("\n") == 1

@@ -160,8 +160,12 @@ def _before_the_record(run: Any) -> dict[str, Any]:
 
 
 def test_the_record_prints_what_the_solution_printed_before(solve_run):
+    """The same keys, order and values as before the record, plus each tendon's pull-in (issue 48)."""
+    from pytdcr import pulled_in
+
     d = solve_run.to_json()
     assert d.pop("schema_version") == 1
+    assert d.pop("pulled_in_m") == pulled_in(solve_run.robot, solve_run.solution).tolist()
     assert dump_json(d) == dump_json(_before_the_record(solve_run))  # keys, order and values
 
 

@@ -23,6 +23,7 @@ from .robot import (
 from .statics import (
     MODELS,
     CosseratOptions,
+    DisplacementOptions,
     DisplacementSolution,
     Jacobians,
     Model,
@@ -62,6 +63,7 @@ __all__ = [
     "BatchSolution",
     "ConstantFriction",
     "CosseratOptions",
+    "DisplacementOptions",
     "DisplacementSolution",
     "ExponentialFriction",
     "InverseResult",

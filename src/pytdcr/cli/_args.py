@@ -34,8 +34,8 @@ FLAGS = {name: "--" + name.replace("_", "-") for name in (
     "robot", "friction", "tip_force", "tip_moment", "tensions", "bounds", "bounds_file", "model", "shear_extension",
     "atol", "plot", "n", "seed", "pop", "tol", "window", "max_gen", "stable_only", "models", "cases", "disks",
     "order_cases", "reference_steps", "payload_g", "out", "compliance", "jacobians", "csv", "targets", "workspace",
-    "target", "direction", "starts", "max_solves", "objective")}
-FLAGS.update(disk_forces="--disk-force", disk_moments="--disk-moment")
+    "target", "direction", "starts", "max_solves", "objective", "displacements")}
+FLAGS.update(disk_forces="--disk-force", disk_moments="--disk-moment", stiffness="--tendon-stiffness")
 
 
 def parse_floats(text: str, name: str, count: int | None = None) -> np.ndarray:
@@ -44,6 +44,14 @@ def parse_floats(text: str, name: str, count: int | None = None) -> np.ndarray:
         return parse_numbers(text, name, count)
     except ValueError as err:
         raise CliError(str(err)) from None
+
+
+def parse_optional(text: str, name: str) -> tuple[float | None, ...]:
+    """Comma-separated finite numbers where ``-`` leaves a place empty (None), e.g. ``0.004,-,-,0.002``."""
+    fields = text.split(",") if isinstance(text, str) else []
+    numbers = [f for f in fields if f.strip() != "-"]
+    values = iter(parse_floats(",".join(numbers), name) if numbers else ())
+    return tuple(None if f.strip() == "-" else float(next(values)) for f in fields)
 
 
 def seed_type(text: str) -> int:
@@ -208,7 +216,8 @@ def has_tip_wrench(args: argparse.Namespace) -> bool:
 
 
 # ---------------------------------------------------------------- negative numbers
-_VALUE_OPTIONS = ("--tip-force", "--tip-moment", "--tensions", "--bounds", "--friction", "--target", "--direction")
+_VALUE_OPTIONS = ("--tip-force", "--tip-moment", "--tensions", "--bounds", "--friction", "--target", "--direction",
+                  "--displacements", "--tendon-stiffness")
 _NUMBER_OPTIONS = ("--atol", "--tol", "--seed", "--n", "--pop", "--max-gen", "--window", "--payload-g", "--starts",
                    "--max-solves")
 

@@ -50,15 +50,27 @@ class SolveSettings:
     Attributes
     ----------
     tensions : sequence of float
-        Actuator tension of each tendon [N], finite, in [0, 1e4]; one per tendon of the robot.
+        Actuator tension of each tendon [N], finite, in [0, 1e4]; one per tendon of the robot. Empty with
+        ``displacements``: every tension-driven tendon at 0 N.
     robot, loads, model : RobotSpec, LoadSpec, ModelSpec
         The robot, its external loads and the static model.
+    displacements : sequence of float or None, optional
+        Drive tendons by displacement (:func:`pytdcr.solve_displacements`): per tendon its pull-in [m], within
+        ±1 m, or None to drive it by its tension. None (the default): every tendon by tension.
+    stiffness : sequence of float or None, optional
+        The tendons' axial stiffness [N/m] (> 0, finite; None: inextensible): one value for every tendon or one
+        per tendon. None (the default): inextensible. It sets the pull-ins reported and the tensions found.
     """
 
     tensions: tuple[float, ...]
     robot: RobotSpec = field(default_factory=RobotSpec)
     loads: LoadSpec = field(default_factory=LoadSpec)
     model: ModelSpec = field(default_factory=ModelSpec)
+    displacements: tuple[float | None, ...] | None = None
+    stiffness: tuple[float | None, ...] | None = None
+
+    #: the largest pull-in or pay-out a displacement may ask [m]
+    MAX_DISPLACEMENT: ClassVar[float] = 1.0
 
     def __post_init__(self) -> None:
         for name, kind in (("robot", RobotSpec), ("loads", LoadSpec), ("model", ModelSpec)):
@@ -70,16 +82,59 @@ class SolveSettings:
         if t.ndim != 1:
             raise SettingsError("tensions", f": give one tension per tendon, got shape {t.shape}")
         object.__setattr__(self, "tensions", tuple(float(x) for x in t))
+        if self.displacements is not None:
+            object.__setattr__(self, "displacements", _optional_values(
+                self.displacements, "displacements", "m", -self.MAX_DISPLACEMENT, self.MAX_DISPLACEMENT))
+            if all(v is None for v in self.displacements):
+                raise SettingsError("displacements", ": give at least one tendon a displacement (None drives a "
+                                    "tendon by its tension)")
+        if self.stiffness is not None:
+            object.__setattr__(self, "stiffness", _optional_values(self.stiffness, "stiffness", "N/m", 0.0, math.inf,
+                                                                   open_low=True))
 
     def tensions_for(self, robot: Robot) -> np.ndarray:
         """The tensions, shape (n_tendons,) [N]; SettingsError unless there is one per tendon of ``robot``."""
         if robot.n_tendons == 0 and self.tensions:
             raise SettingsError("robot", f": robot '{robot.name}' has no tendons, so it takes no tensions (got "
                                 f"{len(self.tensions)})")
+        if not self.tensions and self.displacements is not None:
+            return np.zeros(robot.n_tendons)
         if len(self.tensions) != robot.n_tendons:
             raise SettingsError("tensions", f": robot '{robot.name}' has {robot.n_tendons} tendons, got "
                                 f"{len(self.tensions)} values")
         return np.array(self.tensions)
+
+    def drive_for(self, robot: Robot) -> tuple[list[float | None] | None, list[float | None] | None]:
+        """The displacements (one per tendon, None: by tension) and the stiffness (one per tendon, None:
+        inextensible) for ``robot``; each None when not given. SettingsError naming the field unless each
+        gives one value per tendon (the stiffness: or one for all)."""
+        n = robot.n_tendons
+        for name, values, one in (("displacements", self.displacements, False), ("stiffness", self.stiffness, True)):
+            if values is not None and len(values) != n and not (one and len(values) == 1):
+                raise SettingsError(name, f": robot '{robot.name}' has {n} tendons, got {len(values)} values"
+                                    + (" (or give one for all)" if one else ""))
+        stiffness = None if self.stiffness is None else list(self.stiffness) * (n if len(self.stiffness) == 1 else 1)
+        return (None if self.displacements is None else list(self.displacements)), stiffness
+
+
+def _optional_values(values: object, name: str, unit: str, low: float, high: float, *,
+                     open_low: bool = False) -> tuple[float | None, ...]:
+    """``values`` as a tuple of floats in [low, high] (``(low, high]`` with ``open_low``) or None; SettingsError
+    naming ``name`` and the range otherwise."""
+    if isinstance(values, str) or not hasattr(values, "__iter__"):
+        raise SettingsError(name, f": give a sequence of numbers [{unit}] or None, got {show(values)}")
+    out: list[float | None] = []
+    for k, v in enumerate(values):  # type: ignore[union-attr]
+        if v is None:
+            out.append(None)
+            continue
+        x = float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else math.nan
+        if not (low < x <= high if open_low else low <= x <= high) or not math.isfinite(x):
+            bracket = "(" if open_low else "["
+            raise SettingsError(name, f": value {k + 1} = {show(v)} must be a finite number in {bracket}{low:g}, "
+                                f"{high:g}] {unit}")
+        out.append(x)
+    return tuple(out)
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,18 @@ from ..records import JsonDict, JsonObject, check_schema, optional_part, part
 from ..results import BatchSolution, Stability, StaticSolution
 from ..robot import Robot
 from ..runtime import FileRefused, writable_file, write_csv
-from ..statics import Jacobians, Model, SolvePath, TipCompliance, equilibrium_jacobians, solve, tip_compliance
+from ..statics import (
+    DisplacementSolution,
+    Jacobians,
+    Model,
+    SolvePath,
+    TipCompliance,
+    equilibrium_jacobians,
+    pulled_in,
+    solve,
+    solve_displacements,
+    tip_compliance,
+)
 from ..validate import SettingsError, show_path
 from ._output import load_arrows
 from ._settings import SolveSettings
@@ -31,6 +42,7 @@ __all__ = [
     "FIGURE_SUFFIXES",
     "SCHEMA_VERSION",
     "SHAPE_COLUMNS",
+    "DriveRecord",
     "SolutionRecord",
     "SolveRecord",
     "SolveRun",
@@ -170,6 +182,62 @@ def _jacobians_from_json(d: JsonObject) -> Jacobians:
 
 
 @dataclass(frozen=True, eq=False)
+class DriveRecord:
+    """How a displacement-driven solve (:func:`pytdcr.solve_displacements`) met its displacements.
+
+    Attributes
+    ----------
+    displacements : ndarray, shape (n_tendons,)
+        The pull-in asked of each displacement-driven tendon [m]; NaN (null in JSON) for a tension-driven one.
+    stiffness : ndarray, shape (n_tendons,)
+        The tendons' axial stiffness [N/m]; ``inf`` (null in JSON) for an inextensible one.
+    tensions : ndarray, shape (n_tendons,)
+        Every tendon's actuator tension [N]: found for the driven ones.
+    slack : ndarray of bool, shape (n_tendons,)
+        Tendons at 0 N.
+    residual : float
+        The largest violation of the displacement conditions [m].
+    converged : bool
+    iterations, solves : int
+        Newton steps and equilibria solved.
+    message : str
+        Why it did not converge (empty when it did).
+    """
+
+    displacements: np.ndarray
+    stiffness: np.ndarray
+    tensions: np.ndarray
+    slack: np.ndarray
+    residual: float
+    converged: bool
+    iterations: int
+    solves: int
+    message: str = ""
+
+    @classmethod
+    def of(cls, d: DisplacementSolution) -> DriveRecord:
+        """The record of a displacement-driven solve."""
+        return cls(d.displacements, d.stiffness, d.tensions, d.slack, d.residual, d.converged, d.iterations,
+                   d.solves, d.message)
+
+    def to_json(self) -> JsonDict:
+        """JSON-ready form (non-finite numbers as null)."""
+        return {"displacements_m": [None if not np.isfinite(x) else float(x) for x in self.displacements],
+                "stiffness_n_per_m": [None if not np.isfinite(x) else float(x) for x in self.stiffness],
+                "tensions_n": _listed(self.tensions), "slack": [bool(x) for x in self.slack],
+                "residual_m": self.residual, "converged": self.converged, "iterations": self.iterations,
+                "solves": self.solves, "message": self.message or None}
+
+    @classmethod
+    def from_json(cls, d: JsonObject) -> DriveRecord:
+        """What :meth:`to_json` wrote."""
+        return cls(_array(d["displacements_m"]),
+                   np.array([np.inf if x is None else float(x) for x in d["stiffness_n_per_m"]]),
+                   _array(d["tensions_n"]), np.array(d["slack"], dtype=bool), _number(d["residual_m"]),
+                   bool(d["converged"]), int(d["iterations"]), int(d["solves"]), d["message"] or "")
+
+
+@dataclass(frozen=True, eq=False)
 class SolveRecord:
     """What ``tdcr solve --json`` prints, typed.
 
@@ -183,17 +251,27 @@ class SolveRecord:
         The tip's compliance (``compliance``), when computed.
     jacobians : Jacobians or None
         The shape's derivatives by the tensions (``jacobians``), when computed.
+    pulled_in : ndarray, shape (n_tendons,), or None
+        Each tendon's pull-in [m] (:func:`pytdcr.pulled_in`, ``pulled_in_m``); None when not converged.
+    drive : DriveRecord or None
+        How the displacements were met (``drive``), for a displacement-driven solve.
     """
 
     robot: str
     solution: SolutionRecord
     compliance: TipCompliance | None = None
     jacobians: Jacobians | None = None
+    pulled_in: np.ndarray | None = None
+    drive: DriveRecord | None = None
 
     def to_json(self) -> JsonDict:
-        """JSON-ready form: ``schema_version``, the robot's name, the solution's keys, then ``compliance`` and
-        ``jacobians`` when computed (each absent otherwise)."""
+        """JSON-ready form: ``schema_version``, the robot's name, the solution's keys, then ``pulled_in_m`` (of a
+        converged solve), ``drive``, ``compliance`` and ``jacobians`` when there (each absent otherwise)."""
         out = {"schema_version": SCHEMA_VERSION, "robot": self.robot, **self.solution.to_json()}
+        if self.pulled_in is not None:
+            out["pulled_in_m"] = _listed(self.pulled_in)
+        if self.drive is not None:
+            out["drive"] = self.drive.to_json()
         if self.compliance is not None:
             out["compliance"] = self.compliance.to_dict()
         if self.jacobians is not None:
@@ -208,7 +286,8 @@ class SolveRecord:
         def read(d: JsonObject) -> SolveRecord:
             check_schema(d, _FILE, SCHEMA_VERSION)
             return cls(str(d["robot"]), SolutionRecord.from_json(d), _optional("compliance", _compliance_from_json, d),
-                       _optional("jacobians", _jacobians_from_json, d))
+                       _optional("jacobians", _jacobians_from_json, d), _array(d.get("pulled_in_m")),
+                       _optional("drive", DriveRecord.from_json, d))
 
         return _read("", read, d)
 
@@ -231,6 +310,10 @@ class SolveRun:
         The tip's compliance, when asked for and the solve converged.
     jacobians : Jacobians or None
         The shape's derivatives by the tensions, likewise.
+    drive : DisplacementSolution or None
+        The displacement-driven solve, when displacements were given (``solution`` is its equilibrium).
+    stiffness : list of float or None, or None
+        The tendons' axial stiffness [N/m] the pull-ins are reported with (None: inextensible).
     """
 
     robot: Robot
@@ -240,12 +323,27 @@ class SolveRun:
     plot: Path | None = None
     compliance: TipCompliance | None = None
     jacobians: Jacobians | None = None
+    drive: DisplacementSolution | None = None
+    stiffness: list[float | None] | None = None
+
+    @property
+    def converged(self) -> bool:
+        """The equilibrium converged and, when displacements were given, they are met."""
+        return bool(self.solution.converged and (self.drive is None or self.drive.converged))
+
+    @property
+    def pulled_in(self) -> np.ndarray | None:
+        """Each tendon's pull-in [m] (:func:`pytdcr.pulled_in`), None when the solve did not converge."""
+        if self.drive is not None and self.solution.converged:
+            return self.drive.pulled_in
+        return pulled_in(self.robot, self.solution, self.stiffness) if self.solution.converged else None
 
     @property
     def record(self) -> SolveRecord:
-        """The numbers it reports, typed: the robot's name, the solution's numbers, and the compliance and the
-        Jacobians when computed."""
-        return SolveRecord(self.robot.name, SolutionRecord.of(self.solution), self.compliance, self.jacobians)
+        """The numbers it reports, typed: the robot's name, the solution's numbers, the pull-ins, and the
+        displacements met, the compliance and the Jacobians when there."""
+        return SolveRecord(self.robot.name, SolutionRecord.of(self.solution), self.compliance, self.jacobians,
+                           self.pulled_in, None if self.drive is None else DriveRecord.of(self.drive))
 
     def to_json(self) -> JsonDict:
         """What ``tdcr solve --json`` prints (:meth:`SolveRecord.to_json`)."""
@@ -326,7 +424,9 @@ def run_solve(settings: SolveSettings, plot: str | Path | None = None, *, compli
     compliance (:func:`~pytdcr.statics.tip_compliance`) or the shape's derivatives by the tensions
     (:func:`~pytdcr.statics.equilibrium_jacobians`) of a converged solve. Everything is checked before the solve
     (SettingsError naming ``compliance`` or ``jacobians`` for a model without exact derivatives); with ``csv``,
-    every disk's centre and frame of a converged solve (:func:`write_shape_csv`)."""
+    every disk's centre and frame of a converged solve (:func:`write_shape_csv`). With the settings'
+    ``displacements``, the displacement-driven tendons' tensions are found with the equilibrium
+    (:func:`~pytdcr.statics.solve_displacements`); the figure, table and derivatives then need both to converge."""
     figure = check_figure_path(plot) if plot is not None else None
     table = check_csv_path(csv) if csv is not None else None
     robot = settings.robot.build()
@@ -336,16 +436,28 @@ def run_solve(settings: SolveSettings, plot: str | Path | None = None, *, compli
     for name, asked in (("compliance", compliance), ("jacobians", jacobians)):
         if asked and model.capabilities.gradient != "exact":
             raise SettingsError(name, f": model '{model.name}' has no exact derivatives; use pcc, pcc2 or sscr")
-    sol = solve(robot, loads, model=model, options=options)
-    if not sol.converged:
-        return SolveRun(robot, loads, model, sol)
+    displacements, stiffness = settings.drive_for(robot)
+    drive = None
+    if displacements is None:
+        sol = solve(robot, loads, model=model, options=options)
+    else:
+        try:
+            drive = solve_displacements(robot, loads, displacements, stiffness=stiffness, model=model,
+                                        options=options)
+        except ValueError as err:  # a displacement beyond the robot's length
+            raise SettingsError.about("displacements", err) from None
+        sol = drive.solution
+        loads = loads.with_tensions(drive.tensions)
+    done = partial(SolveRun, robot, loads, model, sol, drive=drive, stiffness=stiffness)
+    if not (sol.converged and (drive is None or drive.converged)):
+        return done()
     c = tip_compliance(robot, loads, sol, model=model, options=options) if compliance else None
     j = equilibrium_jacobians(robot, loads, sol, model=model, options=options) if jacobians else None
     if figure is not None:
         _plot_solution(sol, robot, loads, figure)
     if table is not None:
         write_shape_csv(table, sol)
-    return SolveRun(robot, loads, model, sol, figure, c, j)
+    return done(figure, c, j)
 
 
 def _plot_solution(sol: StaticSolution, robot: Robot, loads: Loads, path: Path) -> None:

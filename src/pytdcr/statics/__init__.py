@@ -8,7 +8,13 @@ the model supports.
 from ..runtime import Cancelled, CancelScope, cancellable, check_cancelled, mark_saving, saving
 from .base import Capabilities, Model, UnsupportedFeatureError
 from .cosserat import CosseratModel, CosseratShooting
-from .displacement import DisplacementSolution, pulled_in, solve_displacements, tendon_stiffness
+from .displacement import (
+    DisplacementOptions,
+    DisplacementSolution,
+    pulled_in,
+    solve_displacements,
+    tendon_stiffness,
+)
 from .equilibrium import solve, solve_batch, tip_gradient, warmup
 from .options import DEFAULT_ATOL, TIGHT_ATOL, CosseratOptions, ModelOptions, SolvePath, SolverOptions, SSCROptions
 from .pcc import PCCEquations, PCCModel
@@ -19,10 +25,10 @@ from .sscr import SSCREquations, SSCRModel
 from .stability import STABILITY_TESTS, feasible_words, stability_counts, stability_test, stability_words
 
 __all__ = ["DEFAULT_ATOL", "MODELS", "STABILITY_TESTS", "TIGHT_ATOL", "CancelScope", "Cancelled", "Capabilities",
-           "CosseratModel", "CosseratOptions", "CosseratShooting", "DisplacementSolution", "Jacobians", "Model",
-           "ModelOptions", "PCC2Model", "PCCEquations", "PCCModel", "SSCREquations", "SSCRModel", "SSCROptions",
-           "SolvePath", "SolverOptions", "TipCompliance", "UnsupportedFeatureError", "cancellable",
-           "check_cancelled", "check_resources", "configure", "equilibrium_jacobians", "feasible_words", "get_model",
-           "get_models", "mark_saving", "options_record", "pulled_in", "resolve", "saving", "solve", "solve_batch",
-           "solve_displacements", "stability_counts", "stability_test", "stability_words", "tendon_stiffness",
-           "tip_compliance", "tip_gradient", "warmup"]
+           "CosseratModel", "CosseratOptions", "CosseratShooting", "DisplacementOptions", "DisplacementSolution",
+           "Jacobians", "Model", "ModelOptions", "PCC2Model", "PCCEquations", "PCCModel", "SSCREquations",
+           "SSCRModel", "SSCROptions", "SolvePath", "SolverOptions", "TipCompliance", "UnsupportedFeatureError",
+           "cancellable", "check_cancelled", "check_resources", "configure", "equilibrium_jacobians",
+           "feasible_words", "get_model", "get_models", "mark_saving", "options_record", "pulled_in", "resolve",
+           "saving", "solve", "solve_batch", "solve_displacements", "stability_counts", "stability_test",
+           "stability_words", "tendon_stiffness", "tip_compliance", "tip_gradient", "warmup"]

@@ -45,7 +45,7 @@ from .equilibrium import solve
 from .options import ModelOptions
 from .registry import get_model
 
-__all__ = ["DisplacementSolution", "lcp", "pulled_in", "solve_displacements", "tendon_stiffness"]
+__all__ = ["DisplacementOptions", "DisplacementSolution", "lcp", "pulled_in", "solve_displacements", "tendon_stiffness"]
 
 #: the scale that makes a displacement [m] and a tension [N] comparable in the complementarity function [N/m]
 _SCALE_N_PER_M = 1e3
@@ -56,7 +56,7 @@ _MAX_STEP_N = 5.0
 #: Newton steps a stage of the motors' path may take before it is split
 _STAGE_STEPS = 8
 #: the shortest stage of the motors' path, as a fraction of it
-_SMALLEST_STAGE = 1.0 / 1024.0
+_SMALLEST_STAGE = 1.0 / 256.0
 
 
 def tendon_stiffness(robot: Robot, stiffness: float | Sequence[float | None] | None) -> np.ndarray:
@@ -125,6 +125,34 @@ def pulled_in(robot: Robot, solution: StaticSolution,
     return out
 
 
+@dataclass(frozen=True)
+class DisplacementOptions:
+    """How :func:`solve_displacements` meets the displacements.
+
+    Attributes
+    ----------
+    tol : float
+        Tolerance on the displacement conditions [m] (default 0.1 µm): ``|Δ_c − Δ*_c| ≤ tol`` for a taut
+        tendon; a tendon below ``K tol`` (0.1 mN, ``K`` = 1 N/mm) is slack.
+    max_iterations : int
+        Newton steps at most, in all stages of the loading path.
+    max_tension : float
+        The most a driven tendon may pull [N]: a displacement that needs more is not met (the answer says so).
+    """
+
+    tol: float = 1e-7
+    max_iterations: int = 200
+    max_tension: float = 200.0
+
+    def __post_init__(self) -> None:
+        if not (0.0 < self.tol <= 1e-3):
+            raise ValueError(f"tol must be in (0, 1e-3] m, got {self.tol!r}")
+        if not (isinstance(self.max_iterations, int) and 1 <= self.max_iterations <= 100_000):
+            raise ValueError(f"max_iterations must be an integer in [1, 100000], got {self.max_iterations!r}")
+        if not (0.0 < self.max_tension <= 1e4):
+            raise ValueError(f"max_tension must be in (0, 1e4] N, got {self.max_tension!r}")
+
+
 @dataclass(frozen=True, eq=False)
 class DisplacementSolution:
     """The outcome of :func:`solve_displacements`.
@@ -182,10 +210,10 @@ def _targets(robot: Robot, displacements: Sequence[float | None]) -> np.ndarray:
     if d.shape != (robot.n_tendons,):
         raise ValueError(f"displacements must give one value (or None) per tendon ({robot.n_tendons}), "
                          f"got {d.size}")
-    given = d[~np.isnan(d)]
-    if not np.all(np.isfinite(given)) or np.any(np.abs(given) > robot.length):
-        raise ValueError(f"displacements must be finite and within ±{robot.length:g} m (the robot's length), got "
-                         f"{d.tolist()}")
+    for k, v in enumerate(d):
+        if not np.isnan(v) and not (np.isfinite(v) and abs(v) <= robot.length):
+            raise ValueError(f"displacements: value {k + 1} = {v:g} m must be finite and within ±{robot.length:g} m "
+                             "(the robot's length)")
     return d
 
 
@@ -228,8 +256,8 @@ def _violation(tensions: np.ndarray, gap: np.ndarray) -> float:
 
 def solve_displacements(robot: Robot, loads: Loads, displacements: Sequence[float | None], *,
                         stiffness: float | Sequence[float | None] | None = None, model: str | Model = "pcc",
-                        options: ModelOptions | None = None, tol: float = 1e-7,
-                        max_iterations: int = 200) -> DisplacementSolution:
+                        options: ModelOptions | None = None,
+                        drive: DisplacementOptions | None = None) -> DisplacementSolution:
     """Equilibrium of ``robot`` with some tendons driven by displacement and the rest by tension.
 
     Parameters
@@ -245,11 +273,8 @@ def solve_displacements(robot: Robot, loads: Loads, displacements: Sequence[floa
     model : str or Model
         A registered model (:data:`pytdcr.statics.MODELS`) or a model object.
     options : the model's options, optional
-    tol : float
-        Tolerance on the displacement conditions [m] (default 0.1 µm): ``|Δ_c − Δ*_c| ≤ tol`` for a taut
-        tendon; a tendon below ``K tol`` (0.1 mN) is slack.
-    max_iterations : int
-        Newton steps at most, in all stages of the motors' path.
+    drive : DisplacementOptions, optional
+        Tolerance [m], Newton steps and the largest tension [N] (default: :class:`DisplacementOptions`).
 
     Returns
     -------
@@ -263,6 +288,8 @@ def solve_displacements(robot: Robot, loads: Loads, displacements: Sequence[floa
     opposite tendons, both taut, leave their common tension free: the least-norm tensions are taken.
     """
     m = get_model(model)
+    drive = drive if drive is not None else DisplacementOptions()
+    tol, max_iterations, max_tension = drive.tol, drive.max_iterations, drive.max_tension
     target = _targets(robot, displacements)
     k = tendon_stiffness(robot, stiffness)
     driven = np.flatnonzero(~np.isnan(target))
@@ -293,6 +320,11 @@ def solve_displacements(robot: Robot, loads: Loads, displacements: Sequence[floa
                 break
             continue
         sol, tensions, done, stride, message = new, trial, part, 2.0 * stride, ""
+        if (over := float(np.max(tensions[driven]))) > max_tension:
+            c = int(driven[np.argmax(tensions[driven])])
+            message = (f"tendon {c + 1} needs {over:.4g} N at {done:.1%} of the loading path, more than "
+                       f"max_tension = {max_tension:g} N")
+            break
     eq.part = done
     tensions = eq.tensions(tensions)
     if done < 1.0 and not message:
@@ -414,7 +446,7 @@ def _result(eq: _Equilibria, sol: StaticSolution, target: np.ndarray, tensions: 
                                     message or f"the equilibrium did not converge (residual {sol.residual:.3g} N m)")
     pull = pulled_in(robot, sol, k)
     residual = _violation(tensions[driven], pull[driven] - target[driven])
-    converged = residual <= tol
+    converged = residual <= tol and not message
     if not converged and not message:
         message = f"the displacements are met to {residual:.3g} m, not {tol:g} m"
     slack = tensions <= _SCALE_N_PER_M * tol
