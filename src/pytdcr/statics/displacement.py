@@ -177,7 +177,8 @@ class DisplacementSolution:
         The largest violation of the displacement conditions [m]: ``|Δ_c − Δ*_c|`` of a taut driven tendon,
         ``max(0, Δ*_c − Δ_c)`` of a slack one.
     converged : bool
-        The equilibrium converged and ``residual`` ≤ the tolerance asked.
+        The equilibrium converged, ``residual`` ≤ the tolerance asked and no driven tension exceeds
+        ``max_tension`` (:class:`DisplacementOptions`).
     iterations : int
         Newton steps taken.
     solves : int
