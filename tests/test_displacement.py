@@ -224,6 +224,7 @@ def test_tdcr_solve_reports_pull_ins_and_drives_by_displacement(capsys):
     code, text, _ = _tdcr(capsys, "solve", "--displacements", drive, "--tip-force=0.1,0.1,-0.1",
                           "--tendon-stiffness", "35000")
     assert code == 0 and "displacements met" in text and "slack: tendons 2, 3, 4, 6, 7, 8" in text
+    assert "stability: stable (with the tensions held; not tested with the displacements held)" in text
 
 
 def test_a_solve_record_reads_back_its_drive(capsys):

@@ -163,7 +163,9 @@ def run(args: argparse.Namespace) -> int:
             print(f"  tip position  [{p[0]: .6f}, {p[1]: .6f}, {p[2]: .6f}] m, |p| = {sol.reach:.6f} m")
             z = sol.tip_rotation[:, 2]
             print(f"  tip direction [{z[0]: .4f}, {z[1]: .4f}, {z[2]: .4f}]")
-            print(f"  {stability_text(sol.stability)}")
+            held = ("" if res.drive is None or sol.stability is None
+                    else " (with the tensions held; not tested with the displacements held)")
+            print(f"  {stability_text(sol.stability)}{held}")
             _drive_lines(res)
             _derivative_lines(res)
     if args.plot is not None and not res.converged:
