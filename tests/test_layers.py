@@ -21,7 +21,7 @@ LAYERS = [
     {"validate", "limits", "runtime", "records"},  # shared: numbers, files, result records, memory, threads
     {"robot", "loads", "bounds", "paper", "kinematics", "contact", "results", "io"},
     {"statics"},
-    {"workspace", "optimize", "compare", "accuracy"},
+    {"workspace", "optimize", "compare", "accuracy", "calibrate"},
     {"plotting", "palette"},  # presentation: figures and their shared colours
     {"runs", "designs"},
     {"explore"},  # the local web page (Dash, imported when the app is built)

@@ -29,11 +29,13 @@ if TYPE_CHECKING:
     from trimesh import Trimesh
 
     from .accuracy import OrderStudy
+    from .calibrate import CalibrationResult
     from .workspace import Region
 
 __all__ = [
     "RobotStyle",
     "new_3d_axes",
+    "plot_calibration",
     "plot_convergence",
     "plot_model_overlay",
     "plot_multistability",
@@ -383,6 +385,45 @@ def plot_order(studies: Sequence[OrderStudy], ax: Axes | None = None, **kwargs: 
     ax.legend(loc="best", fontsize=7)
     ax.grid(True, which="both", alpha=0.3)
     return ax
+
+
+def plot_calibration(result: CalibrationResult) -> Figure:
+    """A calibration's tip errors [mm]: each row's before and after the fit (and held out, with
+    cross-validation), sorted by the error before; and their distributions.
+
+    Parameters
+    ----------
+    result : pytdcr.calibrate.CalibrationResult
+    """
+    fig = pyplot().figure(figsize=(9.0, 4.0))
+    rows, dist = fig.subplots(1, 2, gridspec_kw={"width_ratios": (2, 1)})
+    order = np.argsort(result.errors_before_m)
+    x = np.arange(1, order.size + 1)
+    series = [("before the fit", result.errors_before_m, PALETTE.nth(0), "o"),
+              ("fitted", result.errors_after_m, PALETTE.nth(1), "s")]
+    cv = result.cross_validation
+    if cv is not None:
+        series.append((f"held out ({cv.folds}-fold)", cv.errors_m, PALETTE.nth(2), "^"))
+    every = np.concatenate([e[np.isfinite(e) & (e > 0)] for _, e, _, _ in series]) * 1e3
+    bins = np.geomspace(every.min(), every.max() * 1.001, 25) if every.size and every.max() > every.min() else 10
+    for label, e, colour, marker in series:
+        rms = np.sqrt(np.nanmean(e**2)) * 1e3
+        rows.plot(x, e[order] * 1e3, marker=marker, linestyle="none", markersize=4, color=colour,
+                  label=f"{label}: RMS {rms:.3g} mm")
+        dist.hist(e[np.isfinite(e)] * 1e3, bins=bins, histtype="step", color=colour, label=label)
+    if every.size:
+        rows.set_yscale("log")
+        dist.set_xscale("log")
+    rows.set_xlabel("row, by its error before the fit")
+    rows.set_ylabel("tip error [mm]")
+    rows.legend(loc="best", fontsize=8)
+    rows.grid(True, alpha=0.3)
+    dist.set_xlabel("tip error [mm]")
+    dist.set_ylabel("rows")
+    names = ", ".join(p.name for p in result.parameters)
+    fig.suptitle(f"{result.model} fitted to {result.data_source} ({names})", fontsize=9)
+    fig.tight_layout()
+    return fig
 
 
 def region_colours(labels: Sequence[str]) -> list[str]:

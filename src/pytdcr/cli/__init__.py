@@ -1,8 +1,8 @@
 """The ``tdcr`` command. Nothing in the package imports it.
 
 One module per command (or pair of commands): ``solve``, ``inverse``, ``sample``, ``workspace``, ``optimize``,
-``reproduce``, ``compare`` (with ``accuracy``), ``designs``, ``robot``, ``explore``; each declares its options
-(``add_parser``) and runs (``run``): it turns the options into the study's settings (:mod:`pytdcr.runs`),
+``reproduce``, ``compare`` (with ``accuracy``), ``designs``, ``calibrate``, ``robot``, ``explore``; each declares
+its options (``add_parser``) and runs (``run``): it turns the options into the study's settings (:mod:`pytdcr.runs`),
 calls the library and prints.
 The options the commands share are declared once (:mod:`._args`); how a command runs, Ctrl-C and the exit
 status are in :mod:`._runtime`: 0 success, 1 not converged, 2 bad input, 70 internal error (a bug), 75 the
@@ -19,7 +19,7 @@ import sys
 import threading
 from collections.abc import Sequence
 
-from . import compare, designs, explore, inverse, optimize, reproduce, robot, sample, solve, workspace
+from . import calibrate, compare, designs, explore, inverse, optimize, reproduce, robot, sample, solve, workspace
 from ._args import FLAGS, Parser, glue_negative_values
 from ._progress import set_quiet
 from ._runtime import (
@@ -64,7 +64,7 @@ def build_parser() -> Parser:
     sub = p.add_subparsers(dest="command", required=True)
     for add in (solve.add_parser, inverse.add_parser, sample.add_parser, workspace.add_parser, optimize.add_parser,
                 reproduce.add_parser, compare.add_parser, compare.add_accuracy_parser, designs.add_parser,
-                robot.add_parser, explore.add_parser):
+                calibrate.add_parser, robot.add_parser, explore.add_parser):
         add(sub)
     for command in sub.choices.values():
         command.add_argument("-q", "--quiet", action="store_true",

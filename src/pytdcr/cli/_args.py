@@ -34,8 +34,10 @@ FLAGS = {name: "--" + name.replace("_", "-") for name in (
     "robot", "friction", "tip_force", "tip_moment", "tensions", "bounds", "bounds_file", "model", "shear_extension",
     "atol", "plot", "n", "seed", "pop", "tol", "window", "max_gen", "stable_only", "models", "cases", "disks",
     "order_cases", "reference_steps", "payload_g", "out", "compliance", "jacobians", "csv", "targets", "workspace",
-    "target", "direction", "starts", "max_solves", "objective", "displacements")}
-FLAGS.update(disk_forces="--disk-force", disk_moments="--disk-moment", stiffness="--tendon-stiffness")
+    "target", "direction", "starts", "max_solves", "objective", "displacements", "loss", "loss_scale", "folds",
+    "max_evaluations")}
+FLAGS.update(disk_forces="--disk-force", disk_moments="--disk-moment", stiffness="--tendon-stiffness",
+             parameters="--fit", data="DATA.csv")
 
 
 def parse_floats(text: str, name: str, count: int | None = None) -> np.ndarray:

@@ -20,6 +20,7 @@ backend).
 """
 
 from ._accuracy import AccuracyResult, AccuracyRun, run_accuracy
+from ._calibrate import CalibrationRun, run_calibration
 from ._compare import CaseSource, CompareResult, CompareRun, run_compare
 from ._inverse import (
     InverseRun,
@@ -93,6 +94,7 @@ __all__ = [
     "AccuracyRun",
     "AccuracySettings",
     "BoundsSpec",
+    "CalibrationRun",
     "CaseComparison",
     "CaseSource",
     "CompareResult",
@@ -148,6 +150,7 @@ __all__ = [
     "read_workspace_pool",
     "reproduce_estimate",
     "run_accuracy",
+    "run_calibration",
     "run_compare",
     "run_optimize",
     "run_reproduce",

@@ -45,7 +45,8 @@ from .equilibrium import solve
 from .options import ModelOptions
 from .registry import get_model
 
-__all__ = ["DisplacementOptions", "DisplacementSolution", "lcp", "pulled_in", "solve_displacements", "tendon_stiffness"]
+__all__ = ["DisplacementOptions", "DisplacementSolution", "lcp", "pulled_in", "pulled_in_of_shape",
+           "solve_displacements", "tendon_stiffness"]
 
 #: the scale that makes a displacement [m] and a tension [N] comparable in the complementarity function [N/m]
 _SCALE_N_PER_M = 1e3
@@ -112,16 +113,23 @@ def pulled_in(robot: Robot, solution: StaticSolution,
     ValueError
         When ``solution`` has not converged (it has no shape).
     """
-    k = tendon_stiffness(robot, stiffness)
     pos, rot = solution.disk_positions, solution.disk_rotations  # (N+1, 3), (N+1, 3, 3); raise if unconverged
+    return pulled_in_of_shape(robot, pos, rot, np.asarray(solution.tensions, dtype=float),
+                              tendon_stiffness(robot, stiffness))
+
+
+def pulled_in_of_shape(robot: Robot, positions: np.ndarray, rotations: np.ndarray, piece_tensions: np.ndarray,
+                       stiffness: np.ndarray) -> np.ndarray:
+    """:func:`pulled_in` of a shape given by its disks' positions (N+1, 3) [m] and rotations (N+1, 3, 3), the
+    tension of every tendon piece (n_tendons, N) [N] and the tendons' stiffness (n_tendons,) [N/m] (``inf``:
+    inextensible): ``Δ_c = L0_c − Σ_i ℓ_{c,i} / (1 + T_{c,i} / (k_c L0_c))``, shape (n_tendons,) [m]."""
     holes = robot.tendon_holes
     L0 = _straight_lengths(robot)
     out = np.zeros(robot.n_tendons)
     for c, a in enumerate(robot.anchor_disks):
-        points = pos[: a + 1] + rot[: a + 1] @ holes[c]  # the hole of tendon c in disks 0..a [m]
+        points = positions[: a + 1] + rotations[: a + 1] @ holes[c]  # the hole of tendon c in disks 0..a [m]
         pieces = np.linalg.norm(np.diff(points, axis=0), axis=1)
-        tension = np.asarray(solution.tensions, dtype=float)[c, :a]
-        out[c] = L0[c] - float(np.sum(pieces / (1.0 + tension / (k[c] * L0[c]))))
+        out[c] = L0[c] - float(np.sum(pieces / (1.0 + piece_tensions[c, :a] / (stiffness[c] * L0[c]))))
     return out
 
 
