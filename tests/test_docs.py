@@ -44,13 +44,13 @@ def test_the_site_has_a_page_for_every_command():
     assert MARKER in page
     text = on_page_markdown(page, None)
     for name in ("solve", "inverse", "sample", "workspace", "optimize", "reproduce", "compare", "accuracy",
-                 "designs", "robot"):
+                 "designs", "calibrate", "robot"):
         assert f"## `tdcr {name}`" in text and f"usage: tdcr {name}" in text
 
 
 #: the how-to pages whose Python runs as printed (each in one subprocess)
 HOW_TO = ("getting-started.md", "robot.md", "solve.md", "choose-model.md", "inverse.md", "workspace.md",
-          "designs.md", "explore.md", "run-files.md")
+          "designs.md", "calibrate.md", "explore.md", "run-files.md")
 #: a ```python block with this on its first line is shown, not run
 NO_RUN = "# doc: no-run"
 
