@@ -278,3 +278,25 @@ def test_bad_displacement_input_is_one_line_exit_2(capsys, args, words):
     code, _, err = _tdcr(capsys, "solve", *args)
     assert code == 2
     assert words in err and err.count("\n") == 1
+
+
+def test_the_robot_file_carries_each_tendons_stiffness(tmp_path):
+    """A tendon's ``stiffness`` in the robot is the default of every displacement computation, survives a
+    TOML round trip, and a value out of range is refused naming the field."""
+    import pydantic
+
+    from pytdcr import Loads, paper_robot, pulled_in, solve
+    from pytdcr.io import read_robot, write_robot
+    from pytdcr.statics.displacement import tendon_stiffness
+
+    plain = paper_robot()
+    stiff = plain.model_copy(update={"tendons": tuple(
+        t.model_copy(update={"stiffness": 2e4 if k < 4 else None}) for k, t in enumerate(plain.tendons))})
+    assert tendon_stiffness(stiff, None).tolist() == [2e4] * 4 + [np.inf] * 4
+    sol = solve(stiff, Loads(np.array([5.0, 0, 0, 0, 3.0, 0, 0, 0])))
+    np.testing.assert_array_equal(pulled_in(stiff, sol), pulled_in(plain, sol, [2e4] * 4 + [None] * 4))
+    assert pulled_in(stiff, sol)[0] > pulled_in(plain, sol)[0]  # the motor also takes up the stretch
+    write_robot(stiff, tmp_path / "r.toml")
+    assert read_robot(tmp_path / "r.toml").tendons[0].stiffness == 2e4
+    with pytest.raises(pydantic.ValidationError, match="stiffness"):
+        plain.tendons[0].model_validate({**plain.tendons[0].model_dump(), "stiffness": 0.0})

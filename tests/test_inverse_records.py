@@ -25,9 +25,11 @@ from pytdcr.runtime import dump_json
 ROBOT = paper_robot()
 LOADS = paper_loads()
 BOUNDS = TensionBounds.uniform(8, 0.0, 20.0)
-#: the keys ``InverseResult.to_dict`` wrote before typed records (``tdcr inverse --json`` of one target)
+#: the keys ``InverseResult.to_dict`` writes (``tdcr inverse --json`` of one target): those it wrote before typed
+#: records, then the pull-ins (absent from older files, which read with ``pulled_in`` None)
 RESULT_KEYS = ["target", "tensions", "tip_position", "tip_axis", "distance_m", "axis_error_rad", "reachable",
-               "stable", "converged", "path", "objective", "objective_value", "optimal", "evaluations", "seconds"]
+               "stable", "converged", "path", "objective", "objective_value", "optimal", "evaluations", "seconds",
+               "pulled_in_m"]
 
 
 def _as_written(d: dict) -> dict:
@@ -43,6 +45,8 @@ def _same(a: InverseResult, b: InverseResult) -> None:
                  "objective_value", "optimal", "evaluations", "seconds"):
         assert getattr(a, name) == getattr(b, name), name
     assert type(b.path) is InversePath and b.solution is None
+    assert (a.pulled_in is None) == (b.pulled_in is None)
+    assert a.pulled_in is None or np.array_equal(a.pulled_in, b.pulled_in)
 
 
 @pytest.fixture(scope="module")
@@ -67,6 +71,14 @@ def test_an_answer_round_trips(answer):
     # the optional parts set the other way: an axis error [rad], stability untested, another path
     other = replace(answer, axis_error_rad=0.25, stable=None, path=InversePath.ANOTHER_BRANCH, reachable=False)
     _same(other, InverseResult.from_json(_as_written(other.to_json())))
+
+
+def test_an_answer_gives_its_pull_ins_and_an_older_file_reads_without_them(answer):
+    from pytdcr import pulled_in
+
+    np.testing.assert_array_equal(answer.pulled_in, pulled_in(ROBOT, answer.solution))
+    old = {k: v for k, v in _as_written(answer.to_json()).items() if k != "pulled_in_m"}
+    assert InverseResult.from_json(old).pulled_in is None
 
 
 def test_an_answer_without_schema_version_reads_as_version_1_and_another_is_refused(answer):
@@ -150,8 +162,8 @@ def test_a_paths_file_and_its_table_round_trip(workspace_run, tmp_path, capsys):
     rows = list(csv.reader(table.open()))
     assert rows[0] == inverse_columns(8)
     for row, r in zip(rows[1:], run.results, strict=True):  # the table holds what the JSON holds
-        assert [float(v) for v in row[:14]] == [*r.target, *r.tensions, *r.tip_position]
-        assert row[15] == str(r.reachable) and row[17] == r.path.value
+        assert [float(v) for v in row[:22]] == [*r.target, *r.tensions, *r.pulled_in, *r.tip_position]
+        assert row[23] == str(r.reachable) and row[25] == r.path.value
     broken = _as_written(printed)
     del broken["points"][1]["path"]
     with pytest.raises(RecordKeyError) as err:

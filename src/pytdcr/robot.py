@@ -19,7 +19,7 @@ from functools import cached_property
 from typing import Annotated, Literal, TypeVar
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, SerializerFunctionWrapHandler, model_serializer, model_validator
 
 from .validate import Count, Real, is_integer, ranged, show, show_number
 
@@ -90,6 +90,8 @@ MAX_TENDONS, MAX_SEGMENTS = 1000, 100
 DiskCount = Annotated[Count, Field(ge=1, le=MAX_DISKS_PER_SEGMENT)]
 Routing = ranged(0.0, 1.0, "m", "a routing radius up to a metre", lo_open=True)
 Angle = ranged(-360.0, 360.0, "deg", "one turn either way; larger angles repeat a routing")
+TendonStiffness = ranged(1.0, 1e10, "N/m", "from a soft elastic cord to a steel rod; leave it out for an "
+                         "inextensible tendon")
 DiskRadius = ranged(1e-4, 1.0, "m", "disks from 0.1 mm to 1 m across the axis")
 Friction = ranged(0.0, 10.0, "", "a friction coefficient")
 Decay = ranged(0.0, 10.0, "1/deg", "the paper's law decays at 0.027 per degree")
@@ -209,11 +211,23 @@ class Tendon(_Frozen):
         description="1-based index of the segment whose last disk anchors it")
     radius: Routing = Field(description="routing radius [m]")
     angle_deg: Angle = Field(description="routing angle about z [deg]")
+    stiffness: TendonStiffness | None = Field(
+        default=None, description="axial stiffness over its length in the robot [N/m] (EA / length); default "
+        "inextensible. It changes no force: it sets the pull-in a tension needs, and the tension a pull-in makes")
 
     @property
     def angle(self) -> float:
         """Routing angle [rad]."""
         return math.radians(self.angle_deg)
+
+    @model_serializer(mode="wrap")
+    def _dump(self, handler: SerializerFunctionWrapHandler) -> dict[str, object]:
+        """The tendon's fields, ``stiffness`` left out when unset (inextensible): a robot's dump, and every digest
+        and record made of it, is what it was before tendons had a stiffness."""
+        out = handler(self)
+        if out.get("stiffness", 0) is None:
+            del out["stiffness"]
+        return out
 
 
 class NoFriction(_Frozen):

@@ -229,7 +229,8 @@ def calibrate(robot: Robot, data: Measurements, fit: list[str] | tuple[str, ...]
     model_options : the model's options, optional
     stiffness : float, sequence or None
         The tendons' axial stiffness [N/m] for rows driven by displacement (:func:`pytdcr.solve_displacements`;
-        default inextensible); the initial value of ``tendon_stiffness`` when that is fitted.
+        default: the robot's own, inextensible where a tendon has none); the initial value of
+        ``tendon_stiffness`` when that is fitted.
     progress : callable, optional
         Called with a line after each evaluation of the fit and each cross-validation fold.
 

@@ -25,6 +25,7 @@ from ..robot import (
     ExponentialFriction,
     Robot,
 )
+from ..statics.displacement import tendon_stiffness
 from ..validate import SettingsError
 
 __all__ = ["PARAMETER_HELP", "Parameter", "Setting", "parameters"]
@@ -156,10 +157,10 @@ def _one(robot: Robot, name: str, stiffness: np.ndarray) -> Parameter:
 def parameters(robot: Robot, names: list[str] | tuple[str, ...],
                stiffness: np.ndarray | None = None) -> tuple[Parameter, ...]:
     """The parameters ``names`` of ``robot``, each with its initial value from the robot (and the tendons'
-    axial ``stiffness`` (n_tendons,) [N/m], default inextensible); SettingsError naming a name that is unknown,
+    axial ``stiffness`` (n_tendons,) [N/m], default the robot's own); SettingsError naming a name that is unknown,
     repeated, or that the robot cannot take, such as ``friction.mu`` on an exponential law, ``tendon_radius``
     with ``tendon_radius_K``, or ``tendon_stiffness`` of inextensible tendons."""
-    k = np.full(robot.n_tendons, np.inf) if stiffness is None else np.asarray(stiffness, dtype=float)
+    k = tendon_stiffness(robot, None) if stiffness is None else np.asarray(stiffness, dtype=float)
     if not names:
         raise SettingsError("parameters", f": name at least one parameter to fit; known: {_KNOWN}")
     out = tuple(_one(robot, str(n).strip(), k) for n in names)
@@ -214,6 +215,9 @@ class Setting:
             angle = self.value(f"tendon_angle_{k}", t.angle_deg)
             tendons.append(t if (radius, angle) == (t.radius, t.angle_deg)
                            else t.model_copy(update={"radius": radius, "angle_deg": angle}))
+        k = self.value("tendon_stiffness", np.nan)
+        if not np.isnan(k):
+            tendons = [t.model_copy(update={"stiffness": k}) for t in tendons]
         if any(a is not b for a, b in zip(tendons, robot.tendons, strict=True)):
             update["tendons"] = tuple(tendons)
         return robot.model_copy(update=update) if update else robot

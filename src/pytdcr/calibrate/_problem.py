@@ -33,7 +33,7 @@ from ..loads import Loads
 from ..results import StaticSolution
 from ..robot import Robot
 from ..statics import Model, solve
-from ..statics.displacement import pulled_in_of_shape, solve_displacements
+from ..statics.displacement import pulled_in_of_shape, solve_displacements, tendon_stiffness
 from ..statics.options import ModelOptions
 from ._data import Measurements
 from ._parameters import Parameter, Setting
@@ -70,7 +70,8 @@ class Problem:
     model : Model
     options : ModelOptions
     stiffness : ndarray, shape (n_tendons,), optional
-        The tendons' axial stiffness [N/m] (``inf``: inextensible, the default), for displacement-driven rows.
+        The tendons' axial stiffness [N/m] (``inf``: inextensible; default the robot's own), for
+        displacement-driven rows.
     solves : int
         Solves so far.
     """
@@ -85,7 +86,8 @@ class Problem:
 
     def __post_init__(self) -> None:
         n = self.robot.n_tendons
-        self.stiffness = np.full(n, np.inf) if self.stiffness is None else np.asarray(self.stiffness, dtype=float)
+        k = tendon_stiffness(self.robot, None) if self.stiffness is None else self.stiffness
+        self.stiffness = np.asarray(k, dtype=float)
         d = self.data.displacements
         self.driven = np.zeros(n, bool) if d is None else ~np.isnan(d[0])
 

@@ -43,7 +43,7 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     g.add_argument("--friction", help="none, paper or a constant MU (default: the robot's own law)")
     g.add_argument("--tendon-stiffness", metavar="K or K1,...,Kn",
                    help="the tendons' axial stiffness [N/m], for data that drive tendons by displacement (DK_m "
-                   "columns): one value or one per tendon (- for an inextensible one) [inextensible]; the start of "
+                   "columns): one value or one per tendon (- for an inextensible one) [the robot's own]; the start of "
                    "tendon_stiffness when that is fitted")
     c.add_argument("--model", choices=_MODELS, default="pcc", help="the model fitted (one with exact derivatives "
                    "through the equilibrium) [pcc]")

@@ -151,6 +151,8 @@ def _print_one(robot: Robot, model: str, r: InverseResult) -> None:
     print(f"robot {robot.name}, {model} model, {r.objective}: target {_vec(r.target)} m {where}")
     unit = "N^2" if r.objective == "least-squares" else "N"
     print(f"  tensions {_vec(r.tensions, 4)} N ({r.objective} {r.objective_value:.4g} {unit})")
+    if r.pulled_in is not None:
+        print(f"  pull-ins {_vec(r.pulled_in * 1e3, 3)} mm (what motors driven by displacement set)")
     state = "stable" if r.stable else "UNSTABLE" if r.stable is False else "stability untested"
     print(f"  tip {_vec(r.tip_position)} m, axis {_vec(r.tip_axis, 4)}; {state}; {r.evaluations} solves, "
           f"{r.seconds * 1e3:.0f} ms")

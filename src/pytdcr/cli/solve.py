@@ -48,8 +48,8 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
                    "tension is slack")
     s.add_argument("--tendon-stiffness", metavar="K or K1,...,Kn",
                    help="the tendons' axial stiffness [N/m] over their length in the robot: one value for every "
-                   "tendon or one per tendon (- for an inextensible one) [inextensible]; sets the pull-ins "
-                   "reported and the tensions --displacements finds")
+                   "tendon or one per tendon (- for an inextensible one) [the robot file's, each tendon's "
+                   "stiffness, else inextensible]; sets the pull-ins reported and the tensions --displacements finds")
     s.add_argument("--atol", type=real_type, default=DEFAULT_ATOL,
                    help=f"convergence tolerance on max |residual| [N m], held within 1e-12..1e-8 of the "
                         f"problem's moment scale (docs/models.md) [{DEFAULT_ATOL:g}]")

@@ -43,6 +43,7 @@ from ..records import JsonDict, JsonObject, check_schema, part
 from ..results import StaticSolution
 from ..robot import Robot
 from ..statics import Model, ModelOptions, resolve, solve
+from ..statics.displacement import pulled_in
 from ..validate import MAX_SEED, SettingsError, as_real_array, check_count, check_positions, unit_vector
 from ._inverse_search import (
     NEAREST,
@@ -211,6 +212,10 @@ class InverseResult:
         Solves spent.
     seconds : float
         Wall time [s].
+    pulled_in : ndarray, shape (n_tendons,), or None
+        The answer in displacements: each tendon's pull-in at the equilibrium [m] (:func:`pytdcr.pulled_in`,
+        with the robot's tendon stiffness), what a motor driven by displacement must set; None where the answer
+        has no equilibrium or was read from a file written without it.
     """
 
     target: np.ndarray
@@ -229,6 +234,7 @@ class InverseResult:
     solution: StaticSolution | None
     evaluations: int
     seconds: float
+    pulled_in: np.ndarray | None = None
 
     def to_dict(self) -> JsonDict:
         """JSON-ready form without ``schema_version`` (one point of ``tdcr inverse --targets --json``): the
@@ -239,7 +245,7 @@ class InverseResult:
                 "stable": self.stable,
                 "converged": self.converged, "path": self.path.value, "objective": self.objective,
                 "objective_value": self.objective_value, "optimal": self.optimal, "evaluations": self.evaluations,
-                "seconds": self.seconds}
+                "seconds": self.seconds, "pulled_in_m": None if self.pulled_in is None else self.pulled_in.tolist()}
 
     def to_json(self) -> JsonDict:
         """The answer's JSON: :meth:`to_dict`'s keys and ``schema_version`` (:data:`SCHEMA_VERSION`)."""
@@ -284,7 +290,8 @@ def _result_from_json(d: JsonObject) -> InverseResult:
                          _vector(d["tip_axis"]), _number(d["distance_m"]), None if turn is None else _number(turn),
                          bool(d["reachable"]), None if stable is None else bool(stable), bool(d["converged"]), path,
                          str(d["objective"]), _number(d["objective_value"]), bool(d["optimal"]), None,
-                         int(d["evaluations"]), _number(d.get("seconds", 0.0)))
+                         int(d["evaluations"]), _number(d.get("seconds", 0.0)),
+                         None if d.get("pulled_in_m") is None else _vector(d["pulled_in_m"]))
 
 
 def _setup(robot: Robot, loads: Loads, target: TipTarget | ArrayLike, bounds: TensionBounds, model: str | Model,
@@ -417,7 +424,8 @@ def _result(p: Point, objective: str, path: InversePath, tol: float, tg: Target,
                                                                axis @ tg.direction))
     return InverseResult(tg.target.copy(), p.tensions.copy(), tip, axis, float(np.linalg.norm(tip - tg.target)),
                          turn, reached, sol.stable, True, path, objective, objective_value(p.tensions, objective),
-                         reached and is_optimal(p, bounds, objective), sol, tg.count, time.perf_counter() - clock)
+                         reached and is_optimal(p, bounds, objective), sol, tg.count, time.perf_counter() - clock,
+                         pulled_in(tg.robot, sol))
 
 
 def inverse_path(robot: Robot, loads: Loads, targets: ArrayLike, *, bounds: TensionBounds, model: str | Model = "pcc",

@@ -57,7 +57,7 @@ def run_calibration(robot: Robot, data: Measurements, fit: Sequence[str], out: s
     """Fit ``fit`` of ``robot`` and ``model`` to ``data`` (:func:`pytdcr.calibrate.calibrate`) and write the
     module's files in ``out`` (the output-folder rule: whole, or the previous run kept); ``stiffness``: the
     tendons' axial stiffness [N/m] for displacement-driven rows (one value, or one per tendon, None for an
-    inextensible one; default inextensible)."""
+    inextensible one; default the robot's own)."""
     options = options or CalibrationOptions()
     inputs = {"data": {"source": data.source, "sha256": data.sha256, "rows": data.n_rows}, "model": model,
               "parameters": list(fit)}

@@ -39,16 +39,20 @@ _FILE = "inverse answers"
 
 
 def inverse_columns(n_tendons: int) -> list[str]:
-    """The columns of ``tdcr inverse --csv``: the target [m], the tensions [N], the tip [m] and what held."""
+    """The columns of ``tdcr inverse --csv``: the target [m], the tensions [N], the pull-ins [m], the tip [m] and
+    what held."""
     return ["target_x_m", "target_y_m", "target_z_m", *[f"T{k}_N" for k in range(1, n_tendons + 1)],
+            *[f"D{k}_m" for k in range(1, n_tendons + 1)],
             "tip_x_m", "tip_y_m", "tip_z_m", "distance_m", "reachable", "stable", "path", "objective_value",
             "evaluations", "seconds"]
 
 
 def inverse_rows(results: Sequence[InverseResult]) -> list[list[float | bool | str | None]]:
     """One row per answer, in the order of :func:`inverse_columns`: numbers [m, N, s], ``reachable`` and
-    ``stable`` (None untested) as they are, ``path`` as its text."""
-    return [[*r.target.tolist(), *r.tensions.tolist(), *r.tip_position.tolist(), r.distance_m, r.reachable,
+    ``stable`` (None untested) as they are, ``path`` as its text; pull-ins empty where unknown."""
+    return [[*r.target.tolist(), *r.tensions.tolist(),
+             *(r.pulled_in.tolist() if r.pulled_in is not None else [None] * r.tensions.size),
+             *r.tip_position.tolist(), r.distance_m, r.reachable,
              r.stable, r.path.value, r.objective_value, r.evaluations, r.seconds] for r in results]
 
 

@@ -66,8 +66,9 @@ def tendon_stiffness(robot: Robot, stiffness: float | Sequence[float | None] | N
     Parameters
     ----------
     stiffness : float, sequence or None
-        None: every tendon inextensible; one number [N/m] for every tendon; or one per tendon (None or ``inf``:
-        that tendon inextensible). Each finite value must be > 0.
+        None: the robot's own (each tendon's ``stiffness``, inextensible where it has none); one number [N/m]
+        for every tendon; or one per tendon (None or ``inf``: that tendon inextensible). Each finite value must
+        be > 0.
 
     Raises
     ------
@@ -76,7 +77,7 @@ def tendon_stiffness(robot: Robot, stiffness: float | Sequence[float | None] | N
     """
     n = robot.n_tendons
     if stiffness is None:
-        return np.full(n, np.inf)
+        return np.array([np.inf if t.stiffness is None else float(t.stiffness) for t in robot.tendons])
     values = np.full(n, float(stiffness)) if np.ndim(stiffness) == 0 else np.array(
         [np.inf if s is None else float(s) for s in stiffness])  # type: ignore[union-attr]
     if values.shape != (n,):
@@ -106,7 +107,8 @@ def pulled_in(robot: Robot, solution: StaticSolution,
     solution : StaticSolution
         A converged solve of ``robot`` (any model).
     stiffness : float, sequence or None
-        The tendons' axial stiffness [N/m] (:func:`tendon_stiffness`); default inextensible.
+        The tendons' axial stiffness [N/m] (:func:`tendon_stiffness`); default the robot's own (each tendon's
+        ``stiffness``, inextensible where it has none).
 
     Raises
     ------
@@ -278,7 +280,7 @@ def solve_displacements(robot: Robot, loads: Loads, displacements: Sequence[floa
     displacements : sequence of float or None, length n_tendons
         Pull-in of each displacement-driven tendon [m] (negative: paid out), None for a tension-driven one.
     stiffness : float, sequence or None
-        Axial stiffness of the tendons [N/m] (:func:`tendon_stiffness`); default inextensible.
+        Axial stiffness of the tendons [N/m] (:func:`tendon_stiffness`); default the robot's own.
     model : str or Model
         A registered model (:data:`pytdcr.statics.MODELS`) or a model object.
     options : the model's options, optional
