@@ -300,3 +300,28 @@ def test_the_robot_file_carries_each_tendons_stiffness(tmp_path):
     assert read_robot(tmp_path / "r.toml").tendons[0].stiffness == 2e4
     with pytest.raises(pydantic.ValidationError, match="stiffness"):
         plain.tendons[0].model_validate({**plain.tendons[0].model_dump(), "stiffness": 0.0})
+
+
+def test_motors_moved_from_a_solved_state_reach_the_loading_paths_equilibrium_and_hold_a_co_contraction():
+    """``start``: the motors moved from a solved equilibrium (loads held) reach the same equilibrium as from rest
+    where that is unique; and a co-contracted pose (antagonists 1 and 3 both taut, inextensible), which the path
+    from rest cannot reach (the straight robot cannot take both pull-ins in), is held with its tensions."""
+    from pytdcr import pulled_in, solve_displacements
+
+    robot = paper_robot()
+    a = solve(robot, Loads(np.array([3.0, 0, 0, 0, 1.0, 0, 0, 0])))
+    b_tensions = np.array([6.0, 0, 0, 0, 2.0, 0, 0, 0])
+    b = solve(robot, Loads(b_tensions))
+    pulls = np.where(b_tensions > 0, pulled_in(robot, b), pulled_in(robot, b) - 5e-4)
+    moved = solve_displacements(robot, Loads(np.zeros(8)), list(pulls), start=a)
+    rest = solve_displacements(robot, Loads(np.zeros(8)), list(pulls))
+    assert moved.converged and rest.converged
+    assert np.linalg.norm(moved.solution.tip_position - rest.solution.tip_position) < 1e-6
+    np.testing.assert_allclose(moved.tensions, b_tensions, atol=1e-3)
+    t = np.array([6.0, 10.0, 0.3, 0, 0, 4.0, 0, 0])
+    held = solve(robot, Loads(t))
+    pulls = np.where(t > 0, pulled_in(robot, held), pulled_in(robot, held) - 5e-4)
+    assert not solve_displacements(robot, Loads(np.zeros(8)), list(pulls)).converged
+    kept = solve_displacements(robot, Loads(np.zeros(8)), list(pulls), start=held)
+    assert kept.converged and np.linalg.norm(kept.solution.tip_position - held.tip_position) < 1e-6
+    np.testing.assert_allclose(kept.tensions, t, atol=1e-6)

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pytdcr import Loads, solve
+from pytdcr import Loads, pulled_in, solve
 from pytdcr.explore._app import OK, STATUS_COLOURS
 from pytdcr.palette import PALETTE
 from pytdcr.paper import paper_bounds, paper_robot
@@ -134,6 +134,38 @@ def test_the_page_callback_shows_the_tip_of_solve():
     assert len(out["tensions"]) == 8 and all(0.0 <= v <= 20.0 for v in out["tensions"])
     empty = on_change(t, [0] * 7, options, [0, 0, 2, 0], [1.0, None, 2.0], sid)
     assert "target: give x, y and z in mm" in str(empty["status"])
+
+
+def test_the_page_drives_the_tendons_by_their_pull_ins():
+    """The displacement drive (called as Dash calls the callback): the pull-ins of a tension solve give its tip
+    back with its tensions; a pull-in out of the sliders' range is refused naming it; a change of the drive not in
+    use solves nothing."""
+    from dash._callback_context import context_value
+    from dash._utils import AttributeDict
+    from dash.exceptions import PreventUpdate
+
+    from pytdcr.explore import create_app
+
+    app = create_app()
+    key = next(k for k in app.callback_map if "tip.children" in k)
+    on_change = app.callback_map[key]["callback"].__wrapped__
+    t = np.array([5.0, 0, 0, 0, 2.0, 0, 0, 0])
+    ref = solve(paper_robot(), Loads(t))
+    pulls = pulled_in(paper_robot(), ref) * 1e3 - 0.5 * (t == 0)  # [mm]; the unpulled tendons paid out, slack
+    options = {"gravity": ["on"], "friction": "own", "model": "pcc", "drive": "displacement",
+               "pulls": pulls.tolist()}
+    sid = uuid.uuid4().hex
+    context_value.set(AttributeDict(triggered_inputs=[{"prop_id": "pull-0.value", "value": pulls[0]}]))
+    out = on_change([0.0] * 8, [0] * 7, options, [0] * 4, [None] * 3, sid)
+    shown = np.array([float(v) for v in out["tip"].split()])
+    assert np.allclose(shown, ref.tip_position, atol=1e-6, rtol=0), (shown, ref.tip_position)
+    status = _plain(out["status"])
+    assert "tensions found [5.00, 0.00, 0.00, 0.00, 2.00, 0.00, 0.00, 0.00] N" in status, status
+    assert "slack: T2, T3, T4, T6, T7, T8" in status, status
+    far = on_change([0.0] * 8, [0] * 7, {**options, "pulls": [99.0, *pulls.tolist()[1:]]}, [0] * 4, [None] * 3, sid)
+    assert "Δ1: give a pull-in in [-40, 40] mm" in _plain(far["status"])
+    with pytest.raises(PreventUpdate):
+        on_change([0.0] * 8, [0] * 7, {**options, "drive": "tension"}, [0] * 4, [None] * 3, sid)
 
 
 # ---------------------------------------------------------------- the target point
@@ -500,6 +532,29 @@ def test_the_page_in_a_browser(page_url):
             print(f"\nexplore response over 20 moves (pcc, paper robot): median {tip_ms:.1f} ms to the new tip "
                   f"shown, {plot_ms:.1f} ms to the figure redrawn")
             assert "converged" in page.text_content("#status")
+
+            # driven by pull-ins: the pull-in rows replace the tension rows and take the pose's pull-ins (the robot
+            # stays), a box moves the robot, the status gives the tensions found
+            before = np.array([float(v) for v in page.text_content("#tip").split()])
+            page.click("#drive label:has-text(\"drive by pull-ins\")")
+            page.wait_for_function("document.getElementById('status').textContent.includes('tensions found')",
+                                   timeout=30_000)
+            page.wait_for_function("getComputedStyle(document.getElementById('pull-rows')).display !== 'none'")
+            assert not page.is_visible("#tension-0") and page.is_visible("#pull-0")
+            assert "tensions found" in page.text_content("#status"), page.text_content("#status")
+            held = np.array([float(v) for v in page.text_content("#tip").split()])
+            assert np.linalg.norm(held - before) < 1e-4, (held, before)  # boxes rounded to 0.01 mm
+            _set(page, "#pull-2", float(page.input_value("#pull-2")) - 1.0)  # tendon 3 paid out: slack
+            status = page.text_content("#status")
+            assert "tensions found" in status and "slack:" in status, status
+            # the tensions found, applied as tensions, hold the tip shown and pull the taut tendons in as asked
+            found = np.array([float(v) for v in status.split("tensions found [")[1].split("]")[0].split(",")])
+            again = solve(paper_robot(), Loads(found))
+            shown = np.array([float(v) for v in page.text_content("#tip").split()])
+            assert np.linalg.norm(shown - again.tip_position) < 2e-4, (shown, again.tip_position)  # 0.01 N shown
+            asked = np.array([float(page.input_value(f"#pull-{k}")) for k in range(8)])
+            taut = found > 0.05
+            assert np.allclose(pulled_in(paper_robot(), again)[taut] * 1e3, asked[taut], atol=0.05)
         finally:
             browser.close()
 

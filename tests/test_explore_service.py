@@ -66,7 +66,8 @@ def update_body(app, *, tensions=None, wrench=None, gravity=("on",), friction="o
                                                                       [5.0, 0, 0, 0, 0, 0, 0, 0])}
     values |= dict(zip(WRENCH, wrench if wrench is not None else [0.0] * 7, strict=True))
     values |= {"gravity": list(gravity) if isinstance(gravity, tuple) else gravity, "friction": friction,
-               "model": model, "reset": 0, "rest": 0, "reach-target": 0, "clear-target": 0}
+               "model": model, "reset": 0, "rest": 0, "reach-target": 0, "clear-target": 0, "drive": "tension"}
+    values |= {f"pull-{k}": 0.0 for k in range(8)}
     values |= dict(zip(("target-x", "target-y", "target-z"), aim or [None] * 3, strict=True))
     values["session"] = uuid.uuid4().hex if sid is None else sid
     inputs = [{**s, "value": values[s["id"]]} for s in cb["inputs"] if s["id"] not in drop]

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 from dash import Dash, Input, Output, Patch, State, ctx, dcc, html, no_update
+from dash.exceptions import PreventUpdate
 
 from ..palette import PALETTE
 from ..results import StaticSolution
@@ -35,17 +36,26 @@ if TYPE_CHECKING:
 
     from dash.development.base_component import Component
 
-__all__ = ["TARGET_SPAN", "build_app"]
+__all__ = ["DRIVES", "PULL_SPAN", "TARGET_SPAN", "build_app"]
 
 _WRENCH = ("force-x", "force-y", "force-z", "moment-x", "moment-y", "moment-z", "payload")
 _TARGET = ("target-x", "target-y", "target-z")
 _ACTIONS = {"reset": Action.RESET, "rest": Action.REST, "reach-target": Action.TARGET,
-            "clear-target": Action.CLEAR}
+            "clear-target": Action.CLEAR, "drive": Action.DRIVE}
 #: the range each load box takes: low, high, unit (the tip force and moment as :class:`pytdcr.Loads` takes them)
 _WRENCH_RANGE = {**dict.fromkeys(_WRENCH[:3], (-MAX_FORCE_N, MAX_FORCE_N, "N")),
                  **dict.fromkeys(_WRENCH[3:6], (-MAX_MOMENT_NM, MAX_MOMENT_NM, "N m")), "payload": (0.0, 1e4, "kg")}
 #: each coordinate of a target lies within this many robot lengths of the base
 TARGET_SPAN = 10.0
+#: how the tendons are driven: by their tensions, or by their pull-ins (every tendon)
+DRIVES = ("tension", "displacement")
+#: a pull-in slider spans this fraction of the robot's length either way
+PULL_SPAN = 0.1
+#: pull-ins written into the boxes are rounded to this many decimals [mm] (0.1 µm, the displacement solve's
+#: tolerance: coarser, a taut antagonistic pair of inextensible tendons would be asked to stretch)
+_PULL_DECIMALS = 4
+#: a slack tendon's pull-in, when the drive turns to pull-ins, is this much short of taking up its slack [mm]
+SLACK_MARGIN_MM = 0.5
 #: the form of a session id the page issues (``uuid.uuid4().hex``)
 _SID = re.compile("[0-9a-f]{32}")
 #: tensions written back into the boxes are rounded to this many decimals [N] (0.01 N)
@@ -61,9 +71,9 @@ _SYNC_JS = """
 function(drag, box) {
     const nu = window.dash_clientside.no_update;
     const trig = window.dash_clientside.callback_context.triggered.map(t => t.prop_id);
-    if (trig.length && trig[0].startsWith('slider-')) {
+    if (trig.length && trig[0].includes('slider-')) {
         if (drag === null || drag === undefined) { return [nu, nu]; }
-        const shown = Math.round(drag * 100) / 100;  // 0.01 N
+        const shown = Math.round(drag * SCALE) / SCALE;  // the box's decimals
         return shown === box ? [nu, nu] : [nu, shown];
     }
     if (box === null || box === undefined || Number.isNaN(box)) { return [nu, nu]; }
@@ -81,6 +91,12 @@ function(click) {
     return [p.x, p.y, p.z].map(v => Math.round(v * 1000) / 1000);
 }
 """.replace("MOVING", str(MOVING))
+# the drive's rows shown, the other's hidden
+_DRIVE_JS = """
+function(drive) {
+    return drive === 'displacement' ? [{display: 'none'}, {}] : [{}, {display: 'none'}];
+}
+"""
 # said at once while the server searches
 _SEARCHING_JS = """
 function(n) {
@@ -121,6 +137,39 @@ def _tension_rows(ex: Explorer) -> list[Component]:
             ], className="explore-tendon-row"),
         ], className="explore-tendon"))
     return rows
+
+
+def _pull_span_mm(ex: Explorer) -> float:
+    """How far a pull-in slider reaches either way [mm]: :data:`PULL_SPAN` of the robot's length, to 0.1 mm."""
+    return round(PULL_SPAN * ex.robot.length * MM, 1)
+
+
+def _pull_rows(ex: Explorer) -> list[Component]:
+    """One row per tendon in the displacement drive: its label, a slider of its pull-in [mm] (negative: paid out)
+    and a number box (0.0001 mm)."""
+    span = _pull_span_mm(ex)
+    rows = [html.Div("tendon pull-ins [mm] (tensions found; a tendon paid out goes slack)",
+                     className="explore-heading")]
+    for k, t in enumerate(ex.robot.tendons):
+        marks = {f"{v:g}": f"{v:g}" for v in np.linspace(-span, span, 5)}
+        rows.append(html.Div([
+            html.Div(f"Δ{k + 1} · segment {t.segment}, {t.angle_deg:g}°", className="explore-label"),
+            html.Div([
+                html.Div(dcc.Slider(id=f"pull-slider-{k}", min=-span, max=span, step=span / 200, value=0.0,
+                                    marks=marks, updatemode="mouseup"), style={"flex": "1", "minWidth": "0"}),
+                _number(f"pull-{k}", 0.0, min=-span, max=span, style=_BOX),
+            ], className="explore-tendon-row"),
+        ], className="explore-tendon"))
+    return rows
+
+
+def _drive_rows(ex: Explorer) -> list[Component]:
+    """The drive's choice, then the tension rows and the pull-in rows (the chosen one shown)."""
+    return [dcc.RadioItems(id="drive", value=DRIVES[0], inline=True, className="explore-row",
+                           options=[{"label": " drive by tensions ", "value": DRIVES[0]},
+                                    {"label": " drive by pull-ins", "value": DRIVES[1]}]),
+            html.Div(_tension_rows(ex), id="tension-rows"),
+            html.Div(_pull_rows(ex), id="pull-rows", style={"display": "none"})]
 
 
 def _load_rows(ex: Explorer) -> list[Component]:
@@ -197,7 +246,7 @@ def _layout(ex: Explorer) -> Callable[[], Component]:
             html.H3("pytdcr explore"),
             html.Div(f"robot '{r.name}': {len(r.segments)} segments, {r.n_tendons} tendons, {r.n_disks} disks, "
                      f"{r.length * MM:g} mm long", className="explore-muted", style={"marginBottom": "10px"}),
-            *_tension_rows(ex), *_load_rows(ex),
+            *_drive_rows(ex), *_load_rows(ex),
         ], className="explore-controls")
         view = html.Div([
             html.Div(id="status", className="explore-status"),
@@ -239,9 +288,29 @@ def _controls(ex: Explorer, tensions: object, wrench: object, options: object) -
         return f"friction: choose one of {', '.join(FRICTIONS)}"
     if not isinstance(options.get("model"), str) or options["model"] not in MODELS:
         return f"model: choose one of {', '.join(MODELS)}"
+    pulls = _pulls(ex, options)
+    if isinstance(pulls, str):
+        return pulls
     w = np.array([float(v) for v in wrench], dtype=float)
     return Controls(np.array([float(v) for v in tensions], dtype=float), w[:3], w[3:6], float(w[6]),
-                    bool(gravity), options["friction"], options["model"])
+                    bool(gravity), options["friction"], options["model"], pulls)
+
+
+def _pulls(ex: Explorer, options: dict) -> np.ndarray | str | None:
+    """The pull-ins [m] of the displacement drive (None: the tensions drive), or what is wrong with them."""
+    drive = options.get("drive", DRIVES[0])
+    if not isinstance(drive, str) or drive not in DRIVES:
+        return f"drive: choose one of {', '.join(DRIVES)}"
+    if drive == DRIVES[0]:
+        return None
+    span = _pull_span_mm(ex)
+    pulls = options.get("pulls")
+    pulls = pulls if isinstance(pulls, (list, tuple)) else []
+    for k in range(ex.robot.n_tendons):
+        x = finite_real(pulls[k]) if k < len(pulls) else None
+        if x is None or not -span <= x <= span:
+            return f"Δ{k + 1}: give a pull-in in [{-span:g}, {span:g}] mm"
+    return np.array([float(v) for v in pulls[:ex.robot.n_tendons]], dtype=float) / MM
 
 
 def _target_point(ex: Explorer, aim: object) -> np.ndarray | str:
@@ -298,6 +367,11 @@ def _status(out: Outcome) -> tuple[list[Component | str], str]:
     aim = "" if out.target is None else f" · target {_gap(float(np.linalg.norm(tip - out.target)))} away"
     parts: list[Component | str] = [_status_span(word, kind), f" · tip at {_mm(tip)}{aim} · path {sol.path} · "
                                     f"converged in {out.seconds * 1e3:.0f} ms", *_notes(out.note)]
+    if out.drive is not None:
+        d = out.drive
+        slack = ", ".join(f"T{k + 1}" for k in np.flatnonzero(d.slack)) or "none"
+        found = ", ".join(f"{t:.2f}" for t in d.tensions)
+        parts += [html.Br(), _status_span(f"tensions found [{found}] N · slack: {slack}", NEUTRAL)]
     if out.rest is not None:
         parts += [html.Br(), _rest_text(out)]
     return parts, text
@@ -401,7 +475,8 @@ def _respond(ex: Explorer, action: Action, tensions: object, wrench: object, opt
     """The page's answer to one request: the controls checked, then solved (continued from session ``sid``'s
     last equilibrium) or the target answered, and the figure's moving traces, the status and the tip."""
     n = ex.robot.n_tendons
-    keep = {"tensions": [no_update] * n, "wrench": [no_update] * len(_WRENCH), "gravity": no_update}
+    keep = {"tensions": [no_update] * n, "wrench": [no_update] * len(_WRENCH), "gravity": no_update,
+            "pulls": [no_update] * n, "drive": no_update}
     session = _session_id(sid)
     if session is None:
         return _refused("session: the page's session id is not one this explorer issued; reload the page", keep)
@@ -413,8 +488,11 @@ def _respond(ex: Explorer, action: Action, tensions: object, wrench: object, opt
         d = ex.defaults
         tensions = d.tensions.tolist()
         wrench = [*d.tip_force.tolist(), *d.tip_moment.tolist(), d.payload_kg]
-        options = {**(options if isinstance(options, dict) else {}), "gravity": ["on"] if d.gravity else []}
-        keep = {"tensions": tensions, "wrench": wrench, "gravity": options["gravity"]}
+        options = {**(options if isinstance(options, dict) else {}), "gravity": ["on"] if d.gravity else [],
+                   "drive": DRIVES[0]}
+        keep = {**keep, "tensions": tensions, "wrench": wrench, "gravity": options["gravity"], "drive": DRIVES[0]}
+    if action is Action.DRIVE:
+        tensions, options = _switch_drive(ex, session, tensions, options, keep)
     c = _controls(ex, tensions, wrench, options)
     point = _target_point(ex, aim) if action is Action.TARGET else None
     for wrong in (c, point):
@@ -426,6 +504,34 @@ def _respond(ex: Explorer, action: Action, tensions: object, wrench: object, opt
         keep["tensions"] = np.clip(np.round(out.tensions, _DECIMALS), ex.bounds.lower, ex.bounds.upper).tolist()
     status, tip = _status(out)
     return {"figure": _patch(out), "status": status, "tip": tip, **keep}
+
+
+def _switch_drive(ex: Explorer, session: str, tensions: object, options: object,
+                  keep: dict[str, object]) -> tuple[object, object]:
+    """The drive just changed: the chosen drive's boxes take the inputs of the pose drawn (its pull-ins [mm] or
+    its tensions [N]), so the robot stays where it is; the tensions and options to solve with. A slack tendon's
+    pull-in is :data:`SLACK_MARGIN_MM` short of what would take up its slack, so that it stays slack (exactly
+    taken up, inextensible tendons that carry nothing would still hold the robot's shape against the loading
+    path from rest)."""
+    pose = ex.pose_inputs(session)
+    if pose is None or not isinstance(options, dict):
+        return tensions, options
+    found, pulls = pose
+    if options.get("drive") == DRIVES[1]:
+        span = _pull_span_mm(ex)
+        pulls_mm = np.round(pulls * MM, _PULL_DECIMALS) - SLACK_MARGIN_MM * (found <= 0.0)
+        keep["pulls"] = np.clip(pulls_mm, -span, span).tolist()
+        return tensions, {**options, "pulls": keep["pulls"]}
+    keep["tensions"] = np.clip(np.round(found, _DECIMALS), ex.bounds.lower, ex.bounds.upper).tolist()
+    return keep["tensions"], options
+
+
+def _other_drives(trigger: object, options: object) -> bool:
+    """Whether the change ``trigger`` (a component id) is a box of the drive not chosen in ``options``."""
+    drive = options.get("drive", DRIVES[0]) if isinstance(options, dict) else DRIVES[0]
+    if not isinstance(trigger, str):
+        return False
+    return trigger.startswith("pull-") if drive == DRIVES[0] else trigger.startswith("tension-")
 
 
 def build_app(ex: Explorer, *, port: int | None = None) -> Dash:
@@ -443,10 +549,16 @@ def build_app(ex: Explorer, *, port: int | None = None) -> Dash:
     app = Dash(__name__, title="pytdcr explore", update_title=None)
     app.layout = _layout(ex)
     for k in range(n):
-        app.clientside_callback(_SYNC_JS, Output(f"slider-{k}", "value"),
+        app.clientside_callback(_SYNC_JS.replace("SCALE", str(10**_DECIMALS)), Output(f"slider-{k}", "value"),
                                 Output(f"tension-{k}", "value", allow_duplicate=True),
                                 Input(f"slider-{k}", "drag_value"), Input(f"tension-{k}", "value"),
                                 prevent_initial_call=True)
+        app.clientside_callback(_SYNC_JS.replace("SCALE", str(10**_PULL_DECIMALS)), Output(f"pull-slider-{k}", "value"),
+                                Output(f"pull-{k}", "value", allow_duplicate=True),
+                                Input(f"pull-slider-{k}", "drag_value"), Input(f"pull-{k}", "value"),
+                                prevent_initial_call=True)
+    app.clientside_callback(_DRIVE_JS, Output("tension-rows", "style"), Output("pull-rows", "style"),
+                            Input("drive", "value"))
     app.clientside_callback(_CLICK_JS, [Output(i, "value") for i in _TARGET], Input("graph", "clickData"),
                             prevent_initial_call=True)
     app.clientside_callback(_SEARCHING_JS, Output("status", "children", allow_duplicate=True),
@@ -456,24 +568,28 @@ def build_app(ex: Explorer, *, port: int | None = None) -> Dash:
     @app.callback(
         output={"figure": Output("graph", "figure"), "status": Output("status", "children"),
                 "tip": Output("tip", "children"), "tensions": [Output(i, "value") for i in tension_ids],
-                "wrench": [Output(i, "value") for i in wrench_ids], "gravity": Output("gravity", "value")},
+                "wrench": [Output(i, "value") for i in wrench_ids], "gravity": Output("gravity", "value"),
+                "pulls": [Output(f"pull-{k}", "value") for k in range(n)], "drive": Output("drive", "value")},
         inputs={"tensions": [Input(i, "value") for i in tension_ids],
                 "wrench": [Input(i, "value") for i in wrench_ids],
                 "options": {"gravity": Input("gravity", "value"), "friction": Input("friction", "value"),
-                            "model": Input("model", "value")},
+                            "model": Input("model", "value"), "drive": Input("drive", "value"),
+                            "pulls": [Input(f"pull-{k}", "value") for k in range(n)]},
                 "clicks": [Input(i, "n_clicks") for i in _ACTIONS],
                 "aim": [State(i, "value") for i in _TARGET], "sid": State("session", "data")})
     def on_change(tensions: list, wrench: list, options: dict, clicks: list, aim: list, sid: str) -> dict[str, object]:
         """Solve the controls (continued from the session's last equilibrium), or answer the target, and redraw."""
         action = _ACTIONS.get(ctx.triggered_id, Action.CHANGE) if isinstance(ctx.triggered_id, str) \
             else Action.CHANGE
+        if _other_drives(ctx.triggered_id, options):
+            raise PreventUpdate  # a box of the drive not in use changed: nothing to solve
         try:
             return _respond(ex, action, tensions, wrench, options, aim, sid)
         except Exception as err:  # a bug: said on the page, its traceback in the server's log, never a 500
             traceback.print_exc(file=sys.stderr)
             return _refused(f"a bug in pytdcr ({type(err).__name__}); please report it with the server's log",
                             {"tensions": [no_update] * n, "wrench": [no_update] * len(_WRENCH),
-                             "gravity": no_update})
+                             "gravity": no_update, "pulls": [no_update] * n, "drive": no_update})
 
     server_callbacks = {k: v for k, v in app.callback_map.items() if callable(v.get("callback"))}
     app.server.config["MAX_CONTENT_LENGTH"] = MAX_BODY_BYTES

@@ -27,6 +27,7 @@ from ..results import StaticSolution
 from ..robot import NoFriction, Robot
 from ..runs import read_workspace_pool
 from ..statics import MODELS, Model, UnsupportedFeatureError, get_model, solve
+from ..statics.displacement import DisplacementSolution, pulled_in, solve_displacements
 from ..validate import SettingsError
 from ._target import (
     SAME_TIP_M,
@@ -55,6 +56,7 @@ class Action(enum.Enum):
     """What asked for a solve: a control changed, Reset, "solve from rest", "Reach target" or clear the target."""
 
     CHANGE = "change"
+    DRIVE = "drive"
     RESET = "reset"
     REST = "rest"
     TARGET = "target"
@@ -64,7 +66,8 @@ class Action(enum.Enum):
 @dataclass(frozen=True)
 class Controls:
     """The page's controls: tensions (n_tendons,) [N], tip force (3,) [N], tip moment (3,) [N m], payload [kg],
-    gravity on or off, friction (one of :data:`FRICTIONS`) and the model's registered name."""
+    gravity on or off, friction (one of :data:`FRICTIONS`) and the model's registered name; ``pulls``
+    (n_tendons,) [m]: every tendon driven by this pull-in instead of its tension (None: by tension)."""
 
     tensions: np.ndarray
     tip_force: np.ndarray
@@ -73,6 +76,7 @@ class Controls:
     gravity: bool
     friction: str
     model: str
+    pulls: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,7 +84,8 @@ class Outcome:
     """One solve for the page: the equilibrium drawn (None when there is none), the loading path's answer
     (``Action.REST`` only), the robot solved, what went wrong (``error``), notes on how it was solved and the
     wall time [s]; the session's target [m] (None: none placed), and for ``Action.TARGET`` how it was answered
-    (``answer``) and the tensions [N] the page's controls take (``tensions``)."""
+    (``answer``) and the tensions [N] the page's controls take (``tensions``); ``drive``: the displacement-driven
+    solve, when the tendons were driven by their pull-ins."""
 
     robot: Robot
     loads: Loads | None = None
@@ -92,6 +97,7 @@ class Outcome:
     target: np.ndarray | None = None
     answer: TargetAnswer | None = None
     tensions: np.ndarray | None = None
+    drive: DisplacementSolution | None = None
 
 
 @dataclass(eq=False)
@@ -248,6 +254,8 @@ class Explorer:
                 robot, model, loads = self._inputs(controls)
             except ValueError as err:
                 return Outcome(self.robot, error=str(err), target=session.target)
+            if controls.pulls is not None:
+                return self._driven(session, robot, model, loads, controls.pulls)
             start, note = session.start_for(robot, model)
             t0 = time.perf_counter()
             try:
@@ -263,6 +271,30 @@ class Explorer:
                 session.last, session.robot, session.model = sol, robot, model
                 session.reached = False
             return Outcome(robot, loads, sol, rest, note=note, seconds=seconds, target=session.target)
+
+    def _driven(self, session: Session, robot: Robot, model: Model, loads: Loads, pulls: np.ndarray) -> Outcome:
+        """Every tendon driven by its pull-in ``pulls`` [m] (:func:`pytdcr.solve_displacements`, the motors moved
+        from the session's last equilibrium where it can be continued, else from rest with the loads; the robot's
+        tendon stiffness): the equilibrium with the tensions found."""
+        t0 = time.perf_counter()
+        start, _ = session.start_for(robot, model)
+        try:
+            d = solve_displacements(robot, loads.with_tensions(np.zeros(robot.n_tendons)),
+                                    [float(v) for v in pulls], model=model, start=start)
+        except ValueError as err:
+            return Outcome(robot, loads, error=str(err), target=session.target)
+        seconds = time.perf_counter() - t0
+        if not d.converged:
+            hint = ("; two taut opposite tendons that cannot stretch lock their segment: pay one out, or give the "
+                    "tendons a stiffness in the robot file") if np.all(np.isinf(d.stiffness)) else ""
+            return Outcome(robot, loads, error=f"the pull-ins are not met: {d.message}{hint}",
+                           target=session.target, seconds=seconds)
+        session.last, session.robot, session.model = d.solution, robot, model
+        session.reached = False
+        note = ("driven by the pull-ins, continued from the last equilibrium" if start is not None else
+                "driven by the pull-ins from rest")
+        return Outcome(robot, loads.with_tensions(d.tensions), d.solution, note=note, seconds=seconds,
+                       target=session.target, drive=d)
 
     def _inputs(self, controls: Controls) -> tuple[Robot, Model, Loads]:
         """The robot, model and loads of the controls (ValueError naming what is wrong)."""
@@ -305,6 +337,16 @@ class Explorer:
                 session.reached = answer.reached
             return Outcome(robot, loads.with_tensions(tensions), sol, seconds=seconds, target=point, answer=answer,
                            tensions=tensions)
+
+    def pose_inputs(self, sid: str) -> tuple[np.ndarray, np.ndarray] | None:
+        """Session ``sid``'s last equilibrium as inputs of either drive: its tensions [N] and its pull-ins [m]
+        (:func:`pytdcr.pulled_in`, with the robot's tendon stiffness); None before any equilibrium."""
+        session = self.session(sid)
+        with session.lock:
+            last, robot = session.last, session.robot
+            if last is None or robot is None or last.loads is None:
+                return None
+            return last.loads.tensions_for(robot.n_tendons).astype(float), pulled_in(robot, last)
 
     def clear_target(self, sid: str) -> None:
         """Forget session ``sid``'s target."""

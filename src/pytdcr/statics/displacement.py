@@ -267,8 +267,8 @@ def _violation(tensions: np.ndarray, gap: np.ndarray) -> float:
 
 def solve_displacements(robot: Robot, loads: Loads, displacements: Sequence[float | None], *,
                         stiffness: float | Sequence[float | None] | None = None, model: str | Model = "pcc",
-                        options: ModelOptions | None = None,
-                        drive: DisplacementOptions | None = None) -> DisplacementSolution:
+                        options: ModelOptions | None = None, drive: DisplacementOptions | None = None,
+                        start: StaticSolution | None = None) -> DisplacementSolution:
     """Equilibrium of ``robot`` with some tendons driven by displacement and the rest by tension.
 
     Parameters
@@ -286,6 +286,10 @@ def solve_displacements(robot: Robot, loads: Loads, displacements: Sequence[floa
     options : the model's options, optional
     drive : DisplacementOptions, optional
         Tolerance [m], Newton steps and the largest tension [N] (default: :class:`DisplacementOptions`).
+    start : StaticSolution, optional
+        A converged equilibrium of ``robot`` and ``model`` to continue from (its ``loads`` carry its tensions):
+        the motors move from its pull-ins to the ones asked under the full ``loads``, instead of from rest with
+        the loads; where it does not converge under ``loads``, the path starts from rest.
 
     Returns
     -------
@@ -309,16 +313,16 @@ def solve_displacements(robot: Robot, loads: Loads, displacements: Sequence[floa
         eq.part = 1.0
         tensions = eq.tensions(np.zeros(robot.n_tendons))
         return _result(eq, eq.at(tensions, None), target, tensions, tol, 0, "")
-    tensions = np.zeros(robot.n_tendons)
-    sol = eq.at(tensions, None)  # at rest: gravity alone, every tendon at 0 N
+    sol, tensions, loads_move = _path_start(eq, start)
     if not sol.converged:
         return _result(eq, sol, target, tensions, tol, 0, "")
-    start = eq.pull(sol)
+    pull0 = eq.pull(sol)
     done, stride, steps, message = 0.0, 1.0, 0, ""
-    while done < 1.0 and steps < max_iterations:  # loads and motors moved together from rest to the targets
-        eq.part = part = min(1.0, done + stride)
+    while done < 1.0 and steps < max_iterations:  # motors (and, from rest, loads) moved together to the targets
+        part = min(1.0, done + stride)
+        eq.part = part if loads_move else 1.0
         goal = target.copy()
-        goal[driven] = start[driven] + part * (target[driven] - start[driven])
+        goal[driven] = pull0[driven] + part * (target[driven] - pull0[driven])
         moved = eq.at(tensions, sol)  # the stage's loads on the last tensions: where its Newton steps start
         new, trial, n, message = (_newton(eq, moved, tensions, driven, goal, tol if part == 1.0 else 10.0 * tol,
                                           min(_STAGE_STEPS, max_iterations - steps)) if moved.converged
@@ -336,11 +340,29 @@ def solve_displacements(robot: Robot, loads: Loads, displacements: Sequence[floa
             message = (f"tendon {c + 1} needs {over:.4g} N at {done:.1%} of the loading path, more than "
                        f"max_tension = {max_tension:g} N")
             break
-    eq.part = done
+    eq.part = done if loads_move else 1.0
     tensions = eq.tensions(tensions)
     if done < 1.0 and not message:
         message = f"no convergence in {max_iterations} Newton steps"
     return _result(eq, sol, target, tensions, tol, steps, message)
+
+
+def _path_start(eq: _Equilibria, start: StaticSolution | None) -> tuple[StaticSolution, np.ndarray, bool]:
+    """Where the motors' path starts: ``start`` re-solved under the full loads with its tensions (the loads then
+    stay), else the robot at rest (gravity alone, every tendon at 0 N; the loads move with the motors). Returns
+    the equilibrium, the tensions and whether the loads move."""
+    if start is not None and start.converged and start.loads is not None:
+        eq.part = 1.0
+        tensions = start.loads.tensions_for(eq.robot.n_tendons).astype(float)
+        try:
+            sol = eq.at(tensions, start)
+        except ValueError:  # a state of another robot or friction direction cannot be continued
+            sol = None
+        if sol is not None and sol.converged:
+            return sol, tensions, False
+    eq.part = 0.0
+    tensions = np.zeros(eq.robot.n_tendons)
+    return eq.at(tensions, None), tensions, True
 
 
 def lcp(M: np.ndarray, q: np.ndarray, max_pivots: int | None = None) -> np.ndarray | None:
