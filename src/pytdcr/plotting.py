@@ -387,39 +387,50 @@ def plot_order(studies: Sequence[OrderStudy], ax: Axes | None = None, **kwargs: 
     return ax
 
 
-def plot_calibration(result: CalibrationResult) -> Figure:
-    """A calibration's tip errors [mm]: each row's before and after the fit (and held out, with
-    cross-validation), sorted by the error before; and their distributions.
+def plot_calibration(result: CalibrationResult, measured: np.ndarray | None = None) -> Figure:
+    """A calibration's tip errors [mm] row by row in the data's order (before the fit, fitted, and held out with
+    cross-validation), and, with the ``measured`` tips (B, 3) [m], the predicted against the measured coordinates
+    before and after the fit (a perfect model lies on the diagonal).
 
     Parameters
     ----------
     result : pytdcr.calibrate.CalibrationResult
+    measured : ndarray, shape (B, 3), optional
+        The measured tips [m], measurement frame (the data's ``tip_position``).
     """
-    fig = pyplot().figure(figsize=(9.0, 4.0))
-    rows, dist = fig.subplots(1, 2, gridspec_kw={"width_ratios": (2, 1)})
-    order = np.argsort(result.errors_before_m)
-    x = np.arange(1, order.size + 1)
+    fig = pyplot().figure(figsize=(10.0, 4.0))
+    rows, parity = fig.subplots(1, 2, gridspec_kw={"width_ratios": (3, 2)})
+    x = np.arange(1, result.errors_before_m.size + 1)
     series = [("before the fit", result.errors_before_m, PALETTE.nth(0), "o"),
               ("fitted", result.errors_after_m, PALETTE.nth(1), "s")]
     cv = result.cross_validation
     if cv is not None:
         series.append((f"held out ({cv.folds}-fold)", cv.errors_m, PALETTE.nth(2), "^"))
-    every = np.concatenate([e[np.isfinite(e) & (e > 0)] for _, e, _, _ in series]) * 1e3
-    bins = np.geomspace(every.min(), every.max() * 1.001, 25) if every.size and every.max() > every.min() else 10
     for label, e, colour, marker in series:
         rms = np.sqrt(np.nanmean(e**2)) * 1e3
-        rows.plot(x, e[order] * 1e3, marker=marker, linestyle="none", markersize=4, color=colour,
+        rows.plot(x, e * 1e3, marker=marker, linestyle="none", markersize=4, color=colour,
                   label=f"{label}: RMS {rms:.3g} mm")
-        dist.hist(e[np.isfinite(e)] * 1e3, bins=bins, histtype="step", color=colour, label=label)
-    if every.size:
+    if np.any(result.errors_after_m > 0):
         rows.set_yscale("log")
-        dist.set_xscale("log")
-    rows.set_xlabel("row, by its error before the fit")
+    rows.xaxis.get_major_locator().set_params(integer=True)
+    rows.set_xlabel("row (the data's order)")
     rows.set_ylabel("tip error [mm]")
     rows.legend(loc="best", fontsize=8)
     rows.grid(True, alpha=0.3)
-    dist.set_xlabel("tip error [mm]")
-    dist.set_ylabel("rows")
+    if measured is not None:
+        m = np.asarray(measured, dtype=float) * 1e3
+        for label, tips, colour, marker in (("before the fit", result.predicted_before, PALETTE.nth(0), "o"),
+                                            ("fitted", result.predicted_after, PALETTE.nth(1), "s")):
+            parity.plot(m.ravel(), np.asarray(tips).ravel() * 1e3, marker=marker, linestyle="none", markersize=3,
+                        color=colour, label=label)
+        lo, hi = float(m.min()), float(m.max())
+        parity.plot([lo, hi], [lo, hi], color="0.5", linewidth=0.8)
+        parity.set_xlabel("measured tip coordinate (x, y, z) [mm]")
+        parity.set_ylabel("predicted [mm]")
+        parity.legend(loc="best", fontsize=8)
+        parity.grid(True, alpha=0.3)
+    else:
+        parity.set_axis_off()
     names = ", ".join(p.name for p in result.parameters)
     fig.suptitle(f"{result.model} fitted to {result.data_source} ({names})", fontsize=9)
     fig.tight_layout()

@@ -72,5 +72,5 @@ def run_calibration(robot: Robot, data: Measurements, fit: Sequence[str], out: s
             header, rows = _rows(data, result)
             write_csv(run.staging / "rows.csv", header, rows)
             files = ["calibration.json", "robot_fitted.toml", "rows.csv",
-                     *save_figure(plot_calibration(result), run.staging, "fig_calibration")]
+                     *save_figure(plot_calibration(result, data.tip_position), run.staging, "fig_calibration")]
     return CalibrationRun(result, tuple(files))
