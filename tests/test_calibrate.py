@@ -364,3 +364,46 @@ def test_a_file_driving_tendons_by_displacement_reads(tmp_path):
         read_measurements(_csv(tmp_path, HEADER + ",D1_m", GOOD + ",0.001"), ROBOT)
     with pytest.raises(SettingsError, match=r"tendon_stiffness fits one stiffness .* from a finite"):
         parameters(ROBOT, ["tendon_stiffness"])
+
+
+def test_an_unmoved_parameter_leaves_the_others_errors_alone():
+    """With tendon 8 slack in every row, its routing radius gets no error (inf) and one warning; E keeps the
+    error it has when fitted alone."""
+    t = _tensions(7, 6)
+    t[:, 7] = 0.0
+    truth = _with(ROBOT, modulus=60e9)
+    noise = np.random.default_rng(3).normal(0.0, 0.5e-3, (6, 3))
+    data = Measurements.from_arrays(ROBOT, t, _tips(truth, t) + noise, sigma=0.5e-3)
+    options = CalibrationOptions(folds=0, loss="linear")
+    alone = calibrate(ROBOT, data, ["youngs_modulus"], options=options)
+    both = calibrate(ROBOT, data, ["youngs_modulus", "tendon_radius_8"], options=options)
+    assert both.parameters[1].standard_error == np.inf and np.isfinite(both.parameters[0].standard_error)
+    assert both.parameters[0].standard_error == pytest.approx(alone.parameters[0].standard_error, rel=0.2)
+    assert [w for w in both.warnings if "tendon_radius_8" in w] == [
+        "tendon_radius_8: the data do not depend on it at all; fix it or add data that move it"]
+    assert both.correlation[0, 0] == pytest.approx(1.0)
+
+
+def test_a_fit_at_an_upper_bound_and_parameters_that_act_on_nothing(tmp_path):
+    """A routing radius just under the given disks' radius differences inward (no invalid robot); a start
+    outside the fit's range, a pretension of a displacement-driven tendon and a motor offset of tension-driven
+    data are refused naming the parameter; NaN in arrays is refused naming the row."""
+    robot = ROBOT.model_validate({**ROBOT.model_dump(), "disk_radius": 0.01 * (1 + 5e-6)})
+    t = _tensions(14, 4)
+    data = Measurements.from_arrays(robot, t, _tips(robot, t))
+    result = calibrate(robot, data, ["tendon_radius"], options=CalibrationOptions(folds=0, max_evaluations=3))
+    assert np.isfinite(result.parameters[0].standard_error)
+    with pytest.raises(SettingsError, match="displacement_offset acts on tendons driven by displacement"):
+        calibrate(ROBOT, data, ["displacement_offset"], options=CalibrationOptions(folds=0))
+    pulls, tips = _driven_rows(ROBOT, t, 3.5e4)
+    driven = Measurements.from_arrays(ROBOT, t, tips, displacements=pulls)
+    with pytest.raises(SettingsError, match="pretension_2 offsets a tension, but the data drive tendon 2"):
+        calibrate(ROBOT, driven, ["pretension_2"], stiffness=3.5e4, options=CalibrationOptions(folds=0))
+    slippery = ROBOT.model_copy(update={"friction": ROBOT.friction.model_copy(update={"mu0": 2.5})})
+    assert calibrate(slippery, Measurements.from_arrays(slippery, t, _tips(slippery, t)), ["friction.mu0"],
+                     options=CalibrationOptions(folds=0, max_evaluations=2)).parameters[0].initial == 2.5
+    pulls[1, 0] = np.nan
+    with pytest.raises(SettingsError, match=r"row 2, column D1_m: nan is not a finite number"):
+        Measurements.from_arrays(ROBOT, t, tips, displacements=pulls)
+    with pytest.raises(SettingsError, match=r"row 1, column tip_x_m: nan"):
+        Measurements.from_arrays(ROBOT, t, np.where(np.arange(3) == 0, np.nan, tips))

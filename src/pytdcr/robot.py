@@ -90,11 +90,15 @@ MAX_TENDONS, MAX_SEGMENTS = 1000, 100
 DiskCount = Annotated[Count, Field(ge=1, le=MAX_DISKS_PER_SEGMENT)]
 Routing = ranged(0.0, 1.0, "m", "a routing radius up to a metre", lo_open=True)
 Angle = ranged(-360.0, 360.0, "deg", "one turn either way; larger angles repeat a routing")
-TendonStiffness = ranged(1.0, 1e10, "N/m", "from a soft elastic cord to a steel rod; leave it out for an "
-                         "inextensible tendon")
+#: the softest and the stiffest tendon accepted [N/m] (over its length in the robot)
+MIN_TENDON_STIFFNESS, MAX_TENDON_STIFFNESS = 1.0, 1e10
+TendonStiffness = ranged(MIN_TENDON_STIFFNESS, MAX_TENDON_STIFFNESS, "N/m", "from a soft elastic cord to a steel "
+                         "rod; leave it out for an inextensible tendon")
 DiskRadius = ranged(1e-4, 1.0, "m", "disks from 0.1 mm to 1 m across the axis")
-Friction = ranged(0.0, 10.0, "", "a friction coefficient")
-Decay = ranged(0.0, 10.0, "1/deg", "the paper's law decays at 0.027 per degree")
+#: the largest friction coefficient and exponential decay accepted [-], [1/deg]
+MAX_FRICTION, MAX_DECAY = 10.0, 10.0
+Friction = ranged(0.0, MAX_FRICTION, "", "a friction coefficient")
+Decay = ranged(0.0, MAX_DECAY, "1/deg", "the paper's law decays at 0.027 per degree")
 #: the weakest gravity a robot may have [m/s^2] (else none, 0): a tenth of the residual acceleration on an orbiting
 #: station (about 1e-5 m/s^2), so every real setting fits; below it gravity's weight is lost in the solvers'
 #: tolerance, and a vector of subnormal components (5e-324) would still be taken for a direction of the payload

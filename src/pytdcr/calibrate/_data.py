@@ -217,6 +217,11 @@ def _from_columns(robot: Robot, cols: dict[str, np.ndarray], source: str, sha: s
     b = len(next(iter(cols.values()))) if cols else 0
     if b == 0:
         raise SettingsError("data", f" ({source}): no rows")
+    for name, values in cols.items():  # a file's cells are checked as read; arrays' here
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            why = " (a tendon driven by its pull-in in one row is driven so in every row)" if name[0] == "D" else ""
+            raise _refuse(source, int(bad[0]), name, f"{values[bad[0]]} is not a finite number{why}")
     _check_positions(source, cols, robot)
     for k in range(1, robot.n_tendons + 1):
         if f"D{k}_m" in cols and f"T{k}_N" in cols:
@@ -230,8 +235,8 @@ def _from_columns(robot: Robot, cols: dict[str, np.ndarray], source: str, sha: s
     for a in _XYZ:
         _check_range(source, cols, f"force_{a}_N", -MAX_FORCE_N, MAX_FORCE_N, "a force on a tendon-driven robot")
         _check_range(source, cols, f"moment_{a}_Nm", -MAX_MOMENT_NM, MAX_MOMENT_NM, "a moment on such a robot")
-    _check_range(source, cols, "sigma_m", 1e-9, 1.0, "an uncertainty is > 0")
-    _check_range(source, cols, "sigma_axis_rad", 1e-9, 2.0, "an uncertainty is > 0")
+    _check_range(source, cols, "sigma_m", 1e-9, 1.0, "an uncertainty from a nanometre to a metre")
+    _check_range(source, cols, "sigma_axis_rad", 1e-9, 2.0, "an uncertainty of a unit vector's component")
     def stack(fmt: str, default: float | None) -> np.ndarray:
         return np.column_stack([_column(cols, fmt.format(a), b, default, source) for a in _XYZ])
 
@@ -273,6 +278,9 @@ def read_measurements(path: str | Path, robot: Robot) -> Measurements:
     if not lines:
         raise SettingsError("data", f" ({path.name}): empty; give a header and one row per measurement")
     header = [h.strip() for h in lines[0]]
+    if "" in header:
+        raise SettingsError("data", f" ({path.name}): the header has a column without a name (column "
+                                    f"{header.index('') + 1}: a trailing comma?)")
     for name in header:
         if header.count(name) > 1:
             raise _refuse(path.name, None, name, "appears twice in the header")

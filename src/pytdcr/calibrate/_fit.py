@@ -12,6 +12,7 @@ largest; the warning names the parameters that make up its singular vector.
 
 from __future__ import annotations
 
+import re
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
@@ -99,6 +100,29 @@ def _fit_model(robot: Robot, model: str | Model, model_options: ModelOptions | N
     return m, opts
 
 
+def _check_fit(problem: Problem) -> None:
+    """Refuse (SettingsError naming the parameter) a parameter that acts on nothing in these data, such as a
+    pretension of a tendon the data drive by displacement, and an initial value outside its bounds."""
+    driven = problem.driven
+    for p in problem.params:
+        hit = re.search(r"_([0-9]+)$", p.name)
+        k = int(hit.group(1)) - 1 if hit else None
+        if p.name.startswith("pretension") and (driven.all() if k is None else driven[k]):
+            which = "every tendon" if k is None else f"tendon {k + 1}"
+            raise SettingsError("parameters", f": {p.name} offsets a tension, but the data drive {which} by its "
+                                              "pull-in (DK_m columns): fit displacement_offset instead")
+        if (p.name.startswith("displacement_offset") or p.name == "tendon_stiffness") and not (
+                driven.any() if k is None else driven[k]):
+            which = "no tendon" if k is None else f"not tendon {k + 1}"
+            raise SettingsError("parameters", f": {p.name} acts on tendons driven by displacement, and the data "
+                                              f"drive {which} so (give DK_m columns)")
+    lo, hi = problem.bounds()
+    for p, a, b in zip(problem.params, lo, hi, strict=True):
+        if not a <= p.initial <= b:
+            raise SettingsError("parameters", f": {p.name} starts at {p.initial:g} {p.unit}, outside the range the "
+                                              f"fit allows, [{a:g}, {b:g}] {p.unit}")
+
+
 def _least_squares(problem: Problem, options: CalibrationOptions, progress: Progress | None
                    ) -> tuple[np.ndarray, bool, str, int]:
     """Fit from the initial values: (values, converged, message, evaluations)."""
@@ -106,7 +130,7 @@ def _least_squares(problem: Problem, options: CalibrationOptions, progress: Prog
     lo, hi = problem.bounds()
     cache: dict[bytes, list] = {}
     failed = [0]
-    size = [0]
+    size = problem.n_residuals
 
     def values(x: np.ndarray) -> np.ndarray:  # x = 1 + (value - initial) / scale: the optimiser's first trust
         return np.clip(x0 + (x - 1.0) * scale, lo, hi)  # region is |x0| (SciPy), one scale step per parameter
@@ -116,11 +140,10 @@ def _least_squares(problem: Problem, options: CalibrationOptions, progress: Prog
             sols = problem.solutions(values(x))
         except (RowFailure, ValueError):  # ValueError: values the robot refuses (a bound met by round-off)
             failed[0] += 1
-            return np.full(size[0], 1e6)  # a trial step into parameters without equilibria: rejected, shorter
+            return np.full(size, 1e6)  # a trial step into parameters without equilibria: rejected, shorter
         cache.clear()
         cache[x.tobytes()] = sols
         r = problem.residuals(values(x), sols)
-        size[0] = r.size
         if progress is not None:
             progress(f"RMS whitened residual {np.sqrt(np.mean(r ** 2)):.4g}")
         return r
@@ -130,7 +153,6 @@ def _least_squares(problem: Problem, options: CalibrationOptions, progress: Prog
         return problem.jacobian(values(x), sols) * scale
 
     start = np.ones_like(x0)
-    fun(start)
     fit = least_squares(fun, start, jac=jac, bounds=(1.0 + (lo - x0) / scale, 1.0 + (hi - x0) / scale),
                         method="trf", loss=options.loss, f_scale=options.loss_scale, max_nfev=options.max_evaluations,
                         ftol=options.tolerance, xtol=options.tolerance, gtol=options.tolerance)
@@ -146,33 +168,45 @@ def _named(params: tuple[Parameter, ...], vector: np.ndarray) -> str:
     return " and ".join(parts) if parts else params[int(np.argmax(np.abs(vector)))].name
 
 
+#: a normalised singular value at or below this is a direction the data do not move at all (numerically zero)
+_NULL = 1e-12
+
+
 def _statistics(problem: Problem, values: np.ndarray, jac: np.ndarray, r: np.ndarray, options: CalibrationOptions
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
     """Standard errors (n,) in each parameter's unit, the correlation (n, n), the normalised singular values and
-    the identifiability warnings (module docstring)."""
-    params = problem.params
+    the identifiability warnings (module docstring).
+
+    A parameter the data do not depend on (a zero column) is set aside; the covariance of the others is the
+    pseudo-inverse over the directions the data move, and only the parameters making up a direction they do not
+    move at all get no error (inf) and no correlation (NaN)."""
+    params, n = problem.params, values.size
     a = jac * problem.scales  # per unit step of each parameter's scale
-    dof = max(r.size - values.size, 1)
-    s2 = 1.0 if options.absolute_sigma else float(r @ r) / dof
+    s2 = 1.0 if options.absolute_sigma else float(r @ r) / max(r.size - n, 1)
     norms = np.linalg.norm(a, axis=0)
-    warnings = [f"{p.name}: the data do not depend on it at all; fix it or add data that move it"
-                for p, n in zip(params, norms, strict=True) if n == 0.0]
-    safe = np.where(norms > 0, norms, 1.0)
-    _, sv, vt = np.linalg.svd(a / safe, full_matrices=False)
-    rel = sv / sv[0] if sv[0] > 0 else np.zeros_like(sv)
-    for s, v in zip(rel, vt, strict=True):
-        if s < options.identifiability:
-            warnings.append(f"the data do not determine {_named(params, v)} apart (normalised singular value "
-                            f"{s:.2g} < {options.identifiability:g}): fix one of them or add data that move them "
-                            "differently")
-    inv = np.full_like(sv, np.inf)
-    inv[rel > 1e-12] = 1.0 / sv[rel > 1e-12] ** 2
-    cov = (vt.T * inv) @ vt if np.all(np.isfinite(inv)) else np.full((values.size,) * 2, np.nan)
-    cov = cov / np.outer(safe, safe)  # per unit scale, before the residuals' scale s^2 (which the correlation lacks)
+    live = np.flatnonzero(norms > 0)
+    warnings = [f"{params[i].name}: the data do not depend on it at all; fix it or add data that move it"
+                for i in np.flatnonzero(norms == 0)]
+    rel = np.zeros(n)
+    cov = np.full((n, n), np.nan)
+    if live.size:
+        _, sv, vt = np.linalg.svd(a[:, live] / norms[live], full_matrices=False)
+        rel[: sv.size] = sv / sv[0]
+        kept = rel[: sv.size] > _NULL
+        named = tuple(params[i] for i in live)
+        for s, v in zip(rel[: sv.size], vt, strict=True):
+            if s < options.identifiability:
+                warnings.append(f"the data do not determine {_named(named, v)} apart (normalised singular value "
+                                f"{s:.2g} < {options.identifiability:g}): fix one of them or add data that move them "
+                                "differently")
+        sub = (vt[kept].T / sv[kept] ** 2) @ vt[kept] / np.outer(norms[live], norms[live])  # per unit scale
+        lost = np.any(np.abs(vt[~kept]) > 1e-6, axis=0)  # parameters in a direction the data do not move
+        sub[lost, :] = sub[:, lost] = np.nan
+        cov[np.ix_(live, live)] = sub
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.sqrt(np.outer(np.diag(cov), np.diag(cov)))
     se = np.sqrt(np.abs(np.diag(cov)) * s2) * problem.scales
-    se = np.where(np.isfinite(se) & (norms > 0), se, np.inf)
+    se = np.where(np.isfinite(se), se, np.inf)
     for p, v, e in zip(params, values, se, strict=True):
         if p.initial > 0 and np.isfinite(e) and e > abs(v):
             warnings.append(f"{p.name}: its standard error {e:.3g} {p.unit} exceeds its value {v:.3g} {p.unit}; "
@@ -198,7 +232,7 @@ def _cross_validate(problem: Problem, options: CalibrationOptions, errors_before
             held = Problem(robot, data.subset(test), params, m, mopts, problem.stiffness)
             errors[test] = held.tip_errors(values, held.solutions(values))[1]
             solves += fit.solves + held.solves
-        except RowFailure:
+        except (RowFailure, ValueError):  # a fold's fit or prediction without equilibria: its rows stay NaN
             ok = False
         failed += not ok
         if progress is not None:
@@ -257,6 +291,7 @@ def calibrate(robot: Robot, data: Measurements, fit: list[str] | tuple[str, ...]
     if options.folds > data.n_rows:
         raise SettingsError("folds", f" = {options.folds}: must be at most the number of rows ({data.n_rows})")
     problem = Problem(robot, data, params, m, mopts, k)
+    _check_fit(problem)
     try:
         before = problem.solutions(problem.initial)
     except RowFailure as e:

@@ -19,8 +19,12 @@ from scipy.spatial.transform import Rotation
 from ..loads import MAX_TENSION
 from ..paper import payload_gravity
 from ..robot import (
+    MAX_DECAY,
+    MAX_FRICTION,
     MAX_MODULUS,
+    MAX_TENDON_STIFFNESS,
     MIN_MODULUS,
+    MIN_TENDON_STIFFNESS,
     ConstantFriction,
     ExponentialFriction,
     Robot,
@@ -97,8 +101,8 @@ def _friction(robot: Robot, name: str) -> Parameter:
                             f"'{law.law}' (set [friction] law = \"{want}\" in the robot file)")
     value = float(getattr(law, field))
     if field == "decay_per_deg":
-        return Parameter(name, "1/deg", value, 0.0, 1.0, max(value, 0.01))
-    return Parameter(name, "-", value, 0.0, 2.0, max(value, 0.1))
+        return Parameter(name, "1/deg", value, 0.0, MAX_DECAY, max(value, 0.01))
+    return Parameter(name, "-", value, 0.0, MAX_FRICTION, max(value, 0.1))
 
 
 def _tendon(robot: Robot, kind: str, k: int | None) -> Parameter:
@@ -126,7 +130,8 @@ def _stiffness(stiffness: np.ndarray) -> Parameter:
     if finite.size != stiffness.size or len(set(finite.tolist())) > 1:
         raise SettingsError("parameters", ": tendon_stiffness fits one stiffness for every tendon from a finite "
                                           "initial one: give the tendons' stiffness (one value, N/m) to start from")
-    return Parameter("tendon_stiffness", "N/m", float(finite[0]), 1.0, 1e9, float(finite[0]))
+    return Parameter("tendon_stiffness", "N/m", float(finite[0]), MIN_TENDON_STIFFNESS, MAX_TENDON_STIFFNESS,
+                     float(finite[0]))
 
 
 def _one(robot: Robot, name: str, stiffness: np.ndarray) -> Parameter:

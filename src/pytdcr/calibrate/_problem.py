@@ -114,6 +114,13 @@ class Problem:
                 lo[i] = -float(t[:, int(p.name.rsplit("_", 1)[1]) - 1].min())
         return lo, hi
 
+    @property
+    def n_residuals(self) -> int:
+        """How many whitened residuals the rows give: per row the tip (3), its axis (3, when measured) and each
+        measured disk (3)."""
+        d = self.data
+        return d.n_rows * 3 * (1 + (d.tip_axis is not None) + len(d.disks))
+
     def setting(self, values: np.ndarray) -> Setting:
         """The parameters at ``values``."""
         return Setting(self.params, np.asarray(values, dtype=float))
@@ -206,37 +213,38 @@ class Problem:
             parts.append(pull[taut] - s.displacements(self.data.displacements[row])[taut])
         return np.concatenate(parts)
 
-    def _along(self, f: Callable[[float], np.ndarray], h: float, below: bool) -> np.ndarray:
-        """d f(t) / dt at t = 0 by central differences of step ``h``, or second-order forward ones when ``below``
-        (a step back would leave the bounds)."""
-        if not below:
+    def _along(self, f: Callable[[float], np.ndarray], h: float, side: int) -> np.ndarray:
+        """d f(t) / dt at t = 0 by central differences of step ``h`` (``side`` 0), or second-order one-sided ones
+        forward (``side`` 1: a step back would leave the bounds) or backward (``side`` -1)."""
+        if side == 0:
             return (f(h) - f(-h)) / (2 * h)
-        return (-3 * f(0.0) + 4 * f(h) - f(2 * h)) / (2 * h)
+        return side * (-3 * f(0.0) + 4 * f(side * h) - f(2 * side * h)) / (2 * h)
 
-    def _partials(self, values: np.ndarray, row: int, q: np.ndarray, lo: np.ndarray, found: np.ndarray,
-                  taut: np.ndarray, moves: np.ndarray | None = None) -> np.ndarray:
+    def _partials(self, values: np.ndarray, row: int, q: np.ndarray, bounds: tuple[np.ndarray, np.ndarray],
+                  found: np.ndarray, taut: np.ndarray, moves: np.ndarray | None = None) -> np.ndarray:
         """d(residual, observations, gaps)/d value at fixed q, one column per parameter, then one per taut driven
         tendon's tension; with ``moves`` (m, columns), along each column's direction with q moving by it (the
         total derivatives of the module docstring)."""
         taut_idx = np.flatnonzero(taut)
+        lo, hi = bounds
         out = []
         for i in range(values.size + taut_idx.size):
             dq = np.zeros_like(q) if moves is None else moves[:, i]
             if i < values.size:
                 h, e = _STEP * self.scales[i], np.eye(values.size)[i]
-                below = values[i] - h < lo[i]
+                side = 1 if values[i] - h < lo[i] else -1 if values[i] + h > hi[i] else 0
 
                 def f(t: float, e: np.ndarray = e, dq: np.ndarray = dq) -> np.ndarray:
                     return self._fixed_q(values + t * e, row, q + t * dq, found, taut)
             else:
                 c = taut_idx[i - values.size]
-                h, below = min(_TENSION_STEP_N, 0.5 * found[c]), False
+                h, side = min(_TENSION_STEP_N, 0.5 * found[c]), 0
                 e = np.zeros_like(found)
                 e[c] = 1.0
 
                 def f(t: float, e: np.ndarray = e, dq: np.ndarray = dq) -> np.ndarray:
                     return self._fixed_q(values, row, q + t * dq, found + t * e, taut)
-            out.append(self._along(f, h, below))
+            out.append(self._along(f, h, side))
         return np.column_stack(out)
 
     def jacobian(self, values: np.ndarray, solutions: list[StaticSolution]) -> np.ndarray:
@@ -244,7 +252,7 @@ class Problem:
         per unit of each parameter (module docstring)."""
         s = self.setting(values)
         robot = s.robot(self.robot)
-        lo = self.bounds()[0]
+        bounds = self.bounds()
         rot, _ = s.frame()
         n = robot.n_tendons
         blocks = []
@@ -254,14 +262,14 @@ class Problem:
             eq = self.model.equations(robot, self.loads(s, robot, b, found), self.options)
             q = eq.check_q(sol.q)
             lu = lu_factor(eq.evaluate(q, jacobian=True).jacobian)
-            partial = self._partials(values, b, q, lo, found, taut)
+            partial = self._partials(values, b, q, bounds, found, taut)
             nq = q.size
             moves = -lu_solve(lu, partial[:nq])  # (m, n_params + n_taut): dq per unit, the equilibrium kept
             if not taut.any():
                 moved = np.einsum("kij,jp->kip", eq.pose_jacobians(q), moves)  # (N+1, 6, n_params)
                 blocks.append(partial[nq:] + self._moved_observations(rot, moved, sol, b))
                 continue
-            total = self._partials(values, b, q, lo, found, taut, moves)[nq:]  # observations, then gaps
+            total = self._partials(values, b, q, bounds, found, taut, moves)[nq:]  # observations, then gaps
             n_obs, p = total.shape[0] - int(taut.sum()), values.size
             dt = -np.linalg.solve(total[n_obs:, p:], total[n_obs:, :p])  # dT_taut / d values
             blocks.append(total[:n_obs, :p] + total[:n_obs, p:] @ dt)

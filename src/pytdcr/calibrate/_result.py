@@ -69,7 +69,8 @@ class CrossValidation:
     rms_before_m : float
         The same rows' RMS tip error with the initial parameters [m].
     failed_folds : int
-        Folds whose fit did not converge (their rows NaN).
+        Folds whose fit did not converge (their rows keep the errors of where it stopped) or found no equilibrium
+        for a row (their rows NaN).
     """
 
     folds: int

@@ -41,7 +41,7 @@ __all__ = ["DRIVES", "PULL_SPAN", "TARGET_SPAN", "build_app"]
 _WRENCH = ("force-x", "force-y", "force-z", "moment-x", "moment-y", "moment-z", "payload")
 _TARGET = ("target-x", "target-y", "target-z")
 _ACTIONS = {"reset": Action.RESET, "rest": Action.REST, "reach-target": Action.TARGET,
-            "clear-target": Action.CLEAR, "drive": Action.DRIVE}
+            "clear-target": Action.CLEAR}
 #: the range each load box takes: low, high, unit (the tip force and moment as :class:`pytdcr.Loads` takes them)
 _WRENCH_RANGE = {**dict.fromkeys(_WRENCH[:3], (-MAX_FORCE_N, MAX_FORCE_N, "N")),
                  **dict.fromkeys(_WRENCH[3:6], (-MAX_MOMENT_NM, MAX_MOMENT_NM, "N m")), "payload": (0.0, 1e4, "kg")}
@@ -579,8 +579,8 @@ def build_app(ex: Explorer, *, port: int | None = None) -> Dash:
                 "aim": [State(i, "value") for i in _TARGET], "sid": State("session", "data")})
     def on_change(tensions: list, wrench: list, options: dict, clicks: list, aim: list, sid: str) -> dict[str, object]:
         """Solve the controls (continued from the session's last equilibrium), or answer the target, and redraw."""
-        action = _ACTIONS.get(ctx.triggered_id, Action.CHANGE) if isinstance(ctx.triggered_id, str) \
-            else Action.CHANGE
+        trigger = ctx.triggered_id if isinstance(ctx.triggered_id, str) else None
+        action = Action.DRIVE if trigger == "drive" else _ACTIONS.get(trigger, Action.CHANGE)
         if _other_drives(ctx.triggered_id, options):
             raise PreventUpdate  # a box of the drive not in use changed: nothing to solve
         try:

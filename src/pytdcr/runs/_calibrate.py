@@ -63,6 +63,7 @@ def run_calibration(robot: Robot, data: Measurements, fit: Sequence[str], out: s
               "parameters": list(fit)}
     with output_folder(out, "calibrate", inputs) as run:
         k = None if stiffness is None else (stiffness[0] if len(stiffness) == 1 else list(stiffness))
+        k = np.inf if stiffness is not None and k is None else k  # one "-": every tendon inextensible
         result = calibrate(robot, data, list(fit), model=model, options=options, stiffness=k, progress=progress)
         with saving():
             doc = result.to_json()
