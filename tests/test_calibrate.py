@@ -253,6 +253,10 @@ def test_tdcr_calibrate_writes_a_run_whose_fitted_robot_reads_back(tmp_path, cap
     doc = json.loads((out / "calibration.json").read_text())
     assert doc["schema_version"] == 1 and doc["inputs"]["robot"]["backbone"]["youngs_modulus"] == 54e9
     assert (out / "rows.csv").read_text().count("\n") == 9 and (out / "fig_calibration.png").stat().st_size > 0
+    # the folder holds this calibration: other parameters need --restart (a stopped run would be resumed)
+    other = ["calibrate", str(tmp_path / "m.csv"), "--fit", "base_z", "--folds", "0", "--out", str(out), "-q"]
+    assert main(other) == 2 and "--restart" in capsys.readouterr().err
+    assert main([*other, "--restart"]) == 0 and "base_z" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize(("argv", "words"), [
@@ -407,3 +411,35 @@ def test_a_fit_at_an_upper_bound_and_parameters_that_act_on_nothing(tmp_path):
         Measurements.from_arrays(ROBOT, t, tips, displacements=pulls)
     with pytest.raises(SettingsError, match=r"row 1, column tip_x_m: nan"):
         Measurements.from_arrays(ROBOT, t, np.where(np.arange(3) == 0, np.nan, tips))
+
+
+def test_a_stopped_calibration_run_resumes_with_its_finished_stages(tmp_path):
+    """Ctrl-C after the second of three folds: the folder keeps the fit and two folds; the same call resumes,
+    computes only the third fold, and gives exactly the result of a run that was never stopped."""
+    from pytdcr.runs import run_calibration
+
+    def read_manifest(folder):
+        return json.loads((folder / "manifest.json").read_text())
+
+    truth = _with(ROBOT, modulus=60e9)
+    t = _tensions(15, 9)
+    data = Measurements.from_arrays(ROBOT, t, _tips(truth, t) + np.random.default_rng(2).normal(0, 5e-4, (9, 3)))
+    options = CalibrationOptions(folds=3)
+
+    def stop(line: str) -> None:
+        if line.startswith("held-out fold 2"):
+            raise KeyboardInterrupt
+
+    out = tmp_path / "run"
+    with pytest.raises(BaseException) as err:
+        run_calibration(ROBOT, data, ["youngs_modulus"], out, options=options, progress=stop)
+    assert isinstance(err.value, KeyboardInterrupt) or "interrupt" in type(err.value).__name__.lower()
+    assert read_manifest(out)["status"] == "interrupted"
+    assert sorted(p.name for p in out.glob("stage_*")) == ["stage_fit.json", "stage_fold_1.json", "stage_fold_2.json"]
+    lines: list[str] = []
+    resumed = run_calibration(ROBOT, data, ["youngs_modulus"], out, options=options, progress=lines.append).result
+    assert lines == ["held-out fold 1 of 3 (kept)", "held-out fold 2 of 3 (kept)", "held-out fold 3 of 3"]
+    fresh = calibrate(ROBOT, data, ["youngs_modulus"], options=options)
+    assert resumed.value("youngs_modulus") == fresh.value("youngs_modulus")
+    np.testing.assert_array_equal(resumed.cross_validation.errors_m, fresh.cross_validation.errors_m)
+    assert read_manifest(out)["status"] == "complete" and (out / "calibration.json").exists()

@@ -143,11 +143,11 @@ def test_local_and_dask_runs_give_one_table_and_resume(tmp_path):
     assert summary["designs_reused"] == 3 and summary["seed"] == 3
     # another study into the same folder is refused, or restarted when asked
     other, _ = study_from_dict(_study(seed=4))
-    with pytest.raises(FolderError, match="the study file, its base robot"):
+    with pytest.raises(FolderError, match="a run of other inputs"):
         run_designs(other, robot, tmp_path / "local")
     # the same study on a changed base robot (its file edited) is another study too
     heavier = robot.model_copy(update={"backbone": robot.backbone.model_copy(update={"youngs_modulus": 1e11})})
-    with pytest.raises(FolderError, match="the study file, its base robot"):
+    with pytest.raises(FolderError, match="a run of other inputs"):
         run_designs(study, heavier, tmp_path / "local")
     (tmp_path / "x").mkdir()
     (tmp_path / "x" / "notes.txt").write_text("mine")

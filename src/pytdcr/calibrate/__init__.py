@@ -9,7 +9,7 @@ frame) to measured poses, with standard errors, correlations, identifiability wa
 """
 
 from ._data import DEFAULT_SIGMA_AXIS, DEFAULT_SIGMA_M, Measurements, read_measurements
-from ._fit import LOSSES, CalibrationOptions, calibrate
+from ._fit import LOSSES, Calibration, CalibrationOptions, FitStage, FoldStage, calibrate, prepare
 from ._parameters import PARAMETER_HELP, Parameter, parameters
 from ._result import SCHEMA_VERSION, CalibrationResult, CrossValidation, FittedParameter
 
@@ -19,13 +19,17 @@ __all__ = [
     "LOSSES",
     "PARAMETER_HELP",
     "SCHEMA_VERSION",
+    "Calibration",
     "CalibrationOptions",
     "CalibrationResult",
     "CrossValidation",
+    "FitStage",
     "FittedParameter",
+    "FoldStage",
     "Measurements",
     "Parameter",
     "calibrate",
     "parameters",
+    "prepare",
     "read_measurements",
 ]

@@ -21,6 +21,8 @@ from typing import Literal
 import numpy as np
 from scipy.optimize import least_squares
 
+from ..records import JsonDict, JsonObject
+from ..results import StaticSolution
 from ..robot import Robot
 from ..statics import Model, UnsupportedFeatureError
 from ..statics.displacement import tendon_stiffness
@@ -32,7 +34,7 @@ from ._parameters import Parameter, parameters
 from ._problem import Problem, RowFailure
 from ._result import CalibrationResult, CrossValidation, FittedParameter
 
-__all__ = ["CalibrationOptions", "calibrate"]
+__all__ = ["Calibration", "CalibrationOptions", "FitStage", "FoldStage", "calibrate", "prepare"]
 
 #: the losses the fit offers (SciPy's names): squares, or robust ones that weigh a residual beyond ``loss_scale``
 #: standard uncertainties less (an outlier's pull grows like its square root or linearly, not its square)
@@ -214,33 +216,166 @@ def _statistics(problem: Problem, values: np.ndarray, jac: np.ndarray, r: np.nda
     return se, corr, rel, warnings
 
 
-def _cross_validate(problem: Problem, options: CalibrationOptions, errors_before: np.ndarray,
-                    progress: Progress | None) -> tuple[CrossValidation, int]:
-    """Held-out tip errors: each fold predicted by a fit to the other rows (:class:`CrossValidation`), and the
-    solves it took; ``progress`` hears of each fold."""
-    robot, data, params, m, mopts = problem.robot, problem.data, problem.params, problem.model, problem.options
-    b = data.n_rows
-    order = np.random.default_rng(options.seed).permutation(b)
-    errors = np.full(b, np.nan)
-    failed, solves = 0, 0
-    for k in range(options.folds):
-        test = np.sort(order[k::options.folds])
+@dataclass(frozen=True)
+class FitStage:
+    """The fit's outcome: the values (in each parameter's unit), whether it converged, the optimiser's account, its
+    evaluations and the solves it took. JSON-ready with :meth:`to_json` (a run's journal)."""
+
+    values: np.ndarray
+    converged: bool
+    message: str
+    evaluations: int
+    solves: int
+
+    def to_json(self) -> JsonDict:
+        """JSON-ready."""
+        return {"values": self.values.tolist(), "converged": self.converged, "message": self.message,
+                "evaluations": self.evaluations, "solves": self.solves}
+
+    @classmethod
+    def from_json(cls, d: JsonObject) -> FitStage:
+        """The stage :meth:`to_json` wrote."""
+        return cls(np.array(d["values"], dtype=float), bool(d["converged"]), str(d["message"]),
+                   int(d["evaluations"]), int(d["solves"]))
+
+
+@dataclass(frozen=True)
+class FoldStage:
+    """One cross-validation fold: its held-out rows (0-based), their tip errors [m] predicted by a fit to the
+    other rows (NaN where it failed), whether that fit converged, and the solves it took."""
+
+    rows: np.ndarray
+    errors_m: np.ndarray
+    converged: bool
+    solves: int
+
+    def to_json(self) -> JsonDict:
+        """JSON-ready (a NaN error as null)."""
+        return {"rows": self.rows.tolist(), "errors_m": [None if not np.isfinite(e) else float(e)
+                                                         for e in self.errors_m],
+                "converged": self.converged, "solves": self.solves}
+
+    @classmethod
+    def from_json(cls, d: JsonObject) -> FoldStage:
+        """The stage :meth:`to_json` wrote."""
+        return cls(np.array(d["rows"], dtype=int), np.array([np.nan if e is None else e for e in d["errors_m"]],
+                                                            dtype=float), bool(d["converged"]), int(d["solves"]))
+
+
+@dataclass(eq=False)
+class Calibration:
+    """A calibration checked and ready (:func:`prepare`): its stages, each a function of the inputs alone, so that a
+    run can keep each one's outcome and resume (:func:`pytdcr.runs.run_calibration`): :meth:`fit`, :meth:`fold`
+    for each of ``options.folds``, then :meth:`result`.
+
+    Attributes
+    ----------
+    problem : Problem
+    options : CalibrationOptions
+    before : list of StaticSolution
+        Each row's equilibrium with the initial values.
+    started : float
+        ``time.perf_counter()`` when it was prepared.
+    """
+
+    problem: Problem
+    options: CalibrationOptions
+    before: list[StaticSolution]
+    started: float
+
+    def fit(self, progress: Progress | None = None) -> FitStage:
+        """Fit every row; ``progress`` hears of each evaluation."""
+        values, converged, message, evaluations = _least_squares(self.problem, self.options, progress)
+        return FitStage(values, converged, message, evaluations, self.problem.solves)
+
+    def fold(self, k: int) -> FoldStage:
+        """Fold ``k`` (0-based) of the cross-validation: its rows predicted by a fit to the others."""
+        p, o = self.problem, self.options
+        b = p.data.n_rows
+        test = np.sort(np.random.default_rng(o.seed).permutation(b)[k::o.folds])
         train = np.setdiff1d(np.arange(b), test)
-        fit = Problem(robot, data.subset(train), params, m, mopts, problem.stiffness)
+        fit = Problem(p.robot, p.data.subset(train), p.params, p.model, p.options, p.stiffness)
+        held = Problem(p.robot, p.data.subset(test), p.params, p.model, p.options, p.stiffness)
         try:
-            values, ok, _, _ = _least_squares(fit, options, None)
-            held = Problem(robot, data.subset(test), params, m, mopts, problem.stiffness)
-            errors[test] = held.tip_errors(values, held.solutions(values))[1]
-            solves += fit.solves + held.solves
+            values, ok, _, _ = _least_squares(fit, o, None)
+            errors = held.tip_errors(values, held.solutions(values))[1]
         except (RowFailure, ValueError):  # a fold's fit or prediction without equilibria: its rows stay NaN
-            ok = False
-        failed += not ok
-        if progress is not None:
-            progress(f"held-out fold {k + 1} of {options.folds}")
+            ok, errors = False, np.full(test.size, np.nan)
+        return FoldStage(test, errors, ok, fit.solves + held.solves)
+
+    def result(self, fit: FitStage, folds: Sequence[FoldStage] = ()) -> CalibrationResult:
+        """The :class:`CalibrationResult` of the fit's outcome and the folds' (their errors, statistics and the
+        fitted robot, evaluated here)."""
+        problem, options = self.problem, self.options
+        values, converged, message = fit.values, fit.converged, fit.message
+        solves0 = problem.solves
+        try:
+            after = problem.solutions(values)
+        except RowFailure as e:
+            after, converged, values = self.before, False, problem.initial
+            message += f"; at the fitted values {e}"
+        jac = problem.jacobian(values, after)
+        r = problem.residuals(values, after)
+        se, corr, rel, warnings = _statistics(problem, values, jac, r, options)
+        if not converged:
+            warnings.insert(0, f"the fit did not converge: {message}")
+        tips_before, errors_before = problem.tip_errors(problem.initial, self.before)
+        tips_after, errors_after = problem.tip_errors(values, after)
+        lo, hi = problem.bounds()
+        fitted = tuple(FittedParameter(p.name, p.unit, p.initial, float(v), float(e), float(a), float(b),
+                                       bool(min(v - a, b - v) <= 1e-6 * min(p.scale, b - a)))
+                       for p, v, e, a, b in zip(problem.params, values, se, lo, hi, strict=True))
+        cv = _cross_validation(folds, problem.data.n_rows, errors_before) if folds else None
+        k = problem.stiffness
+        return CalibrationResult(
+            model=problem.model.name, parameters=fitted, correlation=corr, singular_values=rel,
+            warnings=tuple(warnings), converged=converged, message=message, evaluations=fit.evaluations,
+            solves=fit.solves + problem.solves - solves0 + sum(f.solves for f in folds), chi2=float(r @ r),
+            dof=int(r.size - values.size), predicted_before=tips_before, predicted_after=tips_after,
+            errors_before_m=errors_before, errors_after_m=errors_after, cross_validation=cv,
+            robot=problem.setting(values).robot(problem.robot), data_source=problem.data.source,
+            data_sha256=problem.data.sha256,
+            settings={**asdict(options), "parameters": [p.name for p in problem.params],
+                      "stiffness_n_per_m": [float(v) if np.isfinite(v) else None for v in k]},
+            seconds=time.perf_counter() - self.started)
+
+
+def _cross_validation(folds: Sequence[FoldStage], n_rows: int, errors_before: np.ndarray) -> CrossValidation:
+    """The folds' held-out errors as one :class:`CrossValidation`."""
+    errors = np.full(n_rows, np.nan)
+    for f in folds:
+        errors[f.rows] = f.errors_m
     finite = np.isfinite(errors)
     rms = float(np.sqrt(np.mean(errors[finite] ** 2))) if finite.any() else float("nan")
-    return CrossValidation(folds=options.folds, errors_m=errors, rms_m=rms,
-                           rms_before_m=float(np.sqrt(np.mean(errors_before ** 2))), failed_folds=failed), solves
+    return CrossValidation(folds=len(folds), errors_m=errors, rms_m=rms,
+                           rms_before_m=float(np.sqrt(np.mean(errors_before ** 2))),
+                           failed_folds=sum(not f.converged for f in folds))
+
+
+def prepare(robot: Robot, data: Measurements, fit: list[str] | tuple[str, ...], *, model: str | Model = "pcc",
+            options: CalibrationOptions | None = None, model_options: ModelOptions | None = None,
+            stiffness: float | Sequence[float | None] | None = None) -> Calibration:
+    """The checks of :func:`calibrate` and each row's equilibrium with the initial values: a
+    :class:`Calibration` whose stages a run takes one by one (same arguments and errors as :func:`calibrate`)."""
+    started = time.perf_counter()
+    options = options or CalibrationOptions()
+    m, mopts = _fit_model(robot, model, model_options)
+    try:
+        k = tendon_stiffness(robot, stiffness)
+    except ValueError as err:
+        raise SettingsError.about("stiffness", err) from None
+    params = parameters(robot, list(fit), k)
+    if options.folds > data.n_rows:
+        raise SettingsError("folds", f" = {options.folds}: must be at most the number of rows ({data.n_rows})")
+    problem = Problem(robot, data, params, m, mopts, k)
+    _check_fit(problem)
+    try:
+        before = problem.solutions(problem.initial)
+    except RowFailure as e:
+        raise SettingsError("data", f" ({data.source}): row {e.row + 1}: the '{m.name}' model finds no equilibrium "
+                            f"for this row's inputs with the initial parameters (residual {e.residual:.3g} N m); drop "
+                            "the row or check its tensions") from None
+    return Calibration(problem, options, before, started)
 
 
 def calibrate(robot: Robot, data: Measurements, fit: list[str] | tuple[str, ...], *, model: str | Model = "pcc",
@@ -280,51 +415,11 @@ def calibrate(robot: Robot, data: Measurements, fit: list[str] | tuple[str, ...]
     UnsupportedFeatureError
         A model without exact derivatives.
     """
-    start = time.perf_counter()
-    options = options or CalibrationOptions()
-    m, mopts = _fit_model(robot, model, model_options)
-    try:
-        k = tendon_stiffness(robot, stiffness)
-    except ValueError as err:
-        raise SettingsError.about("stiffness", err) from None
-    params = parameters(robot, list(fit), k)
-    if options.folds > data.n_rows:
-        raise SettingsError("folds", f" = {options.folds}: must be at most the number of rows ({data.n_rows})")
-    problem = Problem(robot, data, params, m, mopts, k)
-    _check_fit(problem)
-    try:
-        before = problem.solutions(problem.initial)
-    except RowFailure as e:
-        raise SettingsError("data", f" ({data.source}): row {e.row + 1}: the '{m.name}' model finds no equilibrium "
-                            f"for this row's inputs with the initial parameters (residual {e.residual:.3g} N m); drop "
-                            "the row or check its tensions") from None
-    tips_before, errors_before = problem.tip_errors(problem.initial, before)
-    values, converged, message, evaluations = _least_squares(problem, options, progress)
-    try:
-        after = problem.solutions(values)
-    except RowFailure as e:
-        after, converged = before, False
-        message += f"; at the fitted values {e}"
-        values = problem.initial
-    jac = problem.jacobian(values, after)
-    r = problem.residuals(values, after)
-    se, corr, rel, warnings = _statistics(problem, values, jac, r, options)
-    if not converged:
-        warnings.insert(0, f"the fit did not converge: {message}")
-    tips_after, errors_after = problem.tip_errors(values, after)
-    lo, hi = problem.bounds()
-    fitted = tuple(FittedParameter(p.name, p.unit, p.initial, float(v), float(e), float(a), float(b),
-                                   bool(min(v - a, b - v) <= 1e-6 * min(p.scale, b - a)))
-                   for p, v, e, a, b in zip(params, values, se, lo, hi, strict=True))
-    cv, cv_solves = (None, 0)
-    if options.folds:
-        cv, cv_solves = _cross_validate(problem, options, errors_before, progress)
-    return CalibrationResult(
-        model=m.name, parameters=fitted, correlation=corr, singular_values=rel, warnings=tuple(warnings),
-        converged=converged, message=message, evaluations=evaluations, solves=problem.solves + cv_solves,
-        chi2=float(r @ r), dof=int(r.size - values.size), predicted_before=tips_before, predicted_after=tips_after,
-        errors_before_m=errors_before, errors_after_m=errors_after, cross_validation=cv,
-        robot=problem.setting(values).robot(robot), data_source=data.source, data_sha256=data.sha256,
-        settings={**asdict(options), "parameters": [p.name for p in params],
-                  "stiffness_n_per_m": [float(v) if np.isfinite(v) else None for v in k]},
-        seconds=time.perf_counter() - start)
+    cal = prepare(robot, data, fit, model=model, options=options, model_options=model_options, stiffness=stiffness)
+    stage = cal.fit(progress)
+    folds = []
+    for k in range(cal.options.folds):
+        folds.append(cal.fold(k))
+        if progress is not None:
+            progress(f"held-out fold {k + 1} of {cal.options.folds}")
+    return cal.result(stage, folds)

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..validate import escape_controls
-from ._args import add_out, add_seed, check_out, count_type, parse_optional, real_type, robot_spec
+from ._args import add_out, add_seed, count_type, parse_optional, real_type, robot_spec
 from ._progress import Bar
 from ._runtime import EXIT_NOT_CONVERGED, EXIT_OK
 
@@ -57,7 +58,9 @@ def add_parser(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     c.add_argument("--absolute-sigma", action="store_true",
                    help="trust the data's uncertainties as given (default: scale them by the fit's scatter)")
     add_seed(c)
-    add_out(c, "out/calibrate")
+    add_out(c, "out/calibrate", "output folder [out/calibrate]; a run stopped there is resumed by the same command, "
+            "its finished stages (the fit, each fold) kept")
+    c.add_argument("--restart", action="store_true", help="discard what the folder holds and start again")
     c.set_defaults(func=run)
 
 
@@ -73,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
     from ..calibrate import CalibrationOptions, read_measurements
     from ..runs import run_calibration
 
-    out = check_out(args.out)
+    out = Path(args.out)
     robot = robot_spec(args).build()
     data = read_measurements(args.data, robot)
     fit = [n.strip() for n in args.fit.split(",") if n.strip()]
@@ -82,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
                                  folds=args.folds, seed=args.seed, absolute_sigma=args.absolute_sigma)
     with Bar("calibrate", args.max_evaluations + args.folds, "step") as bar:
         res = run_calibration(robot, data, fit, out, model=args.model, options=options, stiffness=stiffness,
-                              progress=lambda line: bar.step(1, line))
+                              restart=args.restart, progress=lambda line: bar.step(1, line))
     r = res.result
     print(f"{r.model} fitted to {data.n_rows} rows of {escape_controls(data.source)} ({r.evaluations} evaluations, "
           f"{r.solves} solves, {r.seconds:.1f} s): {'converged' if r.converged else 'NOT converged'}")

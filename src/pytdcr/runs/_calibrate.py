@@ -2,24 +2,29 @@
 
 The folder holds ``calibration.json`` (the :class:`~pytdcr.calibrate.CalibrationResult`, with the robot before the
 fit and the run's inputs), ``robot_fitted.toml`` (the robot with the fitted values, ready for every other
-command's ``--robot``), ``rows.csv`` (each row's inputs, measured tip, predicted tips and errors) and the figure
-``fig_calibration`` (.png, .pdf).
+command's ``--robot``), ``rows.csv`` (each row's inputs, measured tip, predicted tips and errors), the figure
+``fig_calibration`` (.png, .pdf) and the journal of its stages (``stage_fit.json``, ``stage_fold_K.json``), from
+which a stopped run resumes.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..calibrate import CalibrationOptions, CalibrationResult, Measurements, calibrate
-from ..io import write_robot
+from .._version import __version__
+from ..calibrate import CalibrationOptions, CalibrationResult, FitStage, FoldStage, Measurements, prepare
+from ..io import robot_to_dict, write_robot
 from ..loads import Loads
 from ..plotting import plot_calibration, save_figure
+from ..records import JsonObject
 from ..robot import Robot
-from ..runtime import output_folder, write_csv, write_json
+from ..runtime import resumable_folder, write_csv, write_json
 from ..statics import saving
 from ._output import inputs_record
 
@@ -51,27 +56,72 @@ def _rows(data: Measurements, r: CalibrationResult) -> tuple[list[str], list[lis
     return header, rows
 
 
+def _layout(folds: int) -> tuple[str, ...]:
+    """The names a calibration run with ``folds`` folds may write: its stages' journal, then its results."""
+    return ("stage_fit.json", *(f"stage_fold_{k + 1}.json" for k in range(folds)), "calibration.json",
+            "robot_fitted.toml", "rows.csv", "fig_calibration.png", "fig_calibration.pdf")
+
+
+def _digest(robot: Robot, data: Measurements, fit: Sequence[str], model: str, options: CalibrationOptions,
+            stiffness: np.ndarray) -> str:
+    """What a calibration folder's stages rest on: the robot, the data's hash, the parameters, the model, the
+    options, the tendons' stiffness and pytdcr's version. A folder is resumed only when this is unchanged."""
+    text = json.dumps([robot_to_dict(robot), data.sha256, list(fit), model, asdict(options),
+                       [None if not np.isfinite(k) else float(k) for k in stiffness], __version__], sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def _stage(path: Path) -> JsonObject | None:
+    """A stage's record in the folder (a regular file, not a link), or None."""
+    if path.is_symlink() or not path.is_file():
+        return None
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):  # a stage cut short is done again
+        return None
+
+
 def run_calibration(robot: Robot, data: Measurements, fit: Sequence[str], out: str | Path, *, model: str = "pcc",
                     options: CalibrationOptions | None = None, stiffness: Sequence[float | None] | None = None,
-                    progress: Callable[[str], None] | None = None) -> CalibrationRun:
+                    restart: bool = False, progress: Callable[[str], None] | None = None) -> CalibrationRun:
     """Fit ``fit`` of ``robot`` and ``model`` to ``data`` (:func:`pytdcr.calibrate.calibrate`) and write the
-    module's files in ``out`` (the output-folder rule: whole, or the previous run kept); ``stiffness``: the
-    tendons' axial stiffness [N/m] for displacement-driven rows (one value, or one per tendon, None for an
-    inextensible one; default the robot's own)."""
+    module's files in ``out``; ``stiffness``: the tendons' axial stiffness [N/m] for displacement-driven rows (one
+    value, or one per tendon, None for an inextensible one; default the robot's own).
+
+    The fit and each cross-validation fold are journalled as they finish (``stage_*.json``), in a resumable
+    folder (:func:`pytdcr.runtime.resumable_folder`): a run stopped by Ctrl-C or killed is resumed by the same
+    command, its finished stages kept (the fit's values, each fold's errors); ``restart`` starts again. Inputs are
+    checked, and the rows solved with the initial values, before the folder is touched."""
     options = options or CalibrationOptions()
+    k = None if stiffness is None else (stiffness[0] if len(stiffness) == 1 else list(stiffness))
+    k = np.inf if stiffness is not None and k is None else k  # one "-": every tendon inextensible
+    cal = prepare(robot, data, list(fit), model=model, options=options, stiffness=k)
     inputs = {"data": {"source": data.source, "sha256": data.sha256, "rows": data.n_rows}, "model": model,
               "parameters": list(fit)}
-    with output_folder(out, "calibrate", inputs) as run:
-        k = None if stiffness is None else (stiffness[0] if len(stiffness) == 1 else list(stiffness))
-        k = np.inf if stiffness is not None and k is None else k  # one "-": every tendon inextensible
-        result = calibrate(robot, data, list(fit), model=model, options=options, stiffness=k, progress=progress)
+    digest = _digest(robot, data, fit, model, options, cal.problem.stiffness)
+    with resumable_folder(out, "calibrate", inputs, digest, restart, _layout(options.folds)) as run:
+        folder = run.path
+        done = _stage(folder / "stage_fit.json")
+        stage = FitStage.from_json(done) if done is not None else cal.fit(progress)
+        if done is None:
+            write_json(folder / "stage_fit.json", stage.to_json())
+        folds = []
+        for j in range(options.folds):
+            name = folder / f"stage_fold_{j + 1}.json"
+            kept = _stage(name)
+            folds.append(FoldStage.from_json(kept) if kept is not None else cal.fold(j))
+            if kept is None:
+                write_json(name, folds[-1].to_json())
+            if progress is not None:
+                progress(f"held-out fold {j + 1} of {options.folds}" + (" (kept)" if kept is not None else ""))
+        result = cal.result(stage, folds)
         with saving():
             doc = result.to_json()
             doc["inputs"] = inputs_record(robot, Loads(np.zeros(robot.n_tendons)), **inputs)
-            write_json(run.staging / "calibration.json", doc)
-            write_robot(result.robot, run.staging / "robot_fitted.toml")
+            write_json(folder / "calibration.json", doc)
+            write_robot(result.robot, folder / "robot_fitted.toml")
             header, rows = _rows(data, result)
-            write_csv(run.staging / "rows.csv", header, rows)
+            write_csv(folder / "rows.csv", header, rows)
             files = ["calibration.json", "robot_fitted.toml", "rows.csv",
-                     *save_figure(plot_calibration(result, data.tip_position), run.staging, "fig_calibration")]
+                     *save_figure(plot_calibration(result, data.tip_position), folder, "fig_calibration")]
     return CalibrationRun(result, tuple(files))

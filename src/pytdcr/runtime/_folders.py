@@ -454,7 +454,8 @@ class StudyChanged(FolderError):
 @contextmanager
 def resumable_folder(path: str | Path, command: str, inputs: JsonDict, digest: str,
                      restart: bool = False, layout: tuple[str, ...] = ()) -> Iterator[OutputRun]:
-    """The one exception to the rule above (``tdcr designs``): a folder whose run stopped is resumed in place.
+    """The one exception to the rule above (``tdcr designs``, ``tdcr calibrate``): a folder whose run stopped is
+    resumed in place.
 
     A new or empty folder is started; a folder of the same study (its manifest's ``digest``) is resumed, its
     finished work kept; one of another study, or of another command, is refused (:class:`StudyChanged`) unless
@@ -471,8 +472,8 @@ def resumable_folder(path: str | Path, command: str, inputs: JsonDict, digest: s
         old = _read_manifest(path) if path.is_dir() else None
         if old is not None and (old.get("command") != command or old.get("digest") != digest):
             what = (f"a run of 'tdcr {old.get('command')}'" if old.get("command") != command
-                    else "another study (the study file, its base robot or pytdcr's version changed since it was "
-                    "started)")
+                    else "a run of other inputs (its study file or data, its robot, its settings or pytdcr's version "
+                    "changed since it was started)")
             if not restart:
                 raise StudyChanged(f"--out {show_path(path)}: holds {what}; give a new folder, or --restart to "
                                    "discard it and start again")
