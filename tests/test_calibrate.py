@@ -416,7 +416,7 @@ def test_a_fit_at_an_upper_bound_and_parameters_that_act_on_nothing(tmp_path):
 def test_a_stopped_calibration_run_resumes_with_its_finished_stages(tmp_path):
     """Ctrl-C after the second of three folds: the folder keeps the fit and two folds; the same call resumes,
     computes only the third fold, and gives exactly the result of a run that was never stopped."""
-    from pytdcr.runs import run_calibration
+    from pytdcr.runs import CalibrationSettings, run_calibration
 
     def read_manifest(folder):
         return json.loads((folder / "manifest.json").read_text())
@@ -432,12 +432,13 @@ def test_a_stopped_calibration_run_resumes_with_its_finished_stages(tmp_path):
 
     out = tmp_path / "run"
     with pytest.raises(BaseException) as err:
-        run_calibration(ROBOT, data, ["youngs_modulus"], out, options=options, progress=stop)
+        run_calibration(ROBOT, data, CalibrationSettings(("youngs_modulus",), options=options), out, progress=stop)
     assert isinstance(err.value, KeyboardInterrupt) or "interrupt" in type(err.value).__name__.lower()
     assert read_manifest(out)["status"] == "interrupted"
     assert sorted(p.name for p in out.glob("stage_*")) == ["stage_fit.json", "stage_fold_1.json", "stage_fold_2.json"]
     lines: list[str] = []
-    resumed = run_calibration(ROBOT, data, ["youngs_modulus"], out, options=options, progress=lines.append).result
+    settings = CalibrationSettings(("youngs_modulus",), options=options)
+    resumed = run_calibration(ROBOT, data, settings, out, progress=lines.append).result
     assert lines == ["held-out fold 1 of 3 (kept)", "held-out fold 2 of 3 (kept)", "held-out fold 3 of 3"]
     fresh = calibrate(ROBOT, data, ["youngs_modulus"], options=options)
     assert resumed.value("youngs_modulus") == fresh.value("youngs_modulus")

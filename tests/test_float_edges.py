@@ -126,7 +126,7 @@ def test_an_unreachable_answer_never_shows_its_distance_as_zero(capsys):
     r = SimpleNamespace(axis_error_rad=None, reachable=False, distance_m=4e-7, path="loading path",
                         objective="least-squares", target=np.zeros(3), tensions=np.zeros(8), objective_value=0.0,
                         stable=True, tip_position=np.zeros(3), tip_axis=np.array([0.0, 0.0, 1.0]), evaluations=1,
-                        seconds=0.0)
+                        seconds=0.0, pulled_in=np.zeros(8))
     _print_one(ROBOT, "pcc", r)
     line = capsys.readouterr().out.splitlines()[0]
     assert "4e-07 m away" in line, line

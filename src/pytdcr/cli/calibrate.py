@@ -74,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
     """Fit; print the fitted values with their standard errors, the tip errors before and after (and held out),
     the warnings and what was written."""
     from ..calibrate import CalibrationOptions, read_measurements
-    from ..runs import run_calibration
+    from ..runs import CalibrationSettings, run_calibration
 
     out = Path(args.out)
     robot = robot_spec(args).build()
@@ -84,8 +84,9 @@ def run(args: argparse.Namespace) -> int:
     options = CalibrationOptions(loss=args.loss, loss_scale=args.loss_scale, max_evaluations=args.max_evaluations,
                                  folds=args.folds, seed=args.seed, absolute_sigma=args.absolute_sigma)
     with Bar("calibrate", args.max_evaluations + args.folds, "step") as bar:
-        res = run_calibration(robot, data, fit, out, model=args.model, options=options, stiffness=stiffness,
-                              restart=args.restart, progress=lambda line: bar.step(1, line))
+        settings = CalibrationSettings(tuple(fit), args.model, options, stiffness)
+        res = run_calibration(robot, data, settings, out, restart=args.restart,
+                              progress=lambda line: bar.step(1, line))
     r = res.result
     print(f"{r.model} fitted to {data.n_rows} rows of {escape_controls(data.source)} ({r.evaluations} evaluations, "
           f"{r.solves} solves, {r.seconds:.1f} s): {'converged' if r.converged else 'NOT converged'}")

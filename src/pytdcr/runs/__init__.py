@@ -20,7 +20,7 @@ backend).
 """
 
 from ._accuracy import AccuracyResult, AccuracyRun, run_accuracy
-from ._calibrate import CalibrationRun, run_calibration
+from ._calibrate import CalibrationRun, CalibrationSettings, run_calibration
 from ._compare import CaseSource, CompareResult, CompareRun, run_compare
 from ._inverse import (
     InverseRun,
@@ -95,6 +95,7 @@ __all__ = [
     "AccuracySettings",
     "BoundsSpec",
     "CalibrationRun",
+    "CalibrationSettings",
     "CaseComparison",
     "CaseSource",
     "CompareResult",

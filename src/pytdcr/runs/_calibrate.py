@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -28,7 +28,28 @@ from ..runtime import resumable_folder, write_csv, write_json
 from ..statics import saving
 from ._output import inputs_record
 
-__all__ = ["CalibrationRun", "run_calibration"]
+__all__ = ["CalibrationRun", "CalibrationSettings", "run_calibration"]
+
+
+@dataclass(frozen=True)
+class CalibrationSettings:
+    """What a calibration run fits (``tdcr calibrate``'s options): the parameters' names (:data:`pytdcr.calibrate
+    .PARAMETER_HELP`), the model's registered name, the fit's options, and the tendons' axial stiffness [N/m] for
+    displacement-driven rows (one value, or one per tendon, None for an inextensible one; None: the robot's own)."""
+
+    fit: tuple[str, ...]
+    model: str = "pcc"
+    options: CalibrationOptions = field(default_factory=CalibrationOptions)
+    stiffness: tuple[float | None, ...] | None = None
+
+    def stiffness_arg(self) -> float | list[float | None] | None:
+        """The stiffness as :func:`pytdcr.calibrate.calibrate` takes it (one ``-``: every tendon inextensible)."""
+        s = self.stiffness
+        if s is None:
+            return None
+        if len(s) == 1:
+            return np.inf if s[0] is None else float(s[0])
+        return list(s)
 
 
 @dataclass(frozen=True)
@@ -62,11 +83,10 @@ def _layout(folds: int) -> tuple[str, ...]:
             "robot_fitted.toml", "rows.csv", "fig_calibration.png", "fig_calibration.pdf")
 
 
-def _digest(robot: Robot, data: Measurements, fit: Sequence[str], model: str, options: CalibrationOptions,
-            stiffness: np.ndarray) -> str:
+def _digest(robot: Robot, data: Measurements, s: CalibrationSettings, stiffness: np.ndarray) -> str:
     """What a calibration folder's stages rest on: the robot, the data's hash, the parameters, the model, the
     options, the tendons' stiffness and pytdcr's version. A folder is resumed only when this is unchanged."""
-    text = json.dumps([robot_to_dict(robot), data.sha256, list(fit), model, asdict(options),
+    text = json.dumps([robot_to_dict(robot), data.sha256, list(s.fit), s.model, asdict(s.options),
                        [None if not np.isfinite(k) else float(k) for k in stiffness], __version__], sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -81,24 +101,20 @@ def _stage(path: Path) -> JsonObject | None:
         return None
 
 
-def run_calibration(robot: Robot, data: Measurements, fit: Sequence[str], out: str | Path, *, model: str = "pcc",
-                    options: CalibrationOptions | None = None, stiffness: Sequence[float | None] | None = None,
+def run_calibration(robot: Robot, data: Measurements, settings: CalibrationSettings, out: str | Path, *,
                     restart: bool = False, progress: Callable[[str], None] | None = None) -> CalibrationRun:
-    """Fit ``fit`` of ``robot`` and ``model`` to ``data`` (:func:`pytdcr.calibrate.calibrate`) and write the
-    module's files in ``out``; ``stiffness``: the tendons' axial stiffness [N/m] for displacement-driven rows (one
-    value, or one per tendon, None for an inextensible one; default the robot's own).
+    """Fit ``settings.fit`` of ``robot`` and ``settings.model`` to ``data`` (:func:`pytdcr.calibrate.calibrate`)
+    and write the module's files in ``out``.
 
     The fit and each cross-validation fold are journalled as they finish (``stage_*.json``), in a resumable
     folder (:func:`pytdcr.runtime.resumable_folder`): a run stopped by Ctrl-C or killed is resumed by the same
     command, its finished stages kept (the fit's values, each fold's errors); ``restart`` starts again. Inputs are
     checked, and the rows solved with the initial values, before the folder is touched."""
-    options = options or CalibrationOptions()
-    k = None if stiffness is None else (stiffness[0] if len(stiffness) == 1 else list(stiffness))
-    k = np.inf if stiffness is not None and k is None else k  # one "-": every tendon inextensible
-    cal = prepare(robot, data, list(fit), model=model, options=options, stiffness=k)
-    inputs = {"data": {"source": data.source, "sha256": data.sha256, "rows": data.n_rows}, "model": model,
-              "parameters": list(fit)}
-    digest = _digest(robot, data, fit, model, options, cal.problem.stiffness)
+    s, options = settings, settings.options
+    cal = prepare(robot, data, list(s.fit), model=s.model, options=options, stiffness=s.stiffness_arg())
+    inputs = {"data": {"source": data.source, "sha256": data.sha256, "rows": data.n_rows}, "model": s.model,
+              "parameters": list(s.fit)}
+    digest = _digest(robot, data, s, cal.problem.stiffness)
     with resumable_folder(out, "calibrate", inputs, digest, restart, _layout(options.folds)) as run:
         folder = run.path
         done = _stage(folder / "stage_fit.json")
