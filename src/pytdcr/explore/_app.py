@@ -121,21 +121,27 @@ def _number(ident: str, value: float | None, **extra: object) -> Component:
                      **extra)
 
 
+def _slider_row(label: str, slider: str, box: str, lo: float, hi: float, step: float | None,
+                value: float) -> Component:
+    """One tendon's row: its label, a slider over [lo, hi] with ``step`` and a number box, both at ``value``."""
+    marks = {f"{v:g}": f"{v:g}" for v in np.linspace(lo, hi, 5)}
+    return html.Div([
+        html.Div(label, className="explore-label"),
+        html.Div([
+            html.Div(dcc.Slider(id=slider, min=lo, max=hi, step=step, value=value, marks=marks,
+                                updatemode="mouseup"), style={"flex": "1", "minWidth": "0"}),
+            _number(box, value, min=lo, max=hi, style=_BOX),
+        ], className="explore-tendon-row"),
+    ], className="explore-tendon")
+
+
 def _tension_rows(ex: Explorer) -> list[Component]:
     """One row per tendon: its label, a slider over its bounds [N] and a number box (0.01 N)."""
     rows = [html.Div("tendon tensions [N]", className="explore-heading")]
     for k, t in enumerate(ex.robot.tendons):
         lo, hi = float(ex.bounds.lower[k]), float(ex.bounds.upper[k])
-        marks = {f"{v:g}": f"{v:g}" for v in np.linspace(lo, hi, 5)}
-        value = round(float(ex.defaults.tensions[k]), _DECIMALS)
-        rows.append(html.Div([
-            html.Div(f"T{k + 1} · segment {t.segment}, {t.angle_deg:g}°", className="explore-label"),
-            html.Div([
-                html.Div(dcc.Slider(id=f"slider-{k}", min=lo, max=hi, step=(hi - lo) / 400 or None, value=value,
-                                    marks=marks, updatemode="mouseup"), style={"flex": "1", "minWidth": "0"}),
-                _number(f"tension-{k}", value, min=lo, max=hi, style=_BOX),
-            ], className="explore-tendon-row"),
-        ], className="explore-tendon"))
+        rows.append(_slider_row(f"T{k + 1} · segment {t.segment}, {t.angle_deg:g}°", f"slider-{k}", f"tension-{k}",
+                                lo, hi, (hi - lo) / 400 or None, round(float(ex.defaults.tensions[k]), _DECIMALS)))
     return rows
 
 
@@ -151,15 +157,8 @@ def _pull_rows(ex: Explorer) -> list[Component]:
     rows = [html.Div("tendon pull-ins [mm] (tensions found; a tendon paid out goes slack)",
                      className="explore-heading")]
     for k, t in enumerate(ex.robot.tendons):
-        marks = {f"{v:g}": f"{v:g}" for v in np.linspace(-span, span, 5)}
-        rows.append(html.Div([
-            html.Div(f"Δ{k + 1} · segment {t.segment}, {t.angle_deg:g}°", className="explore-label"),
-            html.Div([
-                html.Div(dcc.Slider(id=f"pull-slider-{k}", min=-span, max=span, step=span / 200, value=0.0,
-                                    marks=marks, updatemode="mouseup"), style={"flex": "1", "minWidth": "0"}),
-                _number(f"pull-{k}", 0.0, min=-span, max=span, style=_BOX),
-            ], className="explore-tendon-row"),
-        ], className="explore-tendon"))
+        rows.append(_slider_row(f"Δ{k + 1} · segment {t.segment}, {t.angle_deg:g}°", f"pull-slider-{k}",
+                                f"pull-{k}", -span, span, span / 200, 0.0))
     return rows
 
 
@@ -344,6 +343,13 @@ def _equilibrium_words(sol: StaticSolution) -> tuple[str, str]:
             None: ("equilibrium, stability untested", WARNING)}[sol.stable]
 
 
+def _driven_words(sol: StaticSolution) -> tuple[str, str]:
+    """The headline of an equilibrium held by pull-ins: its stability with the pull-ins held is untested
+    (:data:`WARNING`); the model's test, made with the tensions held, is said beside it."""
+    held = {True: "stable", False: "unstable", None: "untested"}[sol.stable]
+    return f"equilibrium, stability untested with the pull-ins held ({held} with the tensions held)", WARNING
+
+
 def _status(out: Outcome) -> tuple[list[Component | str], str]:
     """The status line's parts and the tip [m] for scripts (9 decimals; "not converged" without an equilibrium).
 
@@ -363,7 +369,7 @@ def _status(out: Outcome) -> tuple[list[Component | str], str]:
     text = " ".join(f"{v:.9f}" for v in tip)
     if out.answer is not None:
         return _answer_text(out), text
-    word, kind = _equilibrium_words(sol)
+    word, kind = _equilibrium_words(sol) if out.drive is None else _driven_words(sol)
     aim = "" if out.target is None else f" · target {_gap(float(np.linalg.norm(tip - out.target)))} away"
     parts: list[Component | str] = [_status_span(word, kind), f" · tip at {_mm(tip)}{aim} · path {sol.path} · "
                                     f"converged in {out.seconds * 1e3:.0f} ms", *_notes(out.note)]
