@@ -3,7 +3,7 @@
 On the paper robot under the paper's load, ``--n`` random tension vectors in [0, 20] N (seed ``--seed``) are
 solved once by ``--model``; then, ``--repeat`` times each, the median wall time [ms a row] of: the batch's
 stability test (``BatchSolution.stability``: the tangent stiffness compiled, the eigenvalues one stacked LAPACK
-call a chunk) and the tip's derivatives by the tensions (``Model.tip_gradients``, compiled for the PCC models),
+call a chunk) and the tip's derivatives by the tensions (``Model.tip_gradients``, compiled),
 on 1 and 2 threads; beside them the per-row Python reference each replaced (``stability_at`` and
 ``_tip_derivative`` row by row, on one thread).
 
@@ -61,6 +61,8 @@ def main() -> None:
     out: dict = {"model": args.model, "n": args.n, "seed": args.seed, "repeat": args.repeat, "rows": rows,
                  "ms_per_row": {}}
     ms = out["ms_per_row"]
+    for k, batch in batches.items():  # the solves themselves, for scale
+        ms[f"solve_{k}_threads"] = batch.seconds * 1e3 / args.n
     for k, batch in batches.items():
         # a copy computes its stability afresh (each batch keeps its own once computed), on the batch's threads
         ms[f"stability_{k}_threads"] = _median_ms(lambda b=batch: replace(b).stability, rows, args.repeat)

@@ -3,8 +3,8 @@
 Random tension vectors uniform in [0, 20] N (``numpy.random.default_rng(seed)``, seed 0 by default; the first
 ``--n`` rows for ``pcc`` and ``pcc2``, the first ``--n-sscr`` rows for ``sscr``) on the paper robot with the
 paper's friction law (exponential), without friction and with a constant mu = 0.1, under the paper's load
-(gravity, tip force (0.1, 0.1, -0.1) N, tip moment (-0.1, 0.1, 0.1) N m); ``sscr`` with the paper's law and
-without friction. Each row is solved on its own through ``solve_batch(..., threads=1)`` (kernels compiled and
+(gravity, tip force (0.1, 0.1, -0.1) N, tip moment (-0.1, 0.1, 0.1) N m). Each row is solved on its own
+through ``solve_batch(..., threads=1)`` (kernels compiled and
 cached): the count converged, how each was reached (``path``), the median and mean time per solve [ms] and the
 mean Newton iterations. Every row reported converged is checked to be within its tolerance.
 
@@ -31,7 +31,7 @@ from pytdcr.statics import warmup
 LAWS = {"paper": None, "none": NoFriction(), "constant 0.1": ConstantFriction(mu=0.1)}
 #: the laws each model is measured with
 MODEL_LAWS = {"pcc": ("paper", "none", "constant 0.1"), "pcc2": ("paper", "none", "constant 0.1"),
-              "sscr": ("paper", "none")}
+              "sscr": ("paper", "none", "constant 0.1")}
 
 
 def run_case(robot, T: np.ndarray, model: str) -> dict:

@@ -33,7 +33,7 @@ from scipy.spatial import cKDTree
 from pytdcr.paper import paper_loads, paper_robot
 from pytdcr.statics import SolvePath, solve_batch, warmup
 from pytdcr.statics.compiled import case_tolerances, kernel_settings
-from pytdcr.statics.kernels import solver as SV
+from pytdcr.statics.kernels import loading_path as SV
 from pytdcr.statics.registry import get_model
 
 #: the models solved by the compiled solver (their kernels are timed here)

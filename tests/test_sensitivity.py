@@ -131,9 +131,9 @@ def test_tdcr_solve_prints_the_compliance_and_the_jacobians(capsys):
     assert code == 2 and "--compliance" in err and "exact derivatives" in err
 
 
-@pytest.mark.parametrize("model", ["pcc", "pcc2"])
+@pytest.mark.parametrize("model", ["pcc", "pcc2", "sscr"])
 def test_the_compiled_tip_gradients_are_the_implicit_function_theorems(paper, model):
-    """The compiled derivative (PCC models) is the reference arithmetic of the Python one, row by row, whatever
+    """The compiled derivative is the reference arithmetic of the Python one, row by row, whatever
     the threads; a row without an equilibrium stays NaN."""
     from pytdcr.statics import solve_batch, tip_gradient
     from pytdcr.statics.compiled import _tip_derivative

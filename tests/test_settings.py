@@ -59,8 +59,6 @@ SAME = [
     (lambda: ModelSpec(atol=1.0), ["solve", "--tensions", Z8, "--atol", "1"], "atol"),
     (lambda: ModelSpec("sscr", atol=1e-300), ["solve", "--tensions", Z8, "--model", "sscr", "--atol", "1e-300"],
      "atol"),
-    (lambda: OptimizeSettings(model=ModelSpec("sscr"), stable_only=True),
-     ["optimize", "--model", "sscr", "--stable-only"], "stable_only"),
     (lambda: OptimizeSettings(model=ModelSpec("cosserat"), stable_only=True),
      ["optimize", "--model", "cosserat", "--stable-only"], "stable_only"),
     (lambda: OptimizeSettings(bounds=BoundsSpec(3.0, 3.0)).build(), ["optimize", "--bounds", "3,3"], "bounds"),

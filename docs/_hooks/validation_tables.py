@@ -135,6 +135,8 @@ def _batch_derivatives(d: dict, view: str | None) -> str:
              _num(ms["stability_2_threads"]), _num(ms["stability_python_reference"])],
             ["tip gradient by the tensions", _num(ms["gradients_1_threads"]), _num(ms["gradients_2_threads"]),
              _num(ms["gradients_python_reference"])]]
+    if "solve_1_threads" in ms:
+        rows.append(["for scale: the batch's solves", _num(ms["solve_1_threads"]), _num(ms["solve_2_threads"]), ""])
     return _table([f"`{d['model']}`, {d['rows']:,} converged rows, ms a row (median of {d['repeat']})",
                    "compiled, 1 thread", "compiled, 2 threads", "Python, row by row"], rows)
 
@@ -276,7 +278,8 @@ def _generic(d: dict, view: str | None) -> str:
 
 RENDERERS: dict[str, Callable[[dict, str | None], str]] = {
     "solve_speed": _solve_speed, "models": _models, "convergence": _convergence, "continuation": _continuation,
-    "batch_derivatives": _batch_derivatives, "inverse": _inverse, "cosserat": _cosserat, "volume": _volume,
+    "batch_derivatives": _batch_derivatives, "batch_derivatives_sscr": _batch_derivatives, "inverse": _inverse,
+    "cosserat": _cosserat, "volume": _volume,
     "workspace": _workspace, "designs": _designs, "accuracy": _accuracy, "compile_profile": _compile_profile,
 }
 """File name (without ``.json``) -> its renderer; a file not listed must hold a ``table`` (or ``tables``)."""

@@ -20,10 +20,10 @@ from ..limits import Resources
 from ..loads import Loads
 from ..results import BatchSolution, StaticSolution
 from ..robot import Robot
-from ..runtime import MAX_CHUNK, announce_compiling, check_cancelled, run_in_chunks
+from ..runtime import MAX_CHUNK, announce_compiling, check_cancelled, run_in_chunks, single_threaded_blas
 from .base import announced, compile_seconds
 from .kernels import loading_path as SV
-from .kernels.stiffness import jacobian_range, largest_residuals
+from .kernels.stiffness import jacobian_range, largest_residuals, tip_gradient_range
 from .options import (
     FOLDS,
     LOAD_STEPPING,
@@ -321,11 +321,32 @@ class CompiledModel:
         pos, _, curve = shape
         return contact_failure(pos if curve is None else curve, robot.backbone.outer_radius)
 
+    def tangent_stiffness(self, eq: Equations, q: np.ndarray) -> np.ndarray:
+        """The tangent stiffness K (m, m) [N m] at the equilibrium ``q`` of ``eq`` whose real eigenvalues the
+        stability test reads (:mod:`pytdcr.statics.stability`): :meth:`tangent_stiffnesses` of one row."""
+        out = np.empty((1, eq.n_unknowns, eq.n_unknowns))
+        self.tangent_stiffnesses(np.ascontiguousarray(q, dtype=float).reshape(1, -1), eq.packed,
+                                 np.ascontiguousarray(eq.packed.tension, dtype=float)[None, :], np.zeros(1, np.int64),
+                                 0, 1, out)
+        return out[0]
+
+    def tangent_stiffnesses(self, q: np.ndarray, packed: Any, tensions: np.ndarray, rows: np.ndarray, start: int,
+                            stop: int, out: np.ndarray) -> None:
+        """For k in ``start <= k < stop``: the tangent stiffness at the equilibrium ``q[rows[k]]`` (B, m) of
+        ``packed`` at the tensions ``tensions[rows[k]]`` (B, nt) [N], into ``out[k - start]`` (compiled, the GIL
+        released). The PCC family's: the residual's exact Jacobian with each residual paired to the variable it
+        is conjugate to (:func:`pytdcr.statics.stability.conjugate_stiffness`)."""
+        jacobian_range(q, packed, tensions, rows, start, stop, out)
+        out[: stop - start] = conjugate_stiffness(out[: stop - start])
+
     def stability_at(self, eq: Equations, q: np.ndarray) -> Stability | None:
         """The stability test at the equilibrium ``q`` of ``eq`` (None if the model has none)."""
         if not self.capabilities.stability:
             return None
-        return stability_of(conjugate_stiffness(eq.evaluate(q, jacobian=True).jacobian))
+        # single-threaded LAPACK, as in a batch: its last bits move with its thread count
+        with single_threaded_blas(), announce_compiling(f"the {self.name} model's stability test",
+                                                        compile_seconds(self, "stability test")):
+            return stability_of(self.tangent_stiffness(eq, q))
 
     def solution(self, eq: Equations, out: _BatchOut, row: int, seconds: float, atol: float) -> StaticSolution:
         """Wrap row ``row`` of the solver's outcome ``out`` as a :class:`StaticSolution` (``seconds``: its time [s],
@@ -407,9 +428,8 @@ class CompiledModel:
             T = np.ascontiguousarray(tensions, dtype=float)
 
             def chunk(start: int, stop: int) -> None:
-                J = np.empty((stop - start, q.shape[1], q.shape[1]))
-                jacobian_range(q, eq.packed, T, rows, start, stop, J)
-                K = conjugate_stiffness(J)
+                K = np.empty((stop - start, q.shape[1], q.shape[1]))
+                self.tangent_stiffnesses(q, eq.packed, T, rows, start, stop, K)
                 for k, ev in enumerate(np.linalg.eigvals(K)):  # one LAPACK call a row, the GIL released
                     found[rows[start + k]] = stability_from_eigenvalues(ev)
 
@@ -433,31 +453,29 @@ class CompiledModel:
                      options: SolverOptions) -> tuple[np.ndarray, np.ndarray]:
         """Tip position (3,) [m] of an equilibrium and its exact derivative by the tensions (3, n_tendons) [m/N].
 
-        Implicit function theorem: ``dq/dT = -J^-1 dr/dT``; the residual is
-        affine in the tensions at fixed q, so ``dr/dT_c`` is a difference of
-        residuals, and the tip's derivative by q is exact.
+        Implicit function theorem: ``dq/dT = -J^-1 dr/dT``; the residual is affine in the tensions at fixed q,
+        so ``dr/dT_c`` is a difference of residuals, and the tip's derivative by q is exact. Compiled:
+        :func:`pytdcr.statics.kernels.stiffness.tip_gradient_range`.
         """
         eq = self.equations(robot, loads, options)
-        return solution.tip_position, _tip_derivative(eq, eq.check_q(solution.q))
+        q = eq.check_q(solution.q)
+        out = np.full((1, 3, robot.n_tendons), np.nan)
+        tip_gradient_range(q[None, :], eq.packed, np.array([eq.packed.tension], dtype=float), 0, 1, out)
+        return solution.tip_position, out[0]
 
     @announced("tip gradient")
     def tip_gradients(self, robot: Robot, tensions: np.ndarray, loads: Loads, q: np.ndarray, options: SolverOptions,
                       threads: int | None = None) -> np.ndarray:
-        """Derivatives of the tip by the tensions at many equilibria, shape (B, 3, n_tendons) [m/N].
-
-        Row b is the equilibrium ``q[b]`` at ``tensions[b]`` (B, n_tendons) [N]; NaN rows where ``q[b]``
-        is not finite. The equations are packed once; rows run on ``threads`` threads.
-        """
+        """Derivatives of the tip by the tensions at many equilibria, shape (B, 3, n_tendons) [m/N]: row b at
+        ``q[b]`` and ``tensions[b]`` (B, n_tendons) [N]; NaN rows where ``q[b]`` is not finite. Compiled, the rows
+        on ``threads`` threads (the GIL released)."""
         tensions = np.ascontiguousarray(tensions, dtype=float)
         eq = self.equations(robot, loads.with_tensions(np.zeros(robot.n_tendons)), options)
         nb = tensions.shape[0]
-        flat = np.asarray(q, dtype=float).reshape(nb, -1)
+        flat = np.ascontiguousarray(np.asarray(q, dtype=float).reshape(nb, -1))
+        if flat.shape[1] != eq.n_unknowns:
+            raise ValueError(f"q must have {eq.n_unknowns} unknowns a row, got shape {np.shape(q)}")
         out = np.full((nb, 3, robot.n_tendons), np.nan)
-
-        def chunk(start: int, stop: int) -> None:
-            for b in range(start, stop):
-                if np.all(np.isfinite(flat[b])):
-                    out[b] = _tip_derivative(eq.with_tensions(tensions[b]), eq.check_q(flat[b]))
-
-        run_in_chunks(chunk, nb, threads)
+        run_in_chunks(lambda start, stop: tip_gradient_range(flat, eq.packed, tensions, start, stop, out), nb,
+                      threads)
         return out

@@ -27,13 +27,10 @@ import numpy as np
 
 from ..kinematics import subsegment_derivatives, tip_jacobian
 from ..loads import Loads
-from ..results import StaticSolution
 from ..robot import ConstantFriction, ExponentialFriction, NoFriction, Robot
-from ..runtime import run_in_chunks
-from .base import Capabilities, announced
+from .base import Capabilities
 from .compiled import CompiledModel, Evaluation, PackedEquations
 from .kernels import pcc as K
-from .kernels.pcc_gradient import tip_gradient_range
 from .options import SolverOptions
 
 __all__ = ["PCC", "PCCEquations", "PCCModel", "friction_params"]
@@ -196,34 +193,6 @@ class PCCModel(CompiledModel):
     def equations(self, robot: Robot, loads: Loads, options: SolverOptions | None = None) -> PCCEquations:
         """The packed equations of ``robot`` under ``loads``."""
         return PCCEquations.build(robot, loads, self.balance)
-
-    @announced("tip gradient")
-    def tip_gradient(self, robot: Robot, loads: Loads, solution: StaticSolution,
-                     options: SolverOptions) -> tuple[np.ndarray, np.ndarray]:
-        """Tip position (3,) [m] of an equilibrium and its exact derivative by the tensions (3, n_tendons) [m/N]
-        (implicit function theorem, compiled: :func:`~pytdcr.statics.kernels.pcc_gradient.tip_gradient_range`)."""
-        eq = self.equations(robot, loads, options)
-        q = eq.check_q(solution.q)
-        out = np.full((1, 3, robot.n_tendons), np.nan)
-        tip_gradient_range(q[None, :], eq.packed, np.array([eq.packed.tension], dtype=float), 0, 1, out)
-        return solution.tip_position, out[0]
-
-    @announced("tip gradient")
-    def tip_gradients(self, robot: Robot, tensions: np.ndarray, loads: Loads, q: np.ndarray, options: SolverOptions,
-                      threads: int | None = None) -> np.ndarray:
-        """Derivatives of the tip by the tensions at many equilibria, shape (B, 3, n_tendons) [m/N]: row b at
-        ``q[b]`` and ``tensions[b]`` (B, n_tendons) [N]; NaN rows where ``q[b]`` is not finite. Compiled, the rows
-        on ``threads`` threads (the GIL released)."""
-        tensions = np.ascontiguousarray(tensions, dtype=float)
-        eq = self.equations(robot, loads.with_tensions(np.zeros(robot.n_tendons)), options)
-        nb = tensions.shape[0]
-        flat = np.ascontiguousarray(np.asarray(q, dtype=float).reshape(nb, -1))
-        if flat.shape[1] != eq.n_unknowns:
-            raise ValueError(f"q must have {eq.n_unknowns} unknowns a row, got shape {np.shape(q)}")
-        out = np.full((nb, 3, robot.n_tendons), np.nan)
-        run_in_chunks(lambda start, stop: tip_gradient_range(flat, eq.packed, tensions, start, stop, out), nb,
-                      threads)
-        return out
 
 
 #: the registry's instance

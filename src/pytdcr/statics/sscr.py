@@ -119,8 +119,10 @@ class SSCRModel(CompiledModel):
                    "(the reference)")
     options_type = SSCROptions
     #: a cold first use's compile time of each part [s] (2 cores, ``bench/compile_profile.py``)
-    compile_seconds: ClassVar[dict[str, float]] = {"solver": 100.0, "continuation": 80.0}
-    capabilities = Capabilities(friction=True, point_wrenches=True, gradient="exact", continuation=True)
+    compile_seconds: ClassVar[dict[str, float]] = {"solver": 100.0, "continuation": 80.0, "tip gradient": 12.0,
+                                                   "stability test": 21.0}
+    capabilities = Capabilities(friction=True, point_wrenches=True, gradient="exact", stability=True,
+                                continuation=True)
     unknowns = ("q: (N, 6), per subsegment the internal force times the subsegment's length and the internal "
                 "moment at its base, world frame [N m]")
     unknowns_per_disk = 6
@@ -129,6 +131,13 @@ class SSCRModel(CompiledModel):
     peak_matrices = 5.5
     #: measured: 400 disks 2.5 s
     seconds_per_cubed_unknown = 1.8e-10
+
+    def tangent_stiffnesses(self, q: np.ndarray, packed: SK.SSCRPacked, tensions: np.ndarray, rows: np.ndarray,
+                            start: int, stop: int, out: np.ndarray) -> None:
+        """For k in ``start <= k < stop``: the tangent stiffness of the disks' poses (6N, 6N) [N m] at the
+        equilibrium ``q[rows[k]]`` (B, 6N) at the tensions ``tensions[rows[k]]`` (B, nt) [N], into
+        ``out[k - start]`` (:func:`pytdcr.statics.kernels.sscr.tangent_stiffness`; compiled, the GIL released)."""
+        SK.stiffness_range(q, packed, tensions, rows, start, stop, out)
 
     def extra_words(self, robot: Robot, nq: int) -> float:
         """The sensitivities carried along the rod, (N + 2)(6 + n_tendons) x 6N, and the per-disk work."""

@@ -1,14 +1,19 @@
 """The static (divergence) stability of an equilibrium, from the tangent stiffness (MODEL.md, appendix B).
 
-K = dr'/dq in physical units, unscaled, with each residual paired to the
-variable it is conjugate to: per subsegment r' = (r_y, -r_x, r_z) against
-(beta, gamma, eps) (in this order the bending block is EI times the identity at
-the straight robot; the raw order rotates it by 90 degrees). The loads are not
+For the PCC models, K = dr'/dq in physical units, unscaled, with each residual
+paired to the variable it is conjugate to: per subsegment r' = (r_y, -r_x, r_z)
+against (beta, gamma, eps) (in this order the bending block is EI times the
+identity at the straight robot; the raw order rotates it by 90 degrees). For the
+subsegment rod, whose unknowns are not coordinates of the configuration, K is the
+stiffness of the disks' poses
+(:func:`pytdcr.statics.kernels.sscr.tangent_stiffness`). The loads are not
 conservative (friction; a moment fixed in space), so K is not symmetric and
 neither its symmetric part nor the real parts of complex eigenvalues are a
 static test. The static test: the equilibrium is unstable when K has a real
-eigenvalue <= 0, which the loading path reaches only by crossing a point where
-K is singular (a fold or a bifurcation), whatever the coordinates. Complex pairs
+eigenvalue <= 0, which the loading path reaches by crossing a point where K is
+singular (a fold or a bifurcation), whatever the coordinates, or where a complex
+pair with a negative real part meets the real axis and splits into two negative
+real eigenvalues (non-conservative loads; K stays regular). Complex pairs
 with a negative real part are reported apart (possible flutter, which only a
 dynamic model with the mass matrix can decide); they do not make the pose
 unstable here.

@@ -97,7 +97,7 @@ KERNELS: dict = {}
 
 def register_kernels(packed_type, module) -> None:
     """Let the solver solve models packed as ``packed_type`` with ``module``'s ``evaluate``, ``make_model_work``,
-    ``largest_angle`` and ``with_tension``."""
+    ``largest_angle`` and ``with_tension`` (and differentiate their tips with ``tip_jacobian_of``)."""
     KERNELS[packed_type] = module
 
 
@@ -130,6 +130,12 @@ def model_angle(dq, model):  # pragma: no cover - compiled code only
 
 def model_with_tension(model, tension):  # pragma: no cover - compiled code only
     """The packed model with other actuator tensions."""
+    raise NotImplementedError
+
+
+def model_tip_jacobian(q, model, work):  # pragma: no cover - compiled code only
+    """The tip position's exact derivative by the unknowns (3, m) at ``q``, ``work`` holding the evaluation with
+    the Jacobian there."""
     raise NotImplementedError
 
 
@@ -184,6 +190,15 @@ def _tension_impl(model, tension):
     if mod is not None:
         kernel = mod.with_tension
         return lambda model, tension: kernel(model, tension)
+    return None
+
+
+@overload(model_tip_jacobian)
+def _tip_jacobian_impl(q, model, work):
+    mod = _module_for(model)
+    if mod is not None:
+        kernel = mod.tip_jacobian_of
+        return lambda q, model, work: kernel(q, model, work)
     return None
 
 

@@ -30,7 +30,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ...kinematics import frames, subsegment
+from ...kinematics import frames, subsegment, tip_jacobian
 from ...runtime import njit
 
 # No fast-math here (nor in any kernel): numba links a private, separately optimised copy of every kernel these
@@ -40,7 +40,7 @@ from ...runtime import njit
 # arithmetic makes every copy compute the same bits (tests/test_repeatable.py).
 
 __all__ = ["BALANCE_BASE", "BALANCE_MIDPOINT", "Packed", "Work", "blend", "evaluate", "frames", "largest_angle",
-           "make_model_work", "make_work", "subsegment", "tendon_unit_load_jvp", "with_tension"]
+           "make_model_work", "make_work", "subsegment", "tendon_unit_load_jvp", "tip_jacobian_of", "with_tension"]
 
 
 class Packed(NamedTuple):
@@ -700,6 +700,12 @@ def evaluate(q, lam, model, want_jac, r, J, work):
 def make_model_work(model):
     """Scratch arrays for ``model``."""
     return make_work(model.sub.shape[0], model.holes.shape[0])
+
+
+@njit(cache=True)
+def tip_jacobian_of(q, model, work):
+    """The tip's exact derivative by the unknowns (3, 3N) at ``q`` (:func:`pytdcr.kinematics.tip_jacobian`)."""
+    return tip_jacobian(q, model.sub)
 
 
 @njit(cache=True)

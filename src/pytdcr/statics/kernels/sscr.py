@@ -50,7 +50,7 @@ from ...runtime import njit
 from .pcc import tendon_unit_load_jvp
 
 __all__ = ["SSCRPacked", "SSCRWork", "blend", "evaluate", "largest_angle", "make_model_work", "record_shape",
-           "with_tension"]
+           "stiffness_range", "tangent_stiffness", "tip_jacobian_of", "with_tension"]
 
 #: lanes of one disk's tendon loads: (dp, dtheta) of the disks before it, itself and after it
 _LANES = 18
@@ -785,3 +785,67 @@ def wrenches_from_poses(pos, rot, model, q):
         for a in range(3):
             q[k + a] = ell * (Rp[0, a] * F[0] + Rp[1, a] * F[1] + Rp[2, a] * F[2])
             q[k + 3 + a] = Rp[0, a] * M[0] + Rp[1, a] * M[1] + Rp[2, a] * M[2]
+
+
+# ------------------------------------------------------------------ stability test and tip gradient, compiled
+@njit(cache=True)
+def tangent_stiffness(q, model, work, K):
+    """The tangent stiffness K (6N, 6N) [N m] of the disks' poses at the equilibrium ``q`` (6N,), into ``K``.
+
+    K = B P^-1 with B = dr/dx the residual's Jacobian, each disk's rows turned to the world (R_i r_i: the
+    disk's out-of-balance wrench, force times l_i, moment about its centre, the restoring sign) and P = d pose / dx
+    the disks' poses by the unknowns (world; positions divided by l_i, rotation angles): K maps a change of the
+    disks' poses (l_i-scaled displacement, rotation) to the restoring wrench it meets, every entry in N m, a
+    congruence of the physical stiffness by the positive diagonal of the l_i (which keeps its inertia).
+
+    An inextensible, unshearable rod leaves a straight subsegment's chord unable to change (its axial force a
+    Lagrange multiplier, P singular), so the rod is evaluated here with its real axial and shear stiffness
+    (EA, GA; ``model.rod``): the poses are then coordinates, and as EA, GA grow the eigenvalues of K split into
+    stiff ones of order EA l (positive: the chords) and those of the constrained rod, to which the rest converge
+    (MODEL.md, appendix B). With ``shear_extension`` the rod is already so and K is its own.
+    """
+    n = model.sub.shape[0]
+    m = 6 * n
+    rod = model.rod.copy()
+    rod[3] = 1.0
+    ext = SSCRPacked(model.sub, model.holes, model.anchor, model.fric, model.tension, model.grav, model.pforce,
+                     model.pmoment, rod)
+    r = np.empty(m)
+    J = np.empty((m, m))
+    evaluate(q, 1.0, ext, True, r, J, work)
+    B = np.empty((m, m))
+    P = np.empty((m, m))
+    for i in range(1, n + 1):
+        k = 6 * (i - 1)
+        Ri = work.rot[i]
+        ell = model.sub[i - 1, 0]
+        for h in range(2):
+            o = k + 3 * h
+            for a in range(3):
+                for j in range(m):
+                    B[o + a, j] = Ri[a, 0] * J[o, j] + Ri[a, 1] * J[o + 1, j] + Ri[a, 2] * J[o + 2, j]
+        for a in range(6):
+            for j in range(m):
+                P[k + a, j] = work.S[i, a, j] / ell if a < 3 else work.S[i, a, j]
+    # K P = B  <=>  P^T K^T = B^T
+    Kt = np.linalg.solve(P.T.copy(), B.T.copy())
+    for a in range(m):
+        for j in range(m):
+            K[a, j] = Kt[j, a]
+
+
+@njit(cache=True, nogil=True)
+def stiffness_range(q, model, tensions, rows, start, stop, out):
+    """For k in ``start <= k < stop``: :func:`tangent_stiffness` at the equilibrium ``q[rows[k]]`` (B, 6N) of
+    ``model`` at the actuator tensions ``tensions[rows[k]]`` (B, nt) [N], into ``out[k - start]``."""
+    work = make_model_work(model)
+    for k in range(start, stop):
+        b = rows[k]
+        tangent_stiffness(q[b], with_tension(model, tensions[b].copy()), work, out[k - start])
+
+
+@njit(cache=True)
+def tip_jacobian_of(q, model, work):
+    """The tip's exact derivative by the unknowns (3, 6N): the chained sensitivity ``work.S[N, :3]`` of the
+    evaluation with the Jacobian at ``q`` that ``work`` holds."""
+    return np.ascontiguousarray(work.S[model.sub.shape[0], :3, :])
