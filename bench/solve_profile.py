@@ -5,6 +5,8 @@ loading-path solve under the paper's load (docs/validation.md).
 This script measures what a faster solver would have to attack:
 
 - kernel: one residual, one exact Jacobian and one inverse of it (the quasi-Newton's pieces) [us, medians];
+  for ``sscr`` also the Jacobian's phases: the rod integrated with and without its tangents, the chained
+  sensitivities, the tendons with and without their pose lanes, and the disks' loads with their derivatives;
 - cold: ``--samples`` uniform tension vectors in [0, 20] N solved one by one on one thread along the loading
   path: the time per solve (median, mean), the share of the total time taken by each path (loading,
   snap-through, fallback, not converged) and by the slowest tenth, with their iterations and Jacobians;
@@ -75,8 +77,32 @@ def kernel_costs(eq, q: np.ndarray) -> dict[str, float]:
 
     jacobians(1)
     _invert(J, 1)
-    return {"residual_us": _per_call(residuals), "jacobian_us": _per_call(jacobians, 500),
-            "inverse_us": _per_call(lambda reps: _invert(J, reps), 500), "unknowns": n}
+    out = {"residual_us": _per_call(residuals), "jacobian_us": _per_call(jacobians, 500),
+           "inverse_us": _per_call(lambda reps: _invert(J, reps), 500), "unknowns": n}
+    if K.__name__.endswith(".sscr"):
+        out["jacobian_phases_us"] = sscr_phases(K, eq.packed, q, work)
+    return out
+
+
+def sscr_phases(K, packed, q: np.ndarray, work) -> dict[str, float]:
+    """The pieces of one ``sscr`` Jacobian [us, medians], called one by one from Python (each call's overhead,
+    about a microsecond, included); ``work`` holds an evaluation with the Jacobian at ``q``."""
+    load, A = np.empty(6), np.zeros((6, 18))
+    n = packed.sub.shape[0]
+
+    def loop(fn):
+        return lambda reps: [fn() for _ in range(reps)]
+
+    def disk_loads() -> None:
+        for i in range(1, n + 1):
+            K._disk_load(i, 1.0, packed, True, work, load, A)
+
+    return {"rod_with_tangents": _per_call(loop(lambda: K._chain(q, 1.0, packed, True, work)), 300),
+            "rod_alone": _per_call(loop(lambda: K._chain(q, 1.0, packed, False, work)), 300),
+            "sensitivities": _per_call(loop(lambda: K._sensitivities(packed, work)), 300),
+            "tendons_with_lanes": _per_call(loop(lambda: K._tendons(1.0, packed, True, work)), 300),
+            "tendons_alone": _per_call(loop(lambda: K._tendons(1.0, packed, False, work)), 300),
+            "disk_loads_with_derivatives": _per_call(loop(disk_loads), 300)}
 
 
 def cold(eq, T: np.ndarray, tols: np.ndarray, options) -> tuple[dict, np.ndarray]:
@@ -163,6 +189,8 @@ def main() -> None:
     k, c, w = result["kernel"], result["cold"], result["warm"]
     print(f"kernel ({k['unknowns']} unknowns): residual {k['residual_us']:.1f} us, Jacobian {k['jacobian_us']:.1f} "
           f"us, inverse {k['inverse_us']:.1f} us")
+    for name, us in k.get("jacobian_phases_us", {}).items():
+        print(f"  Jacobian phase {name:28s} {us:7.1f} us")
     print(f"cold, one thread: median {c['median_ms']:.2f} ms, mean {c['mean_ms']:.2f} ms; the slowest tenth takes "
           f"{100 * c['slowest_tenth_time_share']:.0f} % of the time")
     for name, p in c["by_path"].items():
