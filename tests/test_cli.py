@@ -443,6 +443,8 @@ def test_reproduce_closes_with_its_key_results():
                               SimpleNamespace(case="paper wrench", volume_m3=0.011782, volume_err_m3=0.01102,
                                               largest_reach_m=None),
                               SimpleNamespace(case="no load", volume_m3=0.018176, volume_err_m3=0.026816,
+                                              largest_reach_m=0.39),
+                              SimpleNamespace(case="converged", volume_m3=0.04977, volume_err_m3=0.00892,
                                               largest_reach_m=0.39)]))
     lines = closing_lines(res)
     assert lines[0] == "samples: 98 of 100 converged, reach 14.1 to 387.4 mm"
@@ -450,7 +452,10 @@ def test_reproduce_closes_with_its_key_results():
     assert lines[2] == "GA under the paper's load, population 100: largest reach 392.9 mm (stable)"
     assert "20 N: 392.9 mm (stable); 40 N: 394.1 mm (flagged UNSTABLE)" in lines[4]
     assert lines[5] == "the paper's optimum under sscr: reach 388.7 mm, tip 59.1 mm from pcc's"
-    assert lines[6] == "workspace, paper wrench: 11,782 +- 11,020 cm3, largest reach none"
+    # an error above a quarter of the value: a screening estimate, said on its line
+    assert lines[6] == ("workspace, paper wrench: screening estimate 11,782 +- 11,020 cm3 (error 94 %, above 25 %: "
+                        "a modest budget; tdcr reproduce --full measures it), largest reach none")
     # an error bar larger than the value: no volume shown as a result
     assert lines[7] == ("workspace, no load: volume not measured at this budget (its error, 26,816 cm3, exceeds the "
                         "estimate; tdcr reproduce --full), largest reach 390.0 mm")
+    assert lines[8] == "workspace, converged: 49,770 +- 8,920 cm3, largest reach 390.0 mm"

@@ -21,10 +21,11 @@ from numpy.typing import ArrayLike
 from pydantic import AfterValidator, BeforeValidator, Strict
 
 __all__ = ["MAX_FORCE_N", "MAX_MOMENT_NM", "MAX_POSITION_M", "MAX_SEED", "MAX_TEXT_FILE_BYTES", "MIN_DIRECTION",
-           "PLAIN_SCALE", "Count", "Real", "SettingsError", "as_real_array", "check_count", "check_positions",
-           "check_real", "check_real_vector", "direction_or_none", "escape_controls", "field_ref", "finite_real",
-           "in_range", "is_integer", "measured", "number_text", "parse_numbers", "read_text_file", "show",
-           "show_number", "show_numbers", "show_path", "unit_vector", "unit_vectors", "unmeasured_text"]
+           "PLAIN_SCALE", "SCREENING_ERROR", "Count", "Real", "SettingsError", "as_real_array", "check_count",
+           "check_positions", "check_real", "check_real_vector", "direction_or_none", "escape_controls", "field_ref",
+           "finite_real", "in_range", "is_integer", "measured", "number_text", "parse_numbers", "read_text_file",
+           "screening", "show", "show_number", "show_numbers", "show_path", "unit_vector", "unit_vectors",
+           "unmeasured_text"]
 
 #: the largest robot, bounds, loads or cases file read [bytes]
 MAX_TEXT_FILE_BYTES = 1_000_000
@@ -147,6 +148,17 @@ def measured(value: float, error: float) -> bool:
     below the value's magnitude. A number whose error bar is as large as itself is not shown as a result: the
     reports and the command line write :func:`unmeasured_text` in its place."""
     return math.isfinite(value) and math.isfinite(error) and 0.0 <= error < abs(value)
+
+
+#: the largest relative error of a volume shown as converged; above it (and below 100 %, :func:`measured`) a
+#: volume is a screening estimate and says so on its line
+SCREENING_ERROR = 0.25
+
+
+def screening(value: float, error: float) -> bool:
+    """Whether a measured value (:func:`measured`) is only a screening estimate: its error [same unit] above
+    :data:`SCREENING_ERROR` of its magnitude."""
+    return measured(value, error) and error > SCREENING_ERROR * abs(value)
 
 
 def unmeasured_text(error_text: str, advice: str = "") -> str:

@@ -73,8 +73,9 @@ def _optimum(r: ReachResult) -> str:
 
 
 def closing_lines(res: ReproduceRun) -> list[str]:
-    """The key results of a reproduce run, one line each (a volume only where its error is below it)."""
-    from ..validate import measured, unmeasured_text
+    """The key results of a reproduce run, one line each: a volume only where its error is below it, and called
+    a screening estimate, with its relative error, where that error is above a quarter of it."""
+    from ..validate import SCREENING_ERROR, measured, screening, unmeasured_text
 
     smp = res.sampling
     lines = [f"samples: {smp.converged} of {smp.n} converged, reach {smp.reach_min * 1e3:.1f} to "
@@ -91,5 +92,8 @@ def closing_lines(res: ReproduceRun) -> list[str]:
         err = f"{c.volume_err_m3 * 1e6:,.0f} cm3"
         volume = (f"{c.volume_m3 * 1e6:,.0f} +- {err}" if measured(c.volume_m3, c.volume_err_m3)
                   else "volume " + unmeasured_text(err, "tdcr reproduce --full"))
+        if screening(c.volume_m3, c.volume_err_m3):
+            volume = (f"screening estimate {volume} (error {100 * c.volume_err_m3 / c.volume_m3:.0f} %, above "
+                      f"{100 * SCREENING_ERROR:.0f} %: a modest budget; tdcr reproduce --full measures it)")
         lines.append(f"workspace, {c.case}: {volume}, largest reach {reach}")
     return lines
