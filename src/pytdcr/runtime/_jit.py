@@ -34,6 +34,7 @@ from typing import TypeVar
 
 from .._version import __version__
 from ._cache import _open_folder, cache_dir
+from ._flags import KERNEL_OPTIONS
 
 __all__ = ["KEPT_KEYS", "KERNEL_SOURCES", "announce_compiling", "kernel_cache_dir", "kernel_key", "njit",
            "set_compile_notice"]
@@ -43,7 +44,8 @@ _log = logging.getLogger("pytdcr.cache")
 _PACKAGE = Path(__file__).resolve().parents[1]
 #: the sources kernels are compiled from, relative to the package (globs): the kernels themselves and every
 #: module whose functions or constants they compile in (tests/test_kernel_cache.py checks the list is whole)
-KERNEL_SOURCES = ("kinematics.py", "statics/kernels/*.py", "statics/options.py", "workspace/_step_kernel.py")
+KERNEL_SOURCES = ("kinematics.py", "runtime/_flags.py", "statics/kernels/*.py", "statics/options.py",
+                  "workspace/_step_kernel.py")
 #: key folders kept beside the one in use (the newest by modification time)
 KEPT_KEYS = 2
 
@@ -114,10 +116,12 @@ def _prune(kernels: Path, keep: Path) -> None:
 
 
 def njit(*args: object, **kwargs: object) -> Callable:
-    """``numba.njit`` whose ``cache=True`` keeps the compiled code in :func:`kernel_cache_dir` (used like
-    ``numba.njit``: bare or with keyword options)."""
+    """``numba.njit`` with the package's kernel options (``KERNEL_OPTIONS`` of ``runtime/_flags.py``: NumPy's error
+    model, a division by zero gives inf or NaN), unless given, whose ``cache=True`` keeps the compiled code in
+    :func:`kernel_cache_dir` (used like ``numba.njit``: bare or with keyword options)."""
     if args and callable(args[0]) and not kwargs:
         return njit()(args[0])
+    kwargs = {**KERNEL_OPTIONS, **kwargs}
 
     def decorate(func: _F) -> _F:
         import numba

@@ -42,8 +42,11 @@ _MAX_DLAM = 0.25  # largest load step
 _STEP_TARGET = 0.05  # [rad] bend/twist change of a subsegment that a load step aims at
 _MAX_STEP_CHANGE = 0.1  # [rad] largest bend/twist change of a subsegment in one load step (else: a branch jump)
 _ARC_STEPS = 300  # pseudo-arclength steps allowed through a fold
-_STEP_JACOBIANS = 2  # exact Jacobians a load step may take before it is halved instead (a fold is near)
-_UNLIMITED = 1 << 30
+# NumPy scalars where a constant is passed to a compiled function: numba types a Python int or bool argument as
+# a literal and compiles the callee once per value (tests/test_kernel_signatures.py)
+_STEP_JACOBIANS = np.int64(2)  # exact Jacobians a load step may take before it is halved instead (a fold is near)
+_UNLIMITED = np.int64(1 << 30)
+_FRESH = np.bool_(False)  # newton's ``reuse``: start from the exact Jacobian
 _WALKS = 3  # loading paths walked at most, each with load steps four times finer than the last
 
 
@@ -915,7 +918,7 @@ def solve_one(q0, m, settings, work):
         if res <= atol:
             return Outcome(q, True, res, 0, 0, 0, PATH_CONTINUED if cont else PATH_DIRECT)
     if stepping != 2 and not cont:
-        ok, res, it, ne = newton(q, 1.0, m, atol, max_iter, max_dtheta, work, H, False, _UNLIMITED)
+        ok, res, it, ne = newton(q, 1.0, m, atol, max_iter, max_dtheta, work, H, _FRESH, _UNLIMITED)
         iters += it
         nj += ne
         if ok or stepping == 0:
@@ -965,7 +968,7 @@ def solve_one(q0, m, settings, work):
                 qs[:] = q
             else:
                 qs[:] = q0
-            ok, res, it, ne = newton(qs, 1.0, m, atol, max_iter, max_dtheta, work, H, False, _UNLIMITED)
+            ok, res, it, ne = newton(qs, 1.0, m, atol, max_iter, max_dtheta, work, H, _FRESH, _UNLIMITED)
             iters += it
             nj += ne
             if ok:
@@ -1027,7 +1030,7 @@ def _walk(q, m, settings, work, H, scale, cont, r_full):
         ok, res, it, ne = newton(qs, lt, m, tol, step_iter, max_dtheta, work, H, have_h, _STEP_JACOBIANS)
         if not ok and (lam > lprev or use_tan):  # retry without the predictor, from a fresh Jacobian
             qs[:] = q
-            ok, res, it2, ne2 = newton(qs, lt, m, tol, step_iter, max_dtheta, work, H, False, _STEP_JACOBIANS)
+            ok, res, it2, ne2 = newton(qs, lt, m, tol, step_iter, max_dtheta, work, H, _FRESH, _STEP_JACOBIANS)
             it += it2
             ne += ne2
         iters += it

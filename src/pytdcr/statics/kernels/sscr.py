@@ -54,6 +54,11 @@ __all__ = ["SSCRPacked", "SSCRWork", "blend", "evaluate", "largest_angle", "make
 
 #: lanes of one disk's tendon loads: (dp, dtheta) of the disks before it, itself and after it
 _LANES = 18
+# NumPy scalars where a constant is passed to a compiled function: numba types a Python int or bool argument as
+# a literal and compiles the callee once per value (tests/test_kernel_signatures.py)
+_NO = np.bool_(False)
+_YES = np.bool_(True)
+_ROW0 = np.int64(0)
 
 
 class SSCRPacked(NamedTuple):
@@ -394,7 +399,7 @@ def _chain(q, lam, model, want_jac, work):
                         Y[3 + 3 * a + b, e] = acc
                 Y[12 + e, 3 + e] = 1.0
                 Y[15 + e, 6 + e] = 1.0
-        integrate(y, sub[i - 1, 0], nsub, _stiffness_inverse(model, i - 1), ext, fw, want_jac, Y, nocurve, 0)
+        integrate(y, sub[i - 1, 0], nsub, _stiffness_inverse(model, i - 1), ext, fw, want_jac, Y, nocurve, _ROW0)
         for a in range(3):
             pos[i, a] = y[a]
             work.wend[i, a] = y[12 + a]
@@ -717,7 +722,7 @@ def evaluate(q, lam, model, want_jac, r, J, work):
 def record_shape(q, model, pos, rot, curve):
     """Disk poses ``pos`` (N+1, 3), ``rot`` (N+1, 3, 3) and backbone points ``curve`` (N nsub + 1, 3) at ``q``."""
     work = make_model_work(model)
-    _chain(q, 1.0, model, False, work)
+    _chain(q, 1.0, model, _NO, work)
     n = model.sub.shape[0]
     nsub = int(model.rod[4])
     ext = model.rod[3] > 0.5
@@ -727,10 +732,10 @@ def record_shape(q, model, pos, rot, curve):
     y = np.empty(18)
     Y = np.zeros((18, 1))
     curve[0, :] = 0.0
-    ic = 1
+    ic = np.int64(1)
     for i in range(1, n + 1):
         _start_state(q, model, i, work.pos, work.rot, y)
-        ic = integrate(y, model.sub[i - 1, 0], nsub, _stiffness_inverse(model, i - 1), ext, fw, False, Y, curve, ic)
+        ic = integrate(y, model.sub[i - 1, 0], nsub, _stiffness_inverse(model, i - 1), ext, fw, _NO, Y, curve, ic)
     for i in range(n + 1):
         pos[i, :] = work.pos[i]
         rot[i, :, :] = work.rot[i]
@@ -758,11 +763,11 @@ def wrenches_from_poses(pos, rot, model, q):
                 work.Rrel[i, a, b] = Rp[0, a] * rot[i, 0, b] + Rp[1, a] * rot[i, 1, b] + Rp[2, a] * rot[i, 2, b]
             work.drel[i, a] = (Rp[0, a] * (pos[i, 0] - pos[i - 1, 0]) + Rp[1, a] * (pos[i, 1] - pos[i - 1, 1])
                                + Rp[2, a] * (pos[i, 2] - pos[i - 1, 2]))
-    _tendons(1.0, model, False, work)
+    _tendons(1.0, model, _NO, work)
     loads = np.empty((n + 1, 6))
     A = np.zeros((6, _LANES))
     for i in range(1, n + 1):
-        _disk_load(i, 1.0, model, False, work, loads[i], A)
+        _disk_load(i, 1.0, model, _NO, work, loads[i], A)
     F = np.zeros(3)
     M = np.zeros(3)  # about the current point, world
     for i in range(n, 0, -1):
@@ -812,7 +817,7 @@ def tangent_stiffness(q, model, work, K):
                      model.pmoment, rod)
     r = np.empty(m)
     J = np.empty((m, m))
-    evaluate(q, 1.0, ext, True, r, J, work)
+    evaluate(q, 1.0, ext, _YES, r, J, work)
     B = np.empty((m, m))
     P = np.empty((m, m))
     for i in range(1, n + 1):
