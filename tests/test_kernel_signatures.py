@@ -2,7 +2,7 @@
 
 numba types an ``int`` or ``bool`` constant passed from one compiled function to another as a literal
 (``Literal[bool](False)``, ``Literal[int](2)``) and compiles the callee again for each such constant: the solver's
-Newton iteration was compiled three times per packed model type, about 6 s each, for ``reuse=False`` and two
+Newton iteration was compiled three times per packed model type, about 8 s each, for ``reuse=False`` and two
 Jacobian limits. The checks below read the kernels' sources: a call between compiled functions passes no bare
 ``int`` or ``bool`` constant (a module constant of that kind included); a NumPy scalar (``np.int64(2)``,
 ``np.bool_(False)``) or a variable computed at run time is typed by its kind alone. Calls to functions inlined
