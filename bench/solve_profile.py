@@ -117,7 +117,7 @@ def cold(eq, T: np.ndarray, tols: np.ndarray, options) -> tuple[dict, np.ndarray
         m = K.with_tension(eq.packed, t)
         settings = base._replace(atol=float(tol), step_atol=float(step))
         t0 = time.perf_counter()
-        o = SV.solve_one(q0, m, settings, work)
+        o = SV.solve_one(q0, SV.Homotopy(m, m, True), settings, work)
         rows.append((time.perf_counter() - t0, o.path if o.converged else -1, o.iterations, o.jacobians))
     a = np.array(rows)
     total = a[:, 0].sum()

@@ -178,10 +178,13 @@ def test_quiet_flag_silences_the_notice() -> None:
 _FIRST_SOLVE = """
 import numpy as np
 from pytdcr import paper_loads, paper_robot, solve
+from pytdcr.statics.kernels import loading_path
 import pytdcr
 sol = solve(paper_robot(), paper_loads(np.array([4.0, 0, 0, 0, 2.0, 0, 0, 0])))
+on = solve(paper_robot(), paper_loads(np.array([4.0, 0, 0, 0, 3.0, 0, 0, 0])), start=sol)
 print(pytdcr.__file__)
 print(repr(bool(sol.converged)), *(repr(float(x)) for x in sol.tip_position))
+print(bool(on.converged), len(loading_path.solve_one.signatures), len(loading_path.newton.signatures))
 """
 
 
@@ -189,7 +192,8 @@ print(repr(bool(sol.converged)), *(repr(float(x)) for x in sol.tip_position))
 def test_first_use_from_a_read_only_install(tmp_path: Path) -> None:
     """A non-editable install into a read-only folder, an empty cache: the first solve compiles into the user
     cache folder, says so once on stderr, and answers as this checkout does; the second loads from the cache
-    and says nothing."""
+    and says nothing. A continuation then compiles nothing: the solve and the continuation share one compiled
+    entry (``solve_one`` and ``newton`` compiled for one type each)."""
     from pytdcr import paper_loads, paper_robot, solve
 
     target, cache = tmp_path / "site", tmp_path / "cache"
@@ -208,8 +212,9 @@ def test_first_use_from_a_read_only_install(tmp_path: Path) -> None:
             path.chmod(path.stat().st_mode | 0o200)
     first, again = runs
     assert first.stdout.splitlines()[0].startswith(str(target))  # the installed copy, not this checkout
-    assert first.stderr.count("compiling") == 1
+    assert first.stderr.count("compiling") == 1  # the continuation that follows compiles nothing
     assert "pytdcr: compiling the pcc model's solver for first use" in first.stderr
+    assert first.stdout.splitlines()[2] == "True 1 1"  # the continuation converged on the solve's own solver
     assert "compiling" not in again.stderr
     expected = solve(paper_robot(), paper_loads(np.array([4.0, 0, 0, 0, 2.0, 0, 0, 0])))
     for run in runs:

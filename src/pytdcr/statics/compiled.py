@@ -166,7 +166,7 @@ def _solve_rows(eq: Equations, Q0: np.ndarray, T: np.ndarray, settings: SV.Setti
     out = _empty_out(T.shape[0], eq.n_unknowns)
 
     def chunk(start: int, stop: int) -> None:
-        SV.solve_range(Q0, eq.packed, T, settings, tols, start, stop, *out)
+        SV.solve_range(Q0, eq.packed, eq.packed, T, T, settings, tols, start, stop, *out)
 
     run_in_chunks(chunk, T.shape[0], threads, max_chunk=max_chunk)
     return out
@@ -201,13 +201,13 @@ class _Path(NamedTuple):
 def _continue_rows(path: _Path, settings: SV.Settings, tols: np.ndarray, threads: int | None,
                    max_chunk: int = MAX_CHUNK) -> _BatchOut:
     """Every continuation of ``path``, each to its tolerances ``tols`` (B, 2) [N m], in chunks over ``threads``
-    threads (:func:`pytdcr.statics.kernels.loading_path.continue_range`)."""
+    threads (:func:`pytdcr.statics.kernels.loading_path.solve_range`)."""
     out = _empty_out(path.T1.shape[0], path.end.n_unknowns)
     settings = settings._replace(stepping=STEP_CONTINUE)
 
     def chunk(start: int, stop: int) -> None:
-        SV.continue_range(path.Q0, path.start.packed, path.end.packed, path.T0, path.T1, settings, tols, start,
-                          stop, *out)
+        SV.solve_range(path.Q0, path.start.packed, path.end.packed, path.T0, path.T1, settings, tols, start, stop,
+                       *out)
 
     run_in_chunks(chunk, path.T1.shape[0], threads, max_chunk=max_chunk)
     return out
@@ -257,9 +257,10 @@ class CompiledModel:
     #: one solve's time per cubed unknown [s] (measured: pcc 1,000 disks 3.0 s, 2,000 disks 20 s)
     seconds_per_cubed_unknown = 1.2e-10
     #: a cold first use's compile time of each part [s] (2 cores, ``bench/compile_profile.py``), said while it
-    #: compiles (pcc2 shares pcc's compiled code: the same packed type)
-    compile_seconds: ClassVar[dict[str, float]] = {"solver": 95.0, "continuation": 85.0, "tip gradient": 28.0,
-                                                   "stability test": 2.0}
+    #: compiles (pcc2 shares pcc's compiled code: the same packed type). A continuation shares the solver's
+    #: compiled code: it compiles only where no solve has, and then the whole solver
+    compile_seconds: ClassVar[dict[str, float]] = {"solver": 100.0, "continuation": 100.0, "tip gradient": 12.0,
+                                                   "stability test": 3.0}
     #: refuse an equilibrium whose backbone passes through itself (:mod:`pytdcr.contact`): the rod models;
     #: the PCC models leave it to the workspace's realisability test, where disks touch long before
     checks_self_contact = False

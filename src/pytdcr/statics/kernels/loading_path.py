@@ -4,10 +4,12 @@ Quasi-Newton with an exact Jacobian along the loading path (:func:`solve_one`),
 for any packed model for which the four functions below are overloaded:
 ``model_evaluate`` (residual and Jacobian), ``model_work`` (scratch arrays),
 ``model_angle`` (how far a change of the unknowns bends or twists a
-subsegment, for step control) and ``model_with_tension``. numba compiles one
-specialisation of the solver per packed type (the PCC models' ``Packed``, the
-subsegment Cosserat rod's ``SSCRPacked``); the branch is chosen when compiling,
-not when running.
+subsegment, for step control) and ``model_with_tension``. The solver always
+takes the path of the loads, a :class:`Homotopy` of two packed models, so that
+numba compiles one specialisation of it per packed type (the PCC models'
+``Packed``, the subsegment Cosserat rod's ``SSCRPacked``) for a solve and a
+continuation alike; the model's branch is chosen when compiling, not when
+running.
 
 Unknowns ``q`` and residual ``r`` have the model's own layout.
 """
@@ -34,7 +36,7 @@ from ..options import (
 )
 
 __all__ = ["FOLD_ARCLENGTH", "FOLD_RELAX", "FOLD_STOP", "Homotopy", "Outcome", "Settings", "arclength",
-           "continue_range", "model_angle", "model_evaluate", "model_with_tension", "model_work", "newton", "relax",
+           "model_angle", "model_evaluate", "model_with_tension", "model_work", "newton", "relax",
            "snap_through", "solve_one", "solve_range"]
 
 _STALL = 15  # Newton gives up after this many iterations without halving the residual
@@ -48,6 +50,8 @@ _STEP_JACOBIANS = np.int64(2)  # exact Jacobians a load step may take before it 
 _UNLIMITED = np.int64(1 << 30)
 _FRESH = np.bool_(False)  # newton's ``reuse``: start from the exact Jacobian
 _WALKS = 3  # loading paths walked at most, each with load steps four times finer than the last
+_RAMP = np.bool_(True)  # Homotopy.ramp of a solve
+_BLEND = np.bool_(False)  # Homotopy.ramp of a continuation
 
 
 
@@ -84,12 +88,17 @@ class Outcome(NamedTuple):
 
 
 class Homotopy(NamedTuple):
-    """Two packed models of one robot under two sets of loads: the load factor ``lam`` of the solver goes from
-    ``start`` (lam = 0) to ``end`` (lam = 1) along the straight path between their loads (the kernel module's
-    ``blend``). Continuation from an equilibrium of ``start`` follows its branch to ``end``."""
+    """The path of the loads the solver follows as its load factor ``lam`` goes from 0 to 1; the one type its
+    compiled code is specialised for, so that a solve and a continuation share one compiled solver.
+
+    With ``ramp`` (a solve: ``start`` is ``end``), every load of ``end`` is scaled by ``lam``: the loading path from
+    the unloaded robot. Without (a continuation), ``start`` (lam = 0) and ``end`` (lam = 1) are two packed models of
+    one robot under two sets of loads, and the loads move along the straight path between them (the kernel
+    module's ``blend``): continuation from an equilibrium of ``start`` follows its branch to ``end``."""
 
     start: object
     end: object
+    ramp: bool
 
 
 # ------------------------------------------------------------------ dispatch on the packed model's type
@@ -154,10 +163,16 @@ def _evaluate_impl(q, lam, model, want_jac, r, J, work):
         kernel = mod.evaluate
         return lambda q, lam, model, want_jac, r, J, work: kernel(q, lam, model, want_jac, r, J, work)
     mod = _homotopy_module(model)
-    if mod is not None:  # every load at its blend: the load factor moves along the path, not from zero
+    if mod is not None:
         kernel, blend = mod.evaluate, mod.blend
-        return lambda q, lam, model, want_jac, r, J, work: kernel(q, 1.0, blend(model.start, model.end, lam),
-                                                                  want_jac, r, J, work)
+
+        def impl(q, lam, model, want_jac, r, J, work):
+            if model.ramp:  # every load scaled by lam
+                kernel(q, lam, model.end, want_jac, r, J, work)
+            else:  # every load at its blend: the load factor moves along the path, not from zero
+                kernel(q, 1.0, blend(model.start, model.end, lam), want_jac, r, J, work)
+
+        return impl
     return None
 
 
@@ -885,10 +900,11 @@ def _tangent(q, r1, m, work, H, tan):
 def solve_one(q0, m, settings, work):
     """Solve at full load.
 
+    ``m`` is a :class:`Homotopy`: with ``ramp`` for stepping 0 to 2, without for 3.
     ``stepping``: 0 Newton from ``q0`` only; 1 Newton from ``q0``, then the
     loading path if that fails; 2 the loading path from the unloaded,
     straight robot; ``STEP_CONTINUE`` (3) continuation: ``q0`` is an
-    equilibrium at lam = 0 (``m`` a :class:`Homotopy`) followed to lam = 1,
+    equilibrium at lam = 0 followed to lam = 1,
     the first step predicted along the path's tangent (path code
     ``PATH_CONTINUED``). The loading path ramps every load by a factor lam from 0
     to 1 (secant predictor, adaptive steps): the branch quasi-static loading
@@ -1081,35 +1097,28 @@ def _walk(q, m, settings, work, H, scale, cont, r_full):
 
 
 @njit(cache=True, nogil=True)
-def solve_range(q0, m, tensions, settings, tols, start, stop, out_q, out_ok, out_res, out_it, out_steps,
+def solve_range(q0, ma, mb, t_start, t_end, settings, tols, start, stop, out_q, out_ok, out_res, out_it, out_steps,
                 out_path):
-    """Solve the cases ``start <= b < stop`` of a batch, one after the other (the GIL released).
+    """Solve, or continue, the cases ``start <= b < stop`` of a batch, one after the other (the GIL released).
 
-    ``q0`` (B, 3N) start points, ``tensions`` (B, nt) actuator tensions [N]; ``m`` gives every other
-    load. ``tols`` (B, 2): each case's tolerance and load-step tolerance [N m], in place of ``settings``'.
-    Writes ``out_q`` (B, 3N), ``out_ok``, ``out_res``, ``out_it``, ``out_steps`` and ``out_path`` (B,) for
-    those cases. Callers run disjoint ranges in threads: each case is solved by the same compiled code
-    whatever the thread, so a batch's results do not depend on how it is split.
-    """
-    work = model_work(m)
-    for b in range(start, stop):
-        mb = model_with_tension(m, tensions[b])
-        o = solve_one(q0[b], mb, _case_settings(settings, tols, b), work)
-        _store(o, b, out_q, out_ok, out_res, out_it, out_steps, out_path)
-
-
-@njit(cache=True, nogil=True)
-def continue_range(q0, ma, mb, t_start, t_end, settings, tols, start, stop, out_q, out_ok, out_res, out_it,
-                   out_steps, out_path):
-    """Continue the cases ``start <= b < stop`` from their solved states, one after the other (the GIL released).
-
-    Case b starts from ``q0[b]`` (B, m), an equilibrium of ``ma`` at the actuator tensions ``t_start[b]``
-    (B, nt) [N], and follows its branch along the straight path of the loads to ``mb`` at ``t_end[b]``
-    (a :class:`Homotopy`); ``settings.stepping`` must be ``STEP_CONTINUE``. The outputs as :func:`solve_range`.
+    The one compiled entry of the solver, for solves and continuations alike (each entry compiles the solver's
+    code again). ``t_end`` (B, nt) holds each case's actuator tensions [N]; ``mb`` gives every other load.
+    Solve (``settings.stepping`` 0 to 2): case b from ``q0[b]`` (B, m) as :func:`solve_one` does (``ma`` and
+    ``t_start`` unused; pass ``mb`` and ``t_end``). Continue (``STEP_CONTINUE``): ``q0[b]`` is an equilibrium
+    of ``ma`` at the tensions ``t_start[b]`` (B, nt) [N], followed along the straight path of the loads to
+    ``mb`` at ``t_end[b]``. ``tols`` (B, 2): each case's tolerance and load-step tolerance [N m], in place of
+    ``settings``'. Writes ``out_q`` (B, m), ``out_ok``, ``out_res``, ``out_it``, ``out_steps`` and ``out_path``
+    (B,) for those cases. Callers run disjoint ranges in threads: each case is solved by the same compiled
+    code whatever the thread, so a batch's results do not depend on how it is split.
     """
     work = model_work(mb)
+    blend = settings.stepping == STEP_CONTINUE
     for b in range(start, stop):
-        h = Homotopy(model_with_tension(ma, t_start[b]), model_with_tension(mb, t_end[b]))
+        end = model_with_tension(mb, t_end[b])
+        if blend:
+            h = Homotopy(model_with_tension(ma, t_start[b]), end, _BLEND)
+        else:
+            h = Homotopy(end, end, _RAMP)
         o = solve_one(q0[b], h, _case_settings(settings, tols, b), work)
         _store(o, b, out_q, out_ok, out_res, out_it, out_steps, out_path)
 
