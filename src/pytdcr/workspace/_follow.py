@@ -90,9 +90,14 @@ def _bounded_step(point: MappedPoint, miss: np.ndarray, lower: np.ndarray, upper
     return step * span
 
 
-def _reach(fmap: ParameterMap, point: MappedPoint, goal: np.ndarray, tol: float) -> MappedPoint | None:
+def _reach(fmap: ParameterMap, point: MappedPoint, goal: np.ndarray, tol: float,
+           line: tuple[np.ndarray, np.ndarray, float] | None = None) -> MappedPoint | None:
     """Newton in image space from ``point`` to ``goal`` by bounded steps: the point within ``tol`` of ``goal``,
-    or ``None`` when the corrections do not get there."""
+    or ``None`` when the corrections do not get there.
+
+    With ``line`` = (origin, unit direction, slack), a point within ``tol`` of the line and within ``slack`` of
+    ``goal`` along it is accepted too: a follow needs its points on the segment, not at given places on it.
+    """
     current = point
     for _ in range(_CORRECTIONS):
         du = _bounded_step(current, goal - current.x, fmap.lower, fmap.upper)
@@ -100,9 +105,14 @@ def _reach(fmap: ParameterMap, point: MappedPoint, goal: np.ndarray, tol: float)
         nxt = fmap.evaluate(u, current)
         if nxt is None:
             return None
-        if np.linalg.norm(nxt.x - goal) <= tol:
+        miss = nxt.x - goal
+        if np.linalg.norm(miss) <= tol:
             return nxt
-        if np.linalg.norm(nxt.x - goal) >= np.linalg.norm(current.x - goal):
+        if line is not None:
+            along = float(miss @ line[1])
+            if abs(along) <= line[2] and np.linalg.norm(miss - along * line[1]) <= tol:
+                return nxt
+        if np.linalg.norm(miss) >= np.linalg.norm(current.x - goal):
             return None
         current = nxt
     return None
@@ -136,9 +146,10 @@ def follow(fmap: ParameterMap, start: MappedPoint, target: np.ndarray, tol: floa
     """Follow the straight segment from ``start.x`` to ``target`` in the map's image.
 
     Steps along the segment, each reached by bounded Newton steps (:func:`_reach`) to within ``tol`` of the
-    segment's point. No step aims past where the linearised map meets the parameter box (:func:`_limit`), so
-    a boundary made by the box's faces is met in a few steps that converge quadratically; a step that fails
-    (a fold of the map, or a point the map refuses) is halved until shorter than ``resolution``.
+    segment (:func:`_reach`). No step aims past where the linearised map meets the parameter box (:func:`_limit`),
+    so a boundary made by the box's faces is met in a few steps that converge quadratically; a step that fails
+    (a fold of the map, a point the map refuses, or a failure on the step's straight path in parameters, which
+    a shorter step may avoid) is halved until shorter than ``resolution``, and doubled after each success.
 
     Parameters
     ----------
@@ -169,19 +180,20 @@ def follow(fmap: ParameterMap, start: MappedPoint, target: np.ndarray, tol: floa
     current, s, ds = start, 0.0, length
     while True:
         step = min(ds, length - s)
-        if not _linear_reach(current, step * direction + origin + s * direction - current.x, fmap, tol):
+        if not _linear_reach(current, origin + (s + step) * direction - current.x, fmap, tol):
             room = _limit(current, direction, fmap.lower, fmap.upper, length - s)
             if room < _ACCEPT * resolution and s + room < length:
                 return current, (s + room) / length
             step = min(step, _SHORT * room)
-        goal = target if s + step >= length else origin + (s + step) * direction
-        nxt = _reach(fmap, current, goal, tol)
-        if nxt is not None:
-            current, s = nxt, s + step
-            if s >= length:
-                return current, 1.0
-            ds = max(ds, 2.0 * step)
+        last = s + step >= length
+        goal = target if last else origin + (s + step) * direction
+        nxt = _reach(fmap, current, goal, tol, None if last else (origin, direction, 0.25 * step))
+        if nxt is None:  # a fold or a refused point before s + step, or on the step's path in parameters
+            ds = 0.5 * step
+            if ds < resolution:  # the boundary lies between s and s + step: say the middle
+                return current, (s + ds) / length
             continue
-        ds = 0.5 * step
-        if ds < resolution:  # a fold or a refused point between s and s + step: say the middle
-            return current, (s + ds) / length
+        if last:
+            return nxt, 1.0
+        current, s = nxt, max(float((nxt.x - origin) @ direction), s)
+        ds = 2.0 * step
