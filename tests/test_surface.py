@@ -141,3 +141,31 @@ def test_paper_robot_region_holds_its_solved_tips() -> None:
             inside.append(p.x)
     assert len(inside) >= 10
     assert np.mean(winding_numbers(out.vertices, out.faces, np.array(inside)) > 0.5) >= 0.9
+
+
+def test_a_fold_is_placed_where_the_last_equilibrium_balances() -> None:
+    """A continuation that stops at a fold reports the share of its tension path where it stopped: there, the
+    equilibrium it last reached is in balance (its residual far below the one at the path's end)."""
+    from pytdcr import paper_loads
+    from pytdcr.paper import paper_bounds, paper_robot
+    from pytdcr.statics import MODELS
+    from pytdcr.workspace._robot_map import RobotMap
+
+    robot = paper_robot()
+    fmap = RobotMap(robot, paper_loads(), paper_bounds(), MODELS["pcc"])
+    rest = fmap.evaluate(np.zeros(robot.n_tendons), None)
+    rng = np.random.default_rng(0)
+    checked = 0
+    for _ in range(200):
+        u = rng.uniform(0.0, 20.0, robot.n_tendons)
+        if fmap.evaluate(u, rest) is not None or fmap.reached is None:
+            continue
+        sol = fmap.model.solve_from(robot, fmap.loads.with_tensions(u), rest.state, fmap.options)
+        eq = fmap.model.equations(robot, fmap.loads.with_tensions(u), fmap.options)
+        q = sol.q.reshape(-1)
+        there = np.max(np.abs(eq.with_tensions(rest.u + fmap.reached * (u - rest.u)).evaluate(q).residual))
+        assert there < 1e-2 * sol.residual and 0.0 < fmap.reached < 1.0
+        checked += 1
+        if checked == 3:
+            break
+    assert checked == 3

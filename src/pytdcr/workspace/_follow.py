@@ -59,7 +59,8 @@ class ParameterMap(Protocol):
 
     ``lower`` and ``upper`` (shape (m,)) bound the box. ``evaluate(u, start)`` returns the image of ``u`` reached
     from ``start`` (``None`` for a seed), or ``None`` where the map has no admissible image there (for a robot:
-    the equilibrium did not converge, or is not stable).
+    the equilibrium did not converge, or is not stable). A map may also set ``reached`` after a refusal: the
+    share of the straight path from ``start.u`` to ``u`` where its branch ends at a fold (``None``: not known).
     """
 
     lower: np.ndarray
@@ -91,20 +92,23 @@ def _bounded_step(point: MappedPoint, miss: np.ndarray, lower: np.ndarray, upper
 
 
 def _reach(fmap: ParameterMap, point: MappedPoint, goal: np.ndarray, tol: float,
-           line: tuple[np.ndarray, np.ndarray, float] | None = None) -> MappedPoint | None:
+           line: tuple[np.ndarray, np.ndarray, float] | None = None) -> MappedPoint | float | None:
     """Newton in image space from ``point`` to ``goal`` by bounded steps: the point within ``tol`` of ``goal``,
     or ``None`` when the corrections do not get there.
 
     With ``line`` = (origin, unit direction, slack), a point within ``tol`` of the line and within ``slack`` of
     ``goal`` along it is accepted too: a follow needs its points on the segment, not at given places on it.
+    Where the first step fails at a fold whose place the map reports (``fmap.reached``), that share of the step
+    is returned instead of ``None``.
     """
     current = point
-    for _ in range(_CORRECTIONS):
+    for k in range(_CORRECTIONS):
         du = _bounded_step(current, goal - current.x, fmap.lower, fmap.upper)
         u = np.clip(current.u + du, fmap.lower, fmap.upper)
         nxt = fmap.evaluate(u, current)
         if nxt is None:
-            return None
+            reached = getattr(fmap, "reached", None)
+            return float(reached) if k == 0 and reached is not None else None
         miss = nxt.x - goal
         if np.linalg.norm(miss) <= tol:
             return nxt
@@ -188,7 +192,12 @@ def follow(fmap: ParameterMap, start: MappedPoint, target: np.ndarray, tol: floa
         last = s + step >= length
         goal = target if last else origin + (s + step) * direction
         nxt = _reach(fmap, current, goal, tol, None if last else (origin, direction, 0.25 * step))
-        if nxt is None:  # a fold or a refused point before s + step, or on the step's path in parameters
+        if isinstance(nxt, float):  # the branch folds this share of the way: aim short of it
+            if nxt * step < _ACCEPT * resolution:
+                return current, (s + nxt * step) / length
+            ds = _SHORT * nxt * step
+            continue
+        if nxt is None:  # a refused point before s + step, or a failure on the step's path in parameters
             ds = 0.5 * step
             if ds < resolution:  # the boundary lies between s and s + step: say the middle
                 return current, (s + ds) / length

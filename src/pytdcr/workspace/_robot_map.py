@@ -44,6 +44,9 @@ class RobotMap:
         The tension box [N].
     evaluations : int
         Evaluations so far; ``refused`` of them had no admissible equilibrium.
+    reached : float or None
+        After an evaluation whose continuation stopped at a fold: the share of the straight tension path from
+        its start where the fold lies; otherwise None.
     solve_seconds : float
         Time spent solving, testing stability and differentiating [s].
     """
@@ -56,12 +59,14 @@ class RobotMap:
         self.lower = np.asarray(bounds.lower, dtype=float)
         self.upper = np.asarray(bounds.upper, dtype=float)
         self.evaluations, self.refused, self.solve_seconds = 0, 0, 0.0
+        self.reached: float | None = None
 
     def evaluate(self, u: np.ndarray, start: MappedPoint | None) -> MappedPoint | None:
         """The stable equilibrium at tensions ``u`` [N] reached from ``start``'s (from rest along the loading path
         when ``start`` is None), its tip [m] and the tip's derivative by the tensions [m/N]; None when there is
         none."""
         self.evaluations += 1
+        self.reached = None
         t0 = time.perf_counter()
         loads = self.loads.with_tensions(np.asarray(u, dtype=float))
         try:
@@ -72,13 +77,30 @@ class RobotMap:
                 assert isinstance(state, StaticSolution)
                 sol = self.model.solve_from(self.robot, loads, state, self.options)
             point = self._point(loads, sol)
+            if point is None and start is not None and str(sol.path) == "fold":
+                self.reached = self._fold_share(start, loads, sol)
         finally:
             self.solve_seconds += time.perf_counter() - t0
         if point is None:
             self.refused += 1
         return point
 
+    def _fold_share(self, start: MappedPoint, loads: Loads, sol: StaticSolution) -> float | None:
+        """Where on the straight path from ``start``'s tensions to ``loads``' the continuation stopped at a fold:
+        the share lam in [0, 1] whose tensions hold the last equilibrium it reached (``sol.q``) in balance. The
+        residual is affine in the tensions at fixed unknowns, ``r(lam) = a + lam b``: lam = -a.b / b.b."""
+        equations = getattr(self.model, "equations", None)
+        if equations is None:
+            return None
+        eq = equations(self.robot, loads, self.options)
+        q = np.asarray(sol.q, dtype=float).reshape(-1)
+        a = eq.with_tensions(start.u).evaluate(q).residual
+        b = eq.evaluate(q).residual - a
+        bb = float(b @ b)
+        return None if bb <= 0.0 else float(np.clip(-(a @ b) / bb, 0.0, 1.0))
+
     def _point(self, loads: Loads, sol: StaticSolution) -> MappedPoint | None:
+        """The mapped point of a stable, converged equilibrium ``sol`` under ``loads``, or None."""
         if not sol.converged or sol.stable is False:
             return None
         tip, jac = self.model.tip_gradient(self.robot, loads, sol, self.options)

@@ -101,6 +101,11 @@ class _Counted:
         self.count += 1
         return self.fmap.evaluate(u, start)
 
+    @property
+    def reached(self) -> float | None:
+        """The map's ``reached`` after its last refusal (:class:`~._follow.ParameterMap`)."""
+        return getattr(self.fmap, "reached", None)
+
 
 @dataclass(eq=False)
 class _Level:
