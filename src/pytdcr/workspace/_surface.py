@@ -138,16 +138,12 @@ class _Level:
 def _flood(level: _Level, fmap: _Counted, queue: deque[int], settings: SurfaceSettings) -> None:
     """Label nodes by following edges out of reached nodes; record each stopped follow's crossing."""
     labels = level.labels.reshape(-1)
-    tol, res = settings.tol * level.spacing, settings.resolution * level.spacing
     while queue:
         a = queue.popleft()
-        start = level.points[a]
         for b in level.neighbours(a):
             if labels[b] == _IN or (a, b) in level.crossings:
                 continue
-            point, t = follow(fmap, start, level.position(b), tol, res)
-            _record(level, a, b, point, t)
-            if t >= 1.0:
+            if _follow_to(level, fmap, a, b, settings) >= 1.0:
                 queue.append(b)
 
 
@@ -165,12 +161,9 @@ def _settle(level: _Level, fmap: _Counted, settings: SurfaceSettings) -> None:
         keys = np.array(list(level.points))
         tree = cKDTree(np.array([level.position(int(k)) for k in keys]))
         queue: deque[int] = deque()
-        tol, res = settings.tol * level.spacing, settings.resolution * level.spacing
         for b in pending:
             _, i = tree.query(level.position(int(b)))
-            point, t = follow(fmap, level.points[int(keys[i])], level.position(int(b)), tol, res)
-            _record(level, int(keys[i]), int(b), point, t)
-            if t >= 1.0:
+            if _follow_to(level, fmap, int(keys[i]), int(b), settings) >= 1.0:
                 queue.append(int(b))
         _flood(level, fmap, queue, settings)
 
@@ -242,13 +235,20 @@ def _cell_nodes(level: _Level, cell: tuple[int, int, int]) -> list[int]:
 
 def _compute(level: _Level, fmap: _Counted, node: int, settings: SurfaceSettings) -> bool:
     """Label a node by following to it from a reached neighbour; ``False`` when no neighbour is reached."""
-    tol, res = settings.tol * level.spacing, settings.resolution * level.spacing
     for a in level.neighbours(node):
         if a in level.points:
-            point, t = follow(fmap, level.points[a], level.position(node), tol, res)
-            _record(level, a, node, point, t)
+            _follow_to(level, fmap, a, node, settings)
             return True
     return False
+
+
+def _follow_to(level: _Level, fmap: _Counted, a: int, b: int, settings: SurfaceSettings) -> float:
+    """Follow from reached node ``a`` to node ``b`` at the level's tolerances and record the outcome
+    (:func:`_record`); the follow's ``t`` (1: ``b`` reached)."""
+    point, t = follow(fmap, level.points[a], level.position(b), settings.tol * level.spacing,
+                      settings.resolution * level.spacing)
+    _record(level, a, b, point, t)
+    return t
 
 
 def _record(level: _Level, a: int, b: int, point: MappedPoint, t: float) -> None:
@@ -277,17 +277,12 @@ def _process(level: _Level, fmap: _Counted, cell: tuple[int, int, int], settings
             break
         pending = [n for n in pending if n not in done]
     flipped = []
-    tol, res = settings.tol * level.spacing, settings.resolution * level.spacing
     for i, j in _EDGES:
         a, b = nodes[i], nodes[j]
         if flat[a] == flat[b]:
             continue
         a, b = (a, b) if flat[a] == _IN else (b, a)
-        if (a, b) in level.crossings:
-            continue
-        point, t = follow(fmap, level.points[a], level.position(b), tol, res)
-        _record(level, a, b, point, t)
-        if t >= 1.0:
+        if (a, b) not in level.crossings and _follow_to(level, fmap, a, b, settings) >= 1.0:
             flipped.append(b)
     return flipped
 
@@ -300,15 +295,8 @@ def _far(level: _Level, fmap: _Counted, node: int, settings: SurfaceSettings) ->
         level.labels.flat[node] = _OUT
         return
     where = np.array([level.position(k) for k in keys])
-    k = keys[int(np.argmin(np.linalg.norm(where - level.position(node), axis=1)))]
-    point, t = follow(fmap, level.points[k], level.position(node), settings.tol * level.spacing,
-                      settings.resolution * level.spacing)
-    level.known.flat[node] = True
-    if t >= 1.0:
-        level.labels.flat[node] = _IN
-        level.points[node] = point
-    else:
-        level.labels.flat[node] = _OUT
+    _follow_to(level, fmap, keys[int(np.argmin(np.linalg.norm(where - level.position(node), axis=1)))], node,
+               settings)
 
 
 def _cells_of(level: _Level, node: int) -> list[tuple[int, int, int]]:
