@@ -271,9 +271,9 @@ def _process(level: _Level, fmap: _Counted, cell: tuple[int, int, int], settings
     pending = [n for n in nodes if not level.known.flat[n]]
     while pending:
         done = [n for n in pending if _compute(level, fmap, n, settings)]
-        if not done:
-            for n in pending:
-                _far(level, fmap, n, settings)
+        if not done:  # no path along grid edges reaches them yet: outside until an edge's follow reaches one
+            level.known.flat[pending] = True
+            flat[pending] = _OUT
             break
         pending = [n for n in pending if n not in done]
     flipped = []
@@ -285,18 +285,6 @@ def _process(level: _Level, fmap: _Counted, cell: tuple[int, int, int], settings
         if (a, b) not in level.crossings and _follow_to(level, fmap, a, b, settings) >= 1.0:
             flipped.append(b)
     return flipped
-
-
-def _far(level: _Level, fmap: _Counted, node: int, settings: SurfaceSettings) -> None:
-    """Label a node no neighbour reaches by following to it from the nearest reached node."""
-    keys = list(level.points)
-    if not keys:
-        level.known.flat[node] = True
-        level.labels.flat[node] = _OUT
-        return
-    where = np.array([level.position(k) for k in keys])
-    _follow_to(level, fmap, keys[int(np.argmin(np.linalg.norm(where - level.position(node), axis=1)))], node,
-               settings)
 
 
 def _cells_of(level: _Level, node: int) -> list[tuple[int, int, int]]:
