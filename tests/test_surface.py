@@ -15,7 +15,14 @@ import pytest
 
 from pytdcr.workspace._follow import follow
 from pytdcr.workspace._known import KNOWN_SHAPES, KnownMap
-from pytdcr.workspace._surface import SurfaceSettings, TracedSurface, mesh_volume, trace_surface, winding_numbers
+from pytdcr.workspace._surface import (
+    SurfaceSettings,
+    TracedSurface,
+    mesh_volume,
+    reached_by_follow,
+    trace_surface,
+    winding_numbers,
+)
 
 
 def _trace(name: str, levels: int) -> TracedSurface:
@@ -118,6 +125,25 @@ def test_follow_meets_a_face_of_the_box_where_a_linear_map_says() -> None:
     assert np.all(point.u >= 0) and np.all(point.u <= 1)
     reach, t_in = follow(fmap, start, start.x + np.array([0.1, 0.0, 0.0]), 1e-9, 1e-7)
     assert t_in == 1.0 and np.linalg.norm(reach.x - start.x - [0.1, 0, 0]) <= 1e-9
+
+
+def test_a_follow_from_the_reached_nodes_tells_inside_from_outside() -> None:
+    """On the ball (coarse grid only), points well inside are reached from their nearest reached node, points
+    outside from none of the four nearest; every reached node carries parameters that map onto it."""
+    shape = KNOWN_SHAPES["ball"]
+    box = np.full(3, shape.extent + shape.spacing)
+    settings = SurfaceSettings(spacing=shape.spacing, levels=0)
+    surface = trace_surface(shape.fmap, shape.seeds(), -box, box, settings)
+    assert surface.points
+    for p in surface.points:
+        np.testing.assert_allclose(shape.fmap.evaluate(p.u, None).x, p.x, atol=1e-12)
+    rng = np.random.default_rng(2)
+    directions = rng.normal(size=(12, 3))
+    directions /= np.linalg.norm(directions, axis=1)[:, None]
+    inner = directions * rng.uniform(0.1, 0.8, (12, 1))
+    outer = directions * rng.uniform(1.1, 1.4, (12, 1))
+    assert reached_by_follow(shape.fmap, surface, inner, 1, settings).all()
+    assert not reached_by_follow(shape.fmap, surface, outer, 4, settings).any()
 
 
 @pytest.mark.slow

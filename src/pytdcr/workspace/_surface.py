@@ -23,7 +23,7 @@ from scipy.spatial import cKDTree
 
 from ._follow import MappedPoint, ParameterMap, follow
 
-__all__ = ["SurfaceSettings", "TracedSurface", "mesh_volume", "trace_surface", "winding_numbers"]
+__all__ = ["SurfaceSettings", "TracedSurface", "mesh_volume", "reached_by_follow", "trace_surface", "winding_numbers"]
 
 _UNKNOWN, _OUT, _IN = -1, 0, 1
 _STEPS = np.array([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)])
@@ -70,6 +70,8 @@ class TracedSurface:
         The map's evaluations spent on each level.
     unresolved : int
         Surface vertices at the finest level with no recorded crossing (placed at their edge's midpoint).
+    points : tuple of MappedPoint
+        The finest level's reached nodes: each with the parameters that reach it, its image and the map's state.
     """
 
     vertices: np.ndarray
@@ -78,6 +80,7 @@ class TracedSurface:
     volumes: tuple[float, ...]
     evaluations: tuple[int, ...]
     unresolved: int
+    points: tuple[MappedPoint, ...] = ()
 
     @property
     def volume(self) -> float:
@@ -447,4 +450,26 @@ def trace_surface(fmap: ParameterMap, seeds: list[MappedPoint], lo: np.ndarray, 
         volumes.append(mesh_volume(verts, faces))
         evaluations.append(counted.count - before)
     return TracedSurface(vertices=verts, faces=faces, spacings=tuple(spacings), volumes=tuple(volumes),
-                         evaluations=tuple(evaluations), unresolved=unresolved)
+                         evaluations=tuple(evaluations), unresolved=unresolved,
+                         points=tuple(level.points[k] for k in sorted(level.points)))
+
+
+def reached_by_follow(fmap: ParameterMap, surface: TracedSurface, targets: np.ndarray, starts: int,
+                      settings: SurfaceSettings) -> np.ndarray:
+    """Whether a straight follow reaches each target from one of the ``starts`` reached nodes of ``surface``
+    nearest it (tried nearest first), at the finest level's tolerances.
+
+    The region's membership is a property of paths: a target that one straight follow does not reach may be
+    reached by another, so the share reached grows with ``starts``. ``targets`` shape (k, 3); returns (k,) bool.
+    """
+    pts = np.atleast_2d(np.asarray(targets, dtype=float))
+    out = np.zeros(len(pts), dtype=bool)
+    if not surface.points:
+        return out
+    h = surface.spacings[-1]
+    tree = cKDTree(np.array([p.x for p in surface.points]))
+    _, nearest = tree.query(pts, k=min(starts, len(surface.points)))
+    for i, row in enumerate(np.reshape(nearest, (len(pts), -1))):
+        out[i] = any(follow(fmap, surface.points[j], pts[i], settings.tol * h, settings.resolution * h)[1] >= 1.0
+                     for j in row)
+    return out
