@@ -1,0 +1,13 @@
+// pytdcr._core: the compiled kernels, built ahead of time at install (CMakeLists.txt).
+#include <nanobind/nanobind.h>
+
+namespace nb = nanobind;
+
+namespace pytdcr {
+void bind_kinematics(nb::module_& m);
+}  // namespace pytdcr
+
+NB_MODULE(_core, m) {
+  m.doc() = "The compiled kernels of pytdcr, built ahead of time at install.";
+  pytdcr::bind_kinematics(m);
+}
