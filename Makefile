@@ -8,8 +8,10 @@ DOCS_STAMP := $(VENV)/.docs-installed
 .PHONY: demo test test-slow docs lint bench clean
 
 KERNELS := $(wildcard src/pytdcr/statics/kernels/*.py) src/pytdcr/kinematics.py
+# the compiled core (pytdcr._core), built by the install: an edited C++ source re-installs
+CORE := CMakeLists.txt $(wildcard src/cpp/*.cpp src/cpp/*.hpp)
 
-$(STAMP): pyproject.toml $(KERNELS)
+$(STAMP): pyproject.toml $(KERNELS) $(CORE)
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --upgrade pip
 	$(BIN)/python -m pip install -e '.[dev]'
@@ -51,4 +53,4 @@ bench: $(STAMP)
 	$(BIN)/python bench/solve.py
 
 clean:
-	rm -rf $(VENV) out bench/results site .cache
+	rm -rf $(VENV) out bench/results site .cache build
