@@ -93,4 +93,107 @@ inline void frames(const double* q, const double* sub, std::size_t n, double* po
   }
 }
 
+// A, B, C (as abc) and the derivatives by theta^2 of A = sin(th)/th and B = (1 - cos th)/th^2 (series near 0; no
+// cancellation): da = (C - B)/2, db = (A - 2B)/(2 th^2).
+inline void abc_slopes(double t2, double& a, double& b, double& c, double& da, double& db) {
+  abc(t2, a, b, c);
+  da = 0.5 * (c - b);
+  if (t2 < kSeriesT2)
+    db = -1.0 / 24.0 +
+         t2 * (2.0 / 720.0 - t2 * (3.0 / 40320.0 - t2 * (4.0 / 3628800.0 - t2 * 5.0 / 479001600.0)));
+  else
+    db = (a - 2.0 * b) / (2.0 * t2);
+}
+
+// C = A B for 3x3 row-major matrices, each entry summed left to right (A[u,0] B[0,v] + A[u,1] B[1,v]) + ...
+inline void matmul3(const double* A, const double* B, double* C) {
+  for (int u = 0; u < 3; ++u)
+    for (int v = 0; v < 3; ++v) C[3 * u + v] = A[3 * u] * B[v] + A[3 * u + 1] * B[3 + v] + A[3 * u + 2] * B[6 + v];
+}
+
+// Derivatives of one subsegment's transform by (beta [1/m], gamma [1/m], eps [rad]), in closed form: dR (3, 3, 3),
+// dR[a] = dR/dq_a, and dd (3, 3), dd[a] = dd/dq_a [m per unit of q], row-major. With R = E(w) Rz(eps),
+// E = I + A K + B K^2, K = [w]x, w = l (-gamma, beta, 0) and A, B functions of t2 = |w|^2; exact and smooth at
+// zero curvature. (The Python twin multiplies its 3x3 matrices with BLAS, whose order of summation and fused
+// multiply-adds are its own: this agrees with it to round-off, not bit for bit.)
+inline void subsegment_derivatives(double beta, double gamma, double eps, double l, double* dR, double* dd) {
+  const double wx = -gamma * l;
+  const double wy = beta * l;
+  const double t2 = wx * wx + wy * wy;
+  double a, b, c, da, db;
+  abc_slopes(t2, a, b, c, da, db);
+  const double K[9] = {0.0, 0.0, wy, 0.0, 0.0, -wx, -wy, wx, 0.0};
+  double K2[9];
+  matmul3(K, K, K2);
+  double E[9];
+  for (int u = 0; u < 9; ++u) E[u] = ((u % 4 == 0) ? 1.0 : 0.0) + a * K[u] + b * K2[u];
+  const double ce = std::cos(eps);
+  const double se = std::sin(eps);
+  const double Rz[9] = {ce, -se, 0.0, se, ce, 0.0, 0.0, 0.0, 1.0};
+  const double dRz[9] = {-se, -ce, 0.0, ce, -se, 0.0, 0.0, 0.0, 0.0};
+  const double ll = l * l;
+  for (int j = 0; j < 2; ++j) {  // j = 0: by w_x, j = 1: by w_y
+    const double wj = j == 0 ? wx : wy;
+    double Kj[9] = {};
+    if (j == 0) {
+      Kj[5] = -1.0;
+      Kj[7] = 1.0;
+    } else {
+      Kj[2] = 1.0;
+      Kj[6] = -1.0;
+    }
+    double KjK[9], KKj[9], dE[9], dEz[9];
+    matmul3(Kj, K, KjK);
+    matmul3(K, Kj, KKj);
+    const double s1 = 2.0 * wj * da;
+    const double s2 = 2.0 * wj * db;
+    for (int u = 0; u < 9; ++u) dE[u] = s1 * K[u] + a * Kj[u] + s2 * K2[u] + b * (KjK[u] + KKj[u]);
+    matmul3(dE, Rz, dEz);
+    // beta moves w_y by l; gamma moves w_x by -l
+    const int lane = j == 1 ? 0 : 1;
+    const double sgn = j == 1 ? l : -l;
+    for (int u = 0; u < 9; ++u) dR[9 * lane + u] = sgn * dEz[u];
+  }
+  matmul3(E, dRz, dR + 18);
+  // d = (l^2 B beta, l^2 B gamma, l A), t2 = l^2 (beta^2 + gamma^2)
+  const double dt_db = 2.0 * ll * beta;
+  const double dt_dg = 2.0 * ll * gamma;
+  dd[0] = ll * (b + beta * db * dt_db);
+  dd[1] = ll * gamma * db * dt_db;
+  dd[2] = l * da * dt_db;
+  dd[3] = ll * beta * db * dt_dg;
+  dd[4] = ll * (b + gamma * db * dt_dg);
+  dd[5] = l * da * dt_dg;
+  dd[6] = 0.0;
+  dd[7] = 0.0;
+  dd[8] = 0.0;
+}
+
+// Exact derivative of the tip position by the unknowns q (3N,): out (3, 3N) row-major [m per unit of q].
+// Moving subsegment i moves everything beyond it rigidly: d tip / d q_(i,a) = R_(0,i-1) (dd_i/dq_a + dR_i/dq_a x_i),
+// x_i the tip in frame i. sub: the packed (N, 5) rows (lengths in the first column); pos (N+1, 3) and
+// rot (N+1, 3, 3): scratch for the disk frames (frames).
+inline void tip_jacobian(const double* q, const double* sub, std::size_t n, double* pos, double* rot, double* out) {
+  frames(q, sub, n, pos, rot);
+  const std::size_t m = 3 * n;
+  double dR[27], dd[9], x[3], v[3];
+  const double* tip = pos + 3 * n;
+  for (std::size_t i = 1; i <= n; ++i) {
+    const std::size_t k = 3 * (i - 1);
+    subsegment_derivatives(q[k], q[k + 1], q[k + 2], sub[5 * (i - 1)], dR, dd);
+    const double* Ri = rot + 9 * i;
+    const double* pi = pos + 3 * i;
+    for (int u = 0; u < 3; ++u) {
+      x[u] = 0.0;
+      for (int w = 0; w < 3; ++w) x[u] += Ri[3 * w + u] * (tip[w] - pi[w]);
+    }
+    const double* P = rot + 9 * (i - 1);
+    for (int a = 0; a < 3; ++a) {
+      for (int u = 0; u < 3; ++u)
+        v[u] = dd[3 * a + u] + dR[9 * a + 3 * u] * x[0] + dR[9 * a + 3 * u + 1] * x[1] + dR[9 * a + 3 * u + 2] * x[2];
+      for (int u = 0; u < 3; ++u) out[u * m + k + a] = P[3 * u] * v[0] + P[3 * u + 1] * v[1] + P[3 * u + 2] * v[2];
+    }
+  }
+}
+
 }  // namespace pytdcr
