@@ -124,10 +124,10 @@ void bind_loading_path(nb::module_& m) {
       "_lu_inverse",
       [](In a) -> nb::object {
         const std::size_t n = square(a, "_lu_inverse");
-        std::vector<double> lu(n * n), col(n);
+        std::vector<double> lu(n * n);
         std::vector<std::size_t> piv(n);
         Array out = new_float_array(n, n, true);
-        if (!inverse(a.data(), n, out.data(), lu.data(), piv.data(), col.data())) return nb::none();
+        if (!inverse(a.data(), n, out.data(), lu.data(), piv.data())) return nb::none();
         return nb::cast(out);
       },
       nb::arg("a"),

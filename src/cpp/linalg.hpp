@@ -105,10 +105,8 @@ inline bool solve(const double* a, const double* b, std::size_t n, double* x, do
 // out (n, n) = A^-1 for the (n, n) row-major A, as np.linalg.inv: false (out untouched) where A has a non-finite
 // entry or is exactly singular. From P A = L U: A^-1 = U^-1 L^-1 P, formed row by row (contiguous row updates):
 // out = L^-1 (lower triangular, unit diagonal), then out = U^-1 out by back substitution, then the column
-// interchanges of P in reverse order (as LAPACK's getri). Scratch: lu (n, n), piv (n); col unused (kept for the
-// callers' signature). out must not be a.
-inline bool inverse(const double* a, std::size_t n, double* out, double* lu, std::size_t* piv, double* col) {
-  (void)col;
+// interchanges of P in reverse order (as LAPACK's getri). Scratch: lu (n, n), piv (n). out must not be a.
+inline bool inverse(const double* a, std::size_t n, double* out, double* lu, std::size_t* piv) {
   if (!all_finite(a, n * n)) return false;
   double sign;
   if (!lu_factor(a, n, lu, piv, sign)) return false;

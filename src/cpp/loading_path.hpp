@@ -104,7 +104,7 @@ struct SolverWork {
   ModelWork model;        // the model's evaluate work
   Model blended;          // a continuation's model at the load factor being evaluated
   Model start, end;       // solve_range: the case's two models
-  std::vector<double> lu, col;  // linalg scratch (m+1, m+1), (m+1)
+  std::vector<double> lu;  // linalg scratch (m+1, m+1)
   std::vector<std::size_t> piv;
   std::vector<double> diff;  // _change's qa - qb (m)
   std::vector<double> H;     // solve_one's inverse Jacobian (m, m)
@@ -123,7 +123,6 @@ struct SolverWork {
       : nq(m.n_unknowns()), model(make_work(m)), blended(m), start(m), end(m) {
     const std::size_t n = nq, n1 = nq + 1;
     lu.assign(n1 * n1, 0.0);
-    col.assign(n1, 0.0);
     piv.assign(n1, 0);
     diff.assign(n, 0.0);
     H.assign(n * n, 0.0);
@@ -255,7 +254,7 @@ inline void broyden(double* H, const double* q, const double* qt, const double* 
 template <class Model>
 inline bool inverse_or_zero(const double* J, double* H, SolverWork<Model>& w) {
   const std::size_t n = w.nq;
-  if (inverse(J, n, H, w.lu.data(), w.piv.data(), w.col.data())) return true;
+  if (inverse(J, n, H, w.lu.data(), w.piv.data())) return true;
   for (std::size_t i = 0; i < n * n; ++i) H[i] = 0.0;
   return false;
 }
@@ -863,7 +862,7 @@ std::pair<bool, double> tangent(const double* q, const double* r1, const Homotop
   double* d = w.tg_d.data();
   model_evaluate(q, 0.0, m, true, r0, J, w);
   const double sign = det_sign(J, w);
-  if (!inverse(J, nq, H, w.lu.data(), w.piv.data(), w.col.data())) {
+  if (!inverse(J, nq, H, w.lu.data(), w.piv.data())) {
     for (std::size_t u = 0; u < nq; ++u) tan[u] = 0.0;
     return {false, sign};
   }
