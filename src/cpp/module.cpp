@@ -6,10 +6,12 @@ namespace nb = nanobind;
 namespace pytdcr {
 void bind_kinematics(nb::module_& m);
 void bind_pcc(nb::module_& m);
+void bind_loading_path(nb::module_& m);
 }  // namespace pytdcr
 
 NB_MODULE(_core, m) {
   m.doc() = "The compiled kernels of pytdcr, built ahead of time at install.";
   pytdcr::bind_kinematics(m);
   pytdcr::bind_pcc(m);
+  pytdcr::bind_loading_path(m);
 }

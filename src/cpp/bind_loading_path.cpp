@@ -1,0 +1,151 @@
+// Python bindings of loading_path.hpp for the PCC model (pytdcr._core.solve_range_pcc), and of linalg.hpp's LU
+// for its tests (pytdcr._core._lu_solve, _lu_inverse, _lu_slogdet: internal, not part of the package's API).
+#include <nanobind/nanobind.h>
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/tuple.h>
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "linalg.hpp"
+#include "loading_path.hpp"
+#include "pcc.hpp"
+
+namespace nb = nanobind;
+
+namespace pytdcr {
+
+namespace {
+
+using In = nb::ndarray<const double, nb::c_contig, nb::device::cpu>;
+using OutF = nb::ndarray<double, nb::c_contig, nb::device::cpu>;
+using OutB = nb::ndarray<bool, nb::c_contig, nb::device::cpu>;
+using OutI = nb::ndarray<std::int64_t, nb::c_contig, nb::device::cpu>;
+using Array = nb::ndarray<nb::numpy, double>;
+
+// A new numpy array of the given shape, zero-filled, owning its memory.
+Array new_float_array(std::size_t rows, std::size_t cols, bool matrix) {
+  double* data = new double[rows * cols]();
+  nb::capsule owner(data, [](void* p) noexcept { delete[] static_cast<double*>(p); });
+  const std::size_t shape[2] = {rows, cols};
+  return Array(data, matrix ? 2 : 1, shape, owner);
+}
+
+// The (n, n) matrix a, checked square.
+std::size_t square(const In& a, const char* name) {
+  if (a.ndim() != 2 || a.shape(0) != a.shape(1))
+    throw std::invalid_argument(std::string(name) + ": a must be a square (n, n) matrix");
+  return a.shape(0);
+}
+
+void check(bool ok, const std::string& what) {
+  if (!ok) throw std::invalid_argument("solve_range_pcc: " + what);
+}
+
+// The solver's settings from the attributes of the numba solver's Settings (a NamedTuple with the same fields).
+loading_path::Settings settings_from(nb::handle s) {
+  loading_path::Settings out{};
+  out.atol = nb::cast<double>(s.attr("atol"));
+  out.max_iter = nb::cast<long>(s.attr("max_iter"));
+  out.max_dtheta = nb::cast<double>(s.attr("max_dtheta"));
+  out.stepping = nb::cast<long>(s.attr("stepping"));
+  out.step_iter = nb::cast<long>(s.attr("step_iter"));
+  out.fold = nb::cast<long>(s.attr("fold"));
+  out.step_atol = nb::cast<double>(s.attr("step_atol"));
+  out.step_scale = nb::cast<double>(s.attr("step_scale"));
+  return out;
+}
+
+}  // namespace
+
+void bind_loading_path(nb::module_& m) {
+  m.def(
+      "solve_range_pcc",
+      [](In q0, const PccModel& ma, const PccModel& mb, In t_start, In t_end, nb::handle settings, In tols,
+         std::size_t start, std::size_t stop, OutF out_q, OutB out_ok, OutF out_res, OutI out_it, OutI out_steps,
+         OutI out_path) {
+        const loading_path::Settings s = settings_from(settings);
+        const std::size_t nq = mb.n_unknowns(), nt = mb.n_tendons;
+        check(q0.ndim() == 2 && q0.shape(1) == nq, "q0 must be (B, m), m the model's unknowns");
+        const std::size_t B = q0.shape(0);
+        check(ma.n_unknowns() == nq && ma.n_tendons == nt, "ma and mb must be models of one robot");
+        check(mb.tension.size() == nt && ma.tension.size() == nt, "a model's tension must have n_tendons entries");
+        check(t_end.ndim() == 2 && t_end.shape(0) == B && t_end.shape(1) == nt, "t_end must be (B, n_tendons)");
+        check(t_start.ndim() == 2 && t_start.shape(0) == B && t_start.shape(1) == nt,
+              "t_start must be (B, n_tendons)");
+        check(tols.ndim() == 2 && tols.shape(0) == B && tols.shape(1) == 2, "tols must be (B, 2)");
+        check(out_q.ndim() == 2 && out_q.shape(0) == B && out_q.shape(1) == nq, "out_q must be (B, m)");
+        for (std::size_t size : {out_ok.ndim() == 1 ? out_ok.shape(0) : 0, out_res.ndim() == 1 ? out_res.shape(0) : 0,
+                                 out_it.ndim() == 1 ? out_it.shape(0) : 0,
+                                 out_steps.ndim() == 1 ? out_steps.shape(0) : 0,
+                                 out_path.ndim() == 1 ? out_path.shape(0) : 0})
+          check(size == B, "out_ok, out_res, out_it, out_steps and out_path must be (B,)");
+        check(start <= stop && stop <= B, "need 0 <= start <= stop <= B");
+        check(s.stepping >= 0 && s.stepping <= loading_path::STEP_CONTINUE, "settings.stepping must be 0 to 3");
+        check(s.fold >= loading_path::FOLD_RELAX && s.fold <= loading_path::FOLD_STOP, "settings.fold must be 0 to 2");
+        check(s.max_iter >= 0 && s.step_iter >= 0, "settings.max_iter and step_iter must be >= 0");
+        nb::gil_scoped_release release;
+        loading_path::solve_range(q0.data(), ma, mb, t_start.data(), t_end.data(), nt, s, tols.data(), start, stop,
+                                  out_q.data(), out_ok.data(), out_res.data(), out_it.data(), out_steps.data(),
+                                  out_path.data());
+      },
+      nb::arg("q0"), nb::arg("ma"), nb::arg("mb"), nb::arg("t_start"), nb::arg("t_end"), nb::arg("settings"),
+      nb::arg("tols"), nb::arg("start"), nb::arg("stop"), nb::arg("out_q").noconvert(), nb::arg("out_ok").noconvert(),
+      nb::arg("out_res").noconvert(), nb::arg("out_it").noconvert(), nb::arg("out_steps").noconvert(),
+      nb::arg("out_path").noconvert(),
+      "Solve, or continue, the cases start <= b < stop of a batch with the PCC model (the GIL released): the twin\n"
+      "of pytdcr.statics.kernels.loading_path.solve_range, with the two PccModel of the homotopy in place of the\n"
+      "numba packed models. q0 (B, m) start points; t_start, t_end (B, nt) tensions [N]; settings with the fields\n"
+      "of loading_path.Settings (stepping 0-2 a solve of mb at t_end from q0, 3 a continuation from ma at t_start);\n"
+      "tols (B, 2) each case's tolerance and load-step tolerance [N m]. Writes rows start..stop-1 of out_q (B, m)\n"
+      "float64, out_ok (B,) bool, out_res (B,) float64, out_it, out_steps, out_path (B,) int64.");
+
+  m.def(
+      "_lu_solve",
+      [](In a, In b) -> nb::object {
+        const std::size_t n = square(a, "_lu_solve");
+        if (b.ndim() != 1 || b.shape(0) != n) throw std::invalid_argument("_lu_solve: b must be (n,)");
+        std::vector<double> lu(n * n);
+        std::vector<std::size_t> piv(n);
+        Array x = new_float_array(n, 1, false);
+        if (!solve(a.data(), b.data(), n, x.data(), lu.data(), piv.data())) return nb::none();
+        return nb::cast(x);
+      },
+      nb::arg("a"), nb::arg("b"),
+      "Internal (tests of linalg.hpp): x (n,) with a x = b by LU with partial pivoting; None where a or b is not\n"
+      "finite or a is exactly singular (where np.linalg.solve raises).");
+  m.def(
+      "_lu_inverse",
+      [](In a) -> nb::object {
+        const std::size_t n = square(a, "_lu_inverse");
+        std::vector<double> lu(n * n);
+        std::vector<std::size_t> piv(n);
+        Array out = new_float_array(n, n, true);
+        if (!inverse(a.data(), n, out.data(), lu.data(), piv.data())) return nb::none();
+        return nb::cast(out);
+      },
+      nb::arg("a"),
+      "Internal (tests of linalg.hpp): a^-1 (n, n) by LU with partial pivoting; None where a is not finite or\n"
+      "exactly singular (where np.linalg.inv raises).");
+  m.def(
+      "_lu_slogdet",
+      [](In a) {
+        const std::size_t n = square(a, "_lu_slogdet");
+        std::vector<double> lu(n * n);
+        std::vector<std::size_t> piv(n);
+        double sign, logdet;
+        slogdet(a.data(), n, lu.data(), piv.data(), sign, logdet);
+        return std::make_tuple(sign, logdet);
+      },
+      nb::arg("a"),
+      "Internal (tests of linalg.hpp): (sign, log|det a|) as np.linalg.slogdet; (0.0, -inf) where a is exactly\n"
+      "singular.");
+}
+
+}  // namespace pytdcr

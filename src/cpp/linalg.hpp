@@ -1,0 +1,169 @@
+// Dense linear algebra of the compiled solver: LU factorisation with partial pivoting (Doolittle, row-major),
+// and from it the solution of A x = b, the inverse and the sign and log of the determinant. The C++ stand-in for
+// the LAPACK calls behind numba's np.linalg.solve (gesv), np.linalg.inv (getrf + getri) and np.linalg.slogdet
+// (getrf), standard library only.
+//
+// Like numba's np.linalg, a matrix (or right-hand side) with an infinite or NaN entry is refused, and so is an
+// exactly singular one (a pivot that is exactly zero: LAPACK's info > 0); a nearly singular matrix is factored and
+// its inverse may then hold huge or infinite entries, as LAPACK's does. The pivot of column k is the first entry
+// of largest magnitude on or below the diagonal (LAPACK's idamax). Results agree with LAPACK's to round-off, not
+// bit for bit (LAPACK blocks its elimination and scales by the pivot's reciprocal).
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <limits>
+
+namespace pytdcr {
+
+// True when every one of the n entries of a is finite.
+inline bool all_finite(const double* a, std::size_t n) {
+  for (std::size_t i = 0; i < n; ++i)
+    if (!std::isfinite(a[i])) return false;
+  return true;
+}
+
+// LU factorisation P A = L U of the (n, n) row-major matrix a, into lu (n, n) (L below the diagonal, its unit
+// diagonal implied; U on and above) with the row interchanges piv (n): row k was swapped with row piv[k] at step
+// k. sign (+1 or -1) is that of the permutation. Returns false where a pivot is exactly zero (a singular matrix;
+// lu then holds the partial factorisation). a may be lu itself (factor in place). Does not check finiteness.
+inline bool lu_factor(const double* a, std::size_t n, double* lu, std::size_t* piv, double& sign) {
+  if (a != lu)
+    for (std::size_t i = 0; i < n * n; ++i) lu[i] = a[i];
+  sign = 1.0;
+  for (std::size_t k = 0; k < n; ++k) {
+    // pivot: the first entry of largest magnitude in column k, rows k..n-1
+    std::size_t p = k;
+    double big = std::fabs(lu[k * n + k]);
+    for (std::size_t i = k + 1; i < n; ++i) {
+      const double v = std::fabs(lu[i * n + k]);
+      if (v > big) {
+        big = v;
+        p = i;
+      }
+    }
+    piv[k] = p;
+    if (big == 0.0) return false;
+    if (p != k) {
+      sign = -sign;
+      for (std::size_t j = 0; j < n; ++j) {
+        const double t = lu[k * n + j];
+        lu[k * n + j] = lu[p * n + j];
+        lu[p * n + j] = t;
+      }
+    }
+    const double pivot = lu[k * n + k];
+    for (std::size_t i = k + 1; i < n; ++i) {
+      double* row = lu + i * n;
+      const double l = row[k] / pivot;  // multiplier L[i, k]
+      row[k] = l;
+      if (l == 0.0) continue;
+      const double* prow = lu + k * n;
+      for (std::size_t j = k + 1; j < n; ++j) row[j] -= l * prow[j];
+    }
+  }
+  return true;
+}
+
+// Solve A x = b in place (b becomes x, length n) from lu_factor's lu and piv: forward substitution with L (unit
+// diagonal) after the row interchanges, then back substitution with U.
+inline void lu_solve(const double* lu, const std::size_t* piv, std::size_t n, double* b) {
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t p = piv[k];
+    if (p != k) {
+      const double t = b[k];
+      b[k] = b[p];
+      b[p] = t;
+    }
+  }
+  for (std::size_t i = 1; i < n; ++i) {
+    const double* row = lu + i * n;
+    double acc = b[i];
+    for (std::size_t j = 0; j < i; ++j) acc -= row[j] * b[j];
+    b[i] = acc;
+  }
+  for (std::size_t i = n; i-- > 0;) {
+    const double* row = lu + i * n;
+    double acc = b[i];
+    for (std::size_t j = i + 1; j < n; ++j) acc -= row[j] * b[j];
+    b[i] = acc / row[i];
+  }
+}
+
+// x (n) = A^-1 b for the (n, n) row-major A, as np.linalg.solve: false (x untouched) where A or b has a
+// non-finite entry or A is exactly singular. Scratch: lu (n, n), piv (n). x may be b.
+inline bool solve(const double* a, const double* b, std::size_t n, double* x, double* lu, std::size_t* piv) {
+  if (!all_finite(a, n * n) || !all_finite(b, n)) return false;
+  double sign;
+  if (!lu_factor(a, n, lu, piv, sign)) return false;
+  if (x != b)
+    for (std::size_t i = 0; i < n; ++i) x[i] = b[i];
+  lu_solve(lu, piv, n, x);
+  return true;
+}
+
+// out (n, n) = A^-1 for the (n, n) row-major A, as np.linalg.inv: false (out untouched) where A has a non-finite
+// entry or is exactly singular. From P A = L U: A^-1 = U^-1 L^-1 P, formed row by row (contiguous row updates):
+// out = L^-1 (lower triangular, unit diagonal), then out = U^-1 out by back substitution, then the column
+// interchanges of P in reverse order (as LAPACK's getri). Scratch: lu (n, n), piv (n). out must not be a.
+inline bool inverse(const double* a, std::size_t n, double* out, double* lu, std::size_t* piv) {
+  if (!all_finite(a, n * n)) return false;
+  double sign;
+  if (!lu_factor(a, n, lu, piv, sign)) return false;
+  // out = L^-1: row i = e_i - sum_{j<i} L[i, j] (row j), row j nonzero in columns 0..j only
+  for (std::size_t i = 0; i < n * n; ++i) out[i] = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    double* oi = out + i * n;
+    oi[i] = 1.0;
+    const double* li = lu + i * n;
+    for (std::size_t j = 0; j < i; ++j) {
+      const double l = li[j];
+      if (l == 0.0) continue;
+      const double* oj = out + j * n;
+      for (std::size_t k = 0; k <= j; ++k) oi[k] -= l * oj[k];
+    }
+  }
+  // out = U^-1 out: row i = (row i - sum_{j>i} U[i, j] (row j)) / U[i, i], from the last row up
+  for (std::size_t i = n; i-- > 0;) {
+    double* oi = out + i * n;
+    const double* ui = lu + i * n;
+    for (std::size_t j = i + 1; j < n; ++j) {
+      const double u = ui[j];
+      if (u == 0.0) continue;
+      const double* oj = out + j * n;
+      for (std::size_t k = 0; k < n; ++k) oi[k] -= u * oj[k];
+    }
+    const double d = ui[i];
+    for (std::size_t k = 0; k < n; ++k) oi[k] /= d;
+  }
+  // out = out P: the interchanges of columns, last first
+  for (std::size_t k = n; k-- > 0;) {
+    const std::size_t p = piv[k];
+    if (p == k) continue;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double t = out[i * n + k];
+      out[i * n + k] = out[i * n + p];
+      out[i * n + p] = t;
+    }
+  }
+  return true;
+}
+
+// The sign (+1, -1; 0 where singular) and the log of the magnitude (-inf where singular) of det A, A (n, n)
+// row-major, as np.linalg.slogdet (which numba refuses for a non-finite A: the caller checks). Scratch: lu (n, n),
+// piv (n).
+inline void slogdet(const double* a, std::size_t n, double* lu, std::size_t* piv, double& sign, double& logdet) {
+  if (!lu_factor(a, n, lu, piv, sign)) {
+    sign = 0.0;
+    logdet = -std::numeric_limits<double>::infinity();
+    return;
+  }
+  logdet = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double d = lu[i * n + i];
+    if (d < 0.0) sign = -sign;
+    logdet += std::log(std::fabs(d));
+  }
+}
+
+}  // namespace pytdcr
