@@ -7,6 +7,7 @@ namespace pytdcr {
 void bind_kinematics(nb::module_& m);
 void bind_pcc(nb::module_& m);
 void bind_loading_path(nb::module_& m);
+void bind_stiffness(nb::module_& m);
 }  // namespace pytdcr
 
 NB_MODULE(_core, m) {
@@ -14,4 +15,5 @@ NB_MODULE(_core, m) {
   pytdcr::bind_kinematics(m);
   pytdcr::bind_pcc(m);
   pytdcr::bind_loading_path(m);
+  pytdcr::bind_stiffness(m);
 }
