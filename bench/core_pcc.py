@@ -5,20 +5,23 @@ The paper robot under the paper's loads: gravity, the paper's friction law, tip 
 moment (-0.1, 0.1, 0.1) N m, tensions uniform random in [0, 20] N; q an equilibrium solved at full load (or, with
 ``--state random``, random moderate bends). One core (the process is pinned to one CPU where it can be).
 
-Timed, each as the median of single calls (residual alone, and residual with the exact Jacobian):
+Timed (residual alone, and residual with the exact Jacobian), each the median over rounds that take one sample of
+every kind in turn, so that all see the same load on a shared machine:
 
 python   a call from Python: ``PccModel.evaluate(q, lam, want_jac)`` (new r, J, T arrays each call) against
          ``K.evaluate(q, lam, packed, want_jac, r, J, work)`` (preallocated; unboxing the Packed and Work
          namedtuples each call). Both carry the call's overhead.
 kernel   the kernel's own cost: a loop of calls timed inside C++ (``pytdcr._core._bench_evaluate``, std::chrono),
-         and a loop of calls timed inside numba (a jitted loop calling the kernel; compiled on first use).
+         and a loop of calls timed inside numba (a jitted loop calling the kernel; compiled on first use). Many
+         short loops (``--loop-seconds``), their median: a long loop on a shared machine also times the other
+         processes that preempt it. numba's loop is less the cost of calling it (an empty loop's median).
 
 Also records how the two agree at the timed state (max |difference| of residual, Jacobian and tensions).
 
 Prints a table, writes ``bench/results/core_pcc.json`` and, with ``--json``, prints one JSON object as the last
 line. Medians are quoted: these machines are noisy.
 
-Usage: python bench/core_pcc.py [--calls 2000] [--loops 21] [--state solved|random] [--json]
+Usage: python bench/core_pcc.py [--rounds 2001] [--state solved|random] [--json]
 """
 
 from __future__ import annotations
@@ -27,7 +30,6 @@ import argparse
 import os
 import platform
 import time
-from collections.abc import Callable
 
 import numba
 import numpy as np
@@ -53,19 +55,6 @@ def stats(xs: list[float]) -> dict[str, float]:
     return {"median": float(np.median(a)), "min": float(a.min()), "max": float(a.max()), "n": int(a.size)}
 
 
-def per_call(fn: Callable[[], object], calls: int) -> list[float]:
-    """Seconds of each of ``calls`` single calls of ``fn`` (after 20 warm-up calls), in microseconds."""
-    for _ in range(20):
-        fn()
-    out = []
-    clock = time.perf_counter_ns
-    for _ in range(calls):
-        t0 = clock()
-        fn()
-        out.append((clock() - t0) * 1e-3)
-    return out
-
-
 def pin_one_core() -> int | None:
     """Pin this process to one of the CPUs it may run on (the last); returns it, or None where not possible."""
     if not hasattr(os, "sched_setaffinity"):
@@ -77,9 +66,10 @@ def pin_one_core() -> int | None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--calls", type=int, default=2000, help="single calls timed per case from Python")
-    ap.add_argument("--loops", type=int, default=21, help="timed loops per case inside C++ and numba")
-    ap.add_argument("--loop-seconds", type=float, default=0.05, help="about how long each timed loop runs [s]")
+    ap.add_argument("--rounds", type=int, default=2001,
+                    help="rounds per case, each timing one call of each kind and one loop of each kind")
+    ap.add_argument("--loop-seconds", type=float, default=0.0003,
+                    help="about how long each timed loop runs [s] (shorter than a scheduler time slice)")
     ap.add_argument("--state", choices=("solved", "random"), default="solved",
                     help="q: an equilibrium under the loads (default), or random moderate bends")
     ap.add_argument("--seed", type=int, default=2026)
@@ -119,10 +109,11 @@ def main() -> None:
                  "tensions": float(np.abs(Tc - work.T).max()), "max_abs_residual": float(np.abs(r).max()),
                  "max_abs_jacobian": float(np.abs(J).max())}
 
-    def numba_seconds(want_jac: bool, repeats: int) -> float:
-        t0 = time.perf_counter()
+    def numba_seconds(want_jac: bool, repeats: int, overhead: float = 0.0) -> float:
+        """Seconds per call of a loop of ``repeats`` calls in numba, less ``overhead`` (the loop's own call)."""
+        t0 = time.perf_counter_ns()
         numba_loop(q, lam, packed, want_jac, r, J if want_jac else J1, work, repeats)
-        return (time.perf_counter() - t0) / repeats
+        return ((time.perf_counter_ns() - t0) * 1e-9 - overhead) / max(repeats, 1)
 
     t0 = time.perf_counter()
     numba_seconds(False, 1)
@@ -133,16 +124,41 @@ def main() -> None:
     result_us: dict[str, dict[str, float]] = {}
     for want_jac, case in ((False, "residual"), (True, "jacobian")):
         Jn = J if want_jac else J1
-        py_cpp = per_call(lambda w=want_jac: model.evaluate(q, lam, w), args.calls)
-        py_numba = per_call(lambda w=want_jac, Jn=Jn: K.evaluate(q, lam, packed, w, r, Jn, work), args.calls)
+
+        def py_cpp(w: bool = want_jac) -> object:
+            return model.evaluate(q, lam, w)
+
+        def py_numba(w: bool = want_jac, Jn: np.ndarray = Jn) -> object:
+            return K.evaluate(q, lam, packed, w, r, Jn, work)
+
+        # the call into numba (unboxing the Packed and Work namedtuples): the median of empty loops
+        overhead = float(np.median([numba_seconds(want_jac, 0) for _ in range(201)]))
         # loops of about --loop-seconds each
         one = max(_core._bench_evaluate(model, q, lam, want_jac, 50), 1e-9)
-        reps_cpp = max(10, int(args.loop_seconds / one))
-        loop_cpp = [_core._bench_evaluate(model, q, lam, want_jac, reps_cpp) * 1e6 for _ in range(args.loops)]
-        one = max(numba_seconds(want_jac, 50), 1e-9)
-        reps_numba = max(10, int(args.loop_seconds / one))
-        loop_numba = [numba_seconds(want_jac, reps_numba) * 1e6 for _ in range(args.loops)]
-        for key, xs in (("python_cpp", py_cpp), ("python_numba", py_numba), ("kernel_cpp", loop_cpp),
+        reps_cpp = max(3, int(args.loop_seconds / one))
+        one = max(numba_seconds(want_jac, 50, overhead), 1e-9)
+        reps_numba = max(3, int(args.loop_seconds / one))
+        for _ in range(20):  # warm up
+            py_cpp()
+            py_numba()
+        # round robin: one sample of each per round, so that all four see the same (changing) load
+        samples: dict[str, list[float]] = {"python_cpp": [], "python_numba": [], "kernel_cpp": [],
+                                           "kernel_numba": []}
+        clock = time.perf_counter_ns
+        for _ in range(args.rounds):
+            t0 = clock()
+            py_cpp()
+            samples["python_cpp"].append((clock() - t0) * 1e-3)
+            t0 = clock()
+            py_numba()
+            samples["python_numba"].append((clock() - t0) * 1e-3)
+            samples["kernel_cpp"].append(_core._bench_evaluate(model, q, lam, want_jac, reps_cpp) * 1e6)
+            samples["kernel_numba"].append(numba_seconds(want_jac, reps_numba, overhead) * 1e6)
+        py_cpp_us, py_numba_us = samples["python_cpp"], samples["python_numba"]
+        loop_cpp, loop_numba = samples["kernel_cpp"], samples["kernel_numba"]
+        detail[f"{case}_numba_loop_call_overhead_us"] = {"median": overhead * 1e6}
+        detail[f"{case}_loop_repeats"] = {"cpp": reps_cpp, "numba": reps_numba}
+        for key, xs in (("python_cpp", py_cpp_us), ("python_numba", py_numba_us), ("kernel_cpp", loop_cpp),
                         ("kernel_numba", loop_numba)):
             detail[f"{case}_{key}_us"] = stats(xs)
         result_us[case] = {key: detail[f"{case}_{key}_us"]["median"]
@@ -156,7 +172,7 @@ def main() -> None:
         "numba_loop_compile_s": loop_compile_s,
         "detail": detail,
         "config": {"state": state, "lam": lam, "n_disks": n, "n_unknowns": m, "tensions_N": tensions.tolist(),
-                   "calls": args.calls, "loops": args.loops, "seed": args.seed, "pinned_cpu": cpu,
+                   "rounds": args.rounds, "seed": args.seed, "pinned_cpu": cpu,
                    "cpus": os.cpu_count(), "python": platform.python_version(), "numpy": np.__version__,
                    "numba": numba.__version__, "pytdcr": pytdcr.__version__},
     }

@@ -1,11 +1,11 @@
 """The compiled PCC kernel (pytdcr._core.PccModel, src/cpp/pcc.hpp) against the numba kernel it twins
 (pytdcr.statics.kernels.pcc).
 
-The C++ kernel does the numba kernel's operations in the same order (no FMA contraction, no fast-math, the complex
-step with std::complex, whose multiply, divide, sqrt, sin and cos round as numba's do here), so the residual, the
-Jacobian, the tendon tensions and everything but the tip Jacobian must agree bit for bit. The tip Jacobian's numba
-twin multiplies 3x3 matrices with BLAS (its own order of summation and fused multiply-adds), so it agrees to
-round-off only. The Jacobian is also checked against central differences of the C++ residual alone.
+The C++ kernel does the numba kernel's operations in the same order (no FMA contraction, no fast-math; the complex
+step in std::complex with numba's own algorithms for complex division, sqrt, sin and cos, kinematics.hpp), so the
+residual, the Jacobian, the tendon tensions and everything but the tip Jacobian must agree bit for bit. The tip
+Jacobian's numba twin multiplies 3x3 matrices with BLAS (its own order of summation and fused multiply-adds), so
+it agrees to round-off only. The Jacobian is also checked against central differences of the C++ residual alone.
 """
 
 from __future__ import annotations

@@ -16,21 +16,115 @@ inline constexpr double kSeriesT2 = 1e-2;  // series for theta^2 below this
 inline double real_part(double x) { return x; }
 inline double real_part(const std::complex<double>& x) { return x.real(); }
 
+// The complex step's arithmetic, as numba's (numba/cpython/numbers.py complex_div_impl; cmathimpl.py sqrt_impl,
+// sin_impl, cos_impl, cosh_impl, sinh_impl), inline, so that it rounds as the numba kernels' does by construction
+// (libstdc++ would call libgcc's __divdc3, which takes another branch for a subnormal ratio, and libm's csqrt,
+// csin, ccos, which only happen to agree). The real overloads are the plain operations.
+using cplx = std::complex<double>;
+
+inline double k_div(double a, double b) { return a / b; }
+inline double k_sqrt(double x) { return std::sqrt(x); }
+inline double k_sin(double x) { return std::sin(x); }
+inline double k_cos(double x) { return std::cos(x); }
+
+// a / b, Smith's algorithm (CPython's _Py_c_quot, numba's complex division); b = 0 gives NaNs (numba raises)
+inline cplx k_div(const cplx& a, const cplx& b) {
+  const double ar = a.real(), ai = a.imag(), br = b.real(), bi = b.imag();
+  const double abr = std::fabs(br), abi = std::fabs(bi);
+  if (abr >= abi) {
+    if (abr == 0.0) return cplx(std::nan(""), std::nan(""));
+    const double ratio = bi / br;
+    const double denom = br + bi * ratio;
+    return cplx((ar + ai * ratio) / denom, (ai - ar * ratio) / denom);
+  }
+  if (abi >= abr) {
+    const double ratio = br / bi;
+    const double denom = br * ratio + bi;
+    return cplx((ar * ratio + ai) / denom, (ai * ratio - ar) / denom);
+  }
+  return cplx(std::nan(""), std::nan(""));  // b.real or b.imag is NaN
+}
+
+// cosh(y), sinh(y) of the complex step's imaginary parts: for |y| < 2^-28 they round to 1 and y (cosh y - 1 and
+// sinh y - y are below y^2 < 2^-56, under half an ulp; glibc returns these too), which spares two libm calls
+inline double k_cosh(double y) { return std::fabs(y) < 0x1p-28 ? 1.0 : std::cosh(y); }
+inline double k_sinh(double y) { return std::fabs(y) < 0x1p-28 ? y : std::sinh(y); }
+
+// sinh(x + iy) and cosh(x + iy) as numba's cmath (its special cases for infinite x included)
+inline cplx k_csinh(double x, double y) {
+  if (std::isinf(x)) {
+    if (std::isnan(y)) return cplx(x, y);
+    double re = std::cos(y), im = std::sin(y);
+    if (re != 0.0) re *= x;
+    if (im != 0.0) im *= std::fabs(x);
+    return cplx(re, im);
+  }
+  return cplx(std::cos(y) * k_sinh(x), std::sin(y) * k_cosh(x));
+}
+inline cplx k_ccosh(double x, double y) {
+  if (std::isinf(x)) {
+    double re, im;
+    if (std::isnan(y) || y == 0.0) {
+      re = std::fabs(x);
+      im = y;
+    } else {
+      re = std::copysign(x, std::cos(y));
+      im = std::copysign(x, std::sin(y));
+    }
+    if (x < 0.0) im = -im;
+    return cplx(re, im);
+  }
+  return cplx(std::cos(y) * k_cosh(x), std::sin(y) * k_sinh(x));
+}
+// sin z = -i sinh(iz), cos z = cosh(iz)
+inline cplx k_sin(const cplx& z) {
+  const cplx r = k_csinh(-z.imag(), z.real());
+  return cplx(r.imag(), -r.real());
+}
+inline cplx k_cos(const cplx& z) { return k_ccosh(-z.imag(), z.real()); }
+
+// sqrt z (NumPy's npy_csqrt, Algorithm 312 of CACM vol 10, as numba's)
+inline cplx k_sqrt(const cplx& z) {
+  constexpr double kThres = 1.7976931348623157e308 / (1.0 + 1.414213562373095048801688724209698079);
+  double a = z.real(), b = z.imag();
+  if (a == 0.0 && b == 0.0) return cplx(std::fabs(b), b);
+  if (std::isinf(b)) return cplx(std::fabs(b), b);
+  if (std::isnan(a)) return cplx(a, a);
+  if (std::isinf(a)) {
+    if (a < 0.0) return cplx(std::fabs(b - b), std::copysign(a, b));
+    return cplx(a, std::copysign(b - b, b));
+  }
+  bool scale = false;
+  if (std::fabs(a) >= kThres || std::fabs(b) >= kThres) {
+    a *= 0.25;
+    b *= 0.25;
+    scale = true;
+  }
+  double re, im;
+  if (a >= 0) {
+    const double t = std::sqrt((a + std::hypot(a, b)) * 0.5);
+    re = t;
+    im = b / (2 * t);
+  } else {
+    const double t = std::sqrt((-a + std::hypot(a, b)) * 0.5);
+    re = std::fabs(b) / (2 * t);
+    im = std::copysign(t, b);
+  }
+  return scale ? cplx(re * 2, im) : cplx(re, im);
+}
+
 // A = sin(th)/th, B = (1 - cos th)/th^2, C = (1 - A)/th^2 as functions of th^2 (real or complex).
 template <class T>
 inline void abc(const T& t2, T& a, T& b, T& c) {
-  using std::cos;
-  using std::sin;
-  using std::sqrt;
   if (real_part(t2) < kSeriesT2) {
     a = 1.0 - t2 / 6.0 * (1.0 - t2 / 20.0 * (1.0 - t2 / 42.0 * (1.0 - t2 / 72.0)));
     b = 0.5 - t2 / 24.0 * (1.0 - t2 / 30.0 * (1.0 - t2 / 56.0 * (1.0 - t2 / 90.0)));
     c = 1.0 / 6.0 - t2 / 120.0 * (1.0 - t2 / 42.0 * (1.0 - t2 / 72.0 * (1.0 - t2 / 110.0)));
   } else {
-    const T th = sqrt(t2);
-    a = sin(th) / th;
-    b = (1.0 - cos(th)) / t2;
-    c = (1.0 - a) / t2;
+    const T th = k_sqrt(t2);
+    a = k_div(k_sin(th), th);
+    b = k_div(1.0 - k_cos(th), t2);
+    c = k_div(1.0 - a, t2);
   }
 }
 
@@ -38,8 +132,6 @@ inline void abc(const T& t2, T& a, T& b, T& c) {
 // pg (3) [m], from the bending (beta, gamma) [1/m], the twist eps [rad] and the length l [m].
 template <class T>
 inline void subsegment(const T& beta, const T& gamma, const T& eps, double l, T* R, T* d, T* pg) {
-  using std::cos;
-  using std::sin;
   const T wx = -gamma * l;
   const T wy = beta * l;
   const T t2 = wx * wx + wy * wy;
@@ -55,8 +147,8 @@ inline void subsegment(const T& beta, const T& gamma, const T& eps, double l, T*
   const T e20 = -a * wy;
   const T e21 = a * wx;
   const T e22 = 1.0 - b * t2;
-  const T ce = cos(eps);
-  const T se = sin(eps);
+  const T ce = k_cos(eps);
+  const T se = k_sin(eps);
   R[0] = e00 * ce + e01 * se;
   R[1] = -e00 * se + e01 * ce;
   R[2] = e02;

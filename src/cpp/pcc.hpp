@@ -62,6 +62,8 @@ struct PccWork {
   std::vector<double> omega;  // (3, m) body angular velocity of one frame per unknown (swept base to tip and back)
   std::vector<double> T;      // (N+2, nt) tension in piece i of each tendon [N]
   std::vector<double> dTl;    // (m,) one tendon's tension in one piece, by every unknown
+  std::vector<double> lnP;    // (nt, N+1, 3) log-derivative sums of tension_lanes, lanes of subsegment s < i
+  std::vector<double> lnQ;    // (nt, N+1, 3) the same for s = i (disk s-1's ratio only)
   std::vector<double> W;      // (N+1, nt, 7) unit load (force, moment) and tension ratio at disk i
   std::vector<double> dW;     // (N+1, nt, 7, 6) its local derivative
   std::vector<double> dF;     // (3, m)
@@ -86,6 +88,8 @@ inline PccWork make_work(std::size_t n, std::size_t nt) {
   w.omega.assign(3 * m, 0.0);
   w.T.assign((n + 2) * nt, 0.0);
   w.dTl.assign(m, 0.0);
+  w.lnP.assign((n + 1) * nt * 3, 0.0);
+  w.lnQ.assign((n + 1) * nt * 3, 0.0);
   w.W.assign((n + 1) * nt * 7, 0.0);
   w.dW.assign((n + 1) * nt * 42, 0.0);
   w.dF.assign(3 * m, 0.0);
@@ -286,27 +290,39 @@ inline void tendon_unit_load_jvp(const double* R, const double* d, const double*
   }
 }
 
-// d T_{i,c} / d q for the lanes of subsegments 1..i, into out (3i,): T_i times the sum of the log-derivatives
-// of the tension ratios upstream. T_i = T_1 prod_{k<i} rho_k, and rho_k depends on the lanes of subsegments k and
-// k+1 only (dW[k, c, 6]), so each lane collects at most two terms. A ratio clipped to zero has no derivative and
-// leaves no tension beyond it (then T_i = 0 and the caller skips this).
-inline void tension_lanes(const double* dW, const double* W, std::size_t nt, std::size_t c, std::size_t i,
-                          double Ti, double* out) {
-  for (std::size_t s = 1; s <= i; ++s) {
-    const std::size_t base = 3 * (s - 1);
-    for (std::size_t a = 0; a < 3; ++a) {
-      double acc = 0.0;
-      if (s >= 2) {  // disk s-1's ratio through its next subsegment's lanes
-        const double rho = W[((s - 1) * nt + c) * 7 + 6];
-        if (rho > 0.0) acc += dW[(((s - 1) * nt + c) * 7 + 6) * 6 + 3 + a] / rho;
+// The log-derivatives of the tension ratios by the lanes of subsegment s, for every disk s = 1..N and tendon c,
+// into lnP and lnQ (nt, N+1, 3): T_i = T_1 prod_{k<i} rho_k, and rho_k depends on the lanes of subsegments k and
+// k+1 only (dW[k, c, 6]), so lane (s, a) of d T_i / d q collects at most two terms,
+//     (d rho_{s-1} / d q_(s,a)) / rho_{s-1}  (disk s-1's ratio through its next subsegment's lanes, s >= 2)
+//   + (d rho_s / d q_(s,a)) / rho_s          (disk s's ratio through its own lanes, only for s < i),
+// each only where its ratio is > 0 (a ratio clipped to zero has no derivative and leaves no tension beyond it).
+// lnQ holds the first term (what s = i gets) and lnP both; each summed from 0.0 in that order, as the numba
+// kernel's _tension_lanes does for every i (which repeats these divisions O(N) times; here they are done once).
+inline void tension_log_derivatives(const double* dW, const double* W, std::size_t n, std::size_t nt, double* lnP,
+                                    double* lnQ) {
+  for (std::size_t s = 1; s <= n; ++s) {
+    for (std::size_t c = 0; c < nt; ++c) {
+      const double rho_prev = s >= 2 ? W[((s - 1) * nt + c) * 7 + 6] : 0.0;
+      const double rho_own = W[(s * nt + c) * 7 + 6];
+      for (std::size_t a = 0; a < 3; ++a) {
+        double acc = 0.0;
+        if (s >= 2 && rho_prev > 0.0) acc += dW[(((s - 1) * nt + c) * 7 + 6) * 6 + 3 + a] / rho_prev;
+        lnQ[(c * (n + 1) + s) * 3 + a] = acc;
+        if (rho_own > 0.0) acc += dW[((s * nt + c) * 7 + 6) * 6 + a] / rho_own;
+        lnP[(c * (n + 1) + s) * 3 + a] = acc;
       }
-      if (s < i) {  // disk s's ratio through its own lanes
-        const double rho = W[(s * nt + c) * 7 + 6];
-        if (rho > 0.0) acc += dW[((s * nt + c) * 7 + 6) * 6 + a] / rho;
-      }
-      out[base + a] = Ti * acc;
     }
   }
+}
+
+// d T_{i,c} / d q for the lanes of subsegments 1..i, into out (3i,): T_i times the sum of the log-derivatives of
+// the tension ratios upstream (tension_log_derivatives). The caller skips T_i = 0.
+inline void tension_lanes(const double* lnP, const double* lnQ, std::size_t n, std::size_t c, std::size_t i,
+                          double Ti, double* out) {
+  const double* P = lnP + (c * (n + 1) + 1) * 3;  // lanes of subsegments 1..i-1
+  for (std::size_t j = 0; j + 3 < 3 * i; ++j) out[j] = Ti * P[j];
+  const double* Q = lnQ + (c * (n + 1) + i) * 3;  // subsegment i's lanes
+  for (std::size_t a = 0; a < 3; ++a) out[3 * (i - 1) + a] = Ti * Q[a];
 }
 
 // Residual rows k..k+2 of one subsegment, balanced about its midpoint (MODEL.md, appendix A), and (if want_jac)
@@ -423,6 +439,8 @@ inline void evaluate(const double* q, double lam, const PccModel& model, bool wa
   double* dM = work.dM.data();
   double* dL = work.dL.data();
   double* dTl = work.dTl.data();
+  double* lnP = work.lnP.data();
+  double* lnQ = work.lnQ.data();
   cd Rc[9], dc[3], pgc[3];
   double lR[6][9] = {};
   double ld[6][3] = {};
@@ -541,6 +559,8 @@ inline void evaluate(const double* q, double lam, const PccModel& model, bool wa
     }
   }
 
+  if (want_jac) tension_log_derivatives(dW, W, n, nt, lnP, lnQ);
+
   // ---- wrenches, tip to base
   double Fx = 0.0, Fy = 0.0, Fz = 0.0, Mx = 0.0, My = 0.0, Mz = 0.0;
   if (want_jac) {
@@ -639,7 +659,7 @@ inline void evaluate(const double* q, double lam, const PccModel& model, bool wa
           const double* Wic = W + (i * nt + c) * 7;
           const double* dWic = dW + (i * nt + c) * 42;
           if (Tc != 0.0) {
-            tension_lanes(dW, W, nt, c, i, Tc, dTl);
+            tension_lanes(lnP, lnQ, n, c, i, Tc, dTl);
             for (std::size_t u = 0; u < 6; ++u) {
               const double wu = Wic[u];
               double* dLu = dL + u * m;
