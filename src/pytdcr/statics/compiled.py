@@ -1,15 +1,17 @@
-"""The Python side of the shared compiled solver (:mod:`pytdcr.statics.kernels.loading_path`): what the models it
-solves (``pcc``, ``pcc2``, ``sscr``) have in common.
+"""The Python side of the shared compiled solver: what the models it solves (``pcc``, ``pcc2``, ``sscr``) have in
+common.
 
-A model here provides its packed equations (:class:`Equations`); the base class
-:class:`CompiledModel` solves them, one tension vector or a batch (threads over
-chunks of cases, each by the same compiled code), wraps the outcome and
-differentiates the tip by the tensions (implicit function theorem).
+A model here provides its packed equations (:class:`Equations`), which name the compiled functions they are
+solved with (:class:`Kernels`): the compiled core's (``pytdcr._core``, C++ built at install: ``pcc`` and ``pcc2``)
+or numba's (:mod:`pytdcr.statics.kernels`, compiled at first use: ``sscr``). The base class
+:class:`CompiledModel` solves them, one tension vector or a batch (threads over chunks of cases, each by the same
+compiled code), wraps the outcome and differentiates the tip by the tensions (implicit function theorem).
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any, ClassVar, NamedTuple, Protocol, TypeVar
 
@@ -40,7 +42,8 @@ if TYPE_CHECKING:
 
     from .base import Capabilities
 
-__all__ = ["CompiledModel", "Equations", "Evaluation", "PackedEquations", "kernel_settings"]
+__all__ = ["NUMBA_KERNELS", "CompiledModel", "Equations", "Evaluation", "Kernels", "PackedEquations",
+           "kernel_settings"]
 
 #: a packed equation set's own class (what :meth:`PackedEquations.with_tensions` returns)
 _P = TypeVar("_P", bound="PackedEquations")
@@ -54,10 +57,31 @@ class Evaluation(NamedTuple):
     tensions: np.ndarray
 
 
+class Kernels(NamedTuple):
+    """The compiled functions that solve and differentiate one kind of packed equations, each taking the equations'
+    :attr:`PackedEquations.kernel_model` where numba's take the packed named tuple (same arguments otherwise):
+    :func:`pytdcr.statics.kernels.loading_path.solve_range` and :mod:`pytdcr.statics.kernels.stiffness`'s
+    ``jacobian_range``, ``largest_residuals`` and ``tip_gradient_range``, or their twins in ``pytdcr._core``."""
+
+    solve_range: Callable[..., None]
+    jacobian_range: Callable[..., None]
+    largest_residuals: Callable[..., None]
+    tip_gradient_range: Callable[..., None]
+
+
+#: numba's kernels (:mod:`pytdcr.statics.kernels`, compiled at first use), for any packed model registered with
+#: the loading-path solver
+NUMBA_KERNELS = Kernels(SV.solve_range, jacobian_range, largest_residuals, tip_gradient_range)
+
+
 class Equations(Protocol):
     """The packed equations of one robot under its loads, for the compiled solver."""
 
     packed: Any
+    kernels: ClassVar[Kernels]
+
+    @property
+    def kernel_model(self) -> Any: ...
 
     @property
     def n_disks(self) -> int: ...
@@ -85,6 +109,13 @@ class PackedEquations:
 
     per_subsegment: int
     packed: Any
+    #: the compiled functions these equations are solved with (numba's unless a subclass names the core's)
+    kernels: ClassVar[Kernels] = NUMBA_KERNELS
+
+    @property
+    def kernel_model(self) -> Any:
+        """What :attr:`kernels` take as the model: the packed named tuple (numba's kernels)."""
+        return self.packed
 
     @property
     def n_disks(self) -> int:
@@ -166,7 +197,7 @@ def _solve_rows(eq: Equations, Q0: np.ndarray, T: np.ndarray, settings: SV.Setti
     out = _empty_out(T.shape[0], eq.n_unknowns)
 
     def chunk(start: int, stop: int) -> None:
-        SV.solve_range(Q0, eq.packed, eq.packed, T, T, settings, tols, start, stop, *out)
+        eq.kernels.solve_range(Q0, eq.kernel_model, eq.kernel_model, T, T, settings, tols, start, stop, *out)
 
     run_in_chunks(chunk, T.shape[0], threads, max_chunk=max_chunk)
     return out
@@ -179,7 +210,7 @@ def _check_in_balance(eq0: Equations, start: BatchSolution, rows: np.ndarray) ->
     q = np.ascontiguousarray(start.q.reshape(start.q.shape[0], -1), dtype=float)
     atol = start.atol if start.atol is not None else np.zeros(start.q.shape[0])
     res = np.empty(rows.size)
-    largest_residuals(q, eq0.packed, np.ascontiguousarray(start.tensions, dtype=float), rows, res)
+    eq0.kernels.largest_residuals(q, eq0.kernel_model, np.ascontiguousarray(start.tensions, dtype=float), rows, res)
     for b, r in zip(rows, res, strict=True):
         if not r <= SAME_EQUILIBRIUM * max(float(start.residual[b]), float(atol[b])):
             raise ValueError(f"start: row {b} is not an equilibrium of this robot under the loads it carries (max "
@@ -206,8 +237,8 @@ def _continue_rows(path: _Path, settings: SV.Settings, tols: np.ndarray, threads
     settings = settings._replace(stepping=STEP_CONTINUE)
 
     def chunk(start: int, stop: int) -> None:
-        SV.solve_range(path.Q0, path.start.packed, path.end.packed, path.T0, path.T1, settings, tols, start, stop,
-                       *out)
+        path.end.kernels.solve_range(path.Q0, path.start.kernel_model, path.end.kernel_model, path.T0, path.T1,
+                                     settings, tols, start, stop, *out)
 
     run_in_chunks(chunk, path.T1.shape[0], threads, max_chunk=max_chunk)
     return out
@@ -326,18 +357,18 @@ class CompiledModel:
         """The tangent stiffness K (m, m) [N m] at the equilibrium ``q`` of ``eq`` whose real eigenvalues the
         stability test reads (:mod:`pytdcr.statics.stability`): :meth:`tangent_stiffnesses` of one row."""
         out = np.empty((1, eq.n_unknowns, eq.n_unknowns))
-        self.tangent_stiffnesses(np.ascontiguousarray(q, dtype=float).reshape(1, -1), eq.packed,
+        self.tangent_stiffnesses(eq, np.ascontiguousarray(q, dtype=float).reshape(1, -1),
                                  np.ascontiguousarray(eq.packed.tension, dtype=float)[None, :], np.zeros(1, np.int64),
                                  0, 1, out)
         return out[0]
 
-    def tangent_stiffnesses(self, q: np.ndarray, packed: Any, tensions: np.ndarray, rows: np.ndarray, start: int,
+    def tangent_stiffnesses(self, eq: Equations, q: np.ndarray, tensions: np.ndarray, rows: np.ndarray, start: int,
                             stop: int, out: np.ndarray) -> None:
-        """For k in ``start <= k < stop``: the tangent stiffness at the equilibrium ``q[rows[k]]`` (B, m) of
-        ``packed`` at the tensions ``tensions[rows[k]]`` (B, nt) [N], into ``out[k - start]`` (compiled, the GIL
-        released). The PCC family's: the residual's exact Jacobian with each residual paired to the variable it
-        is conjugate to (:func:`pytdcr.statics.stability.conjugate_stiffness`)."""
-        jacobian_range(q, packed, tensions, rows, start, stop, out)
+        """For k in ``start <= k < stop``: the tangent stiffness at the equilibrium ``q[rows[k]]`` (B, m) of the
+        equations ``eq`` at the tensions ``tensions[rows[k]]`` (B, nt) [N], into ``out[k - start]`` (compiled, the
+        GIL released). The PCC family's: the residual's exact Jacobian with each residual paired to the variable
+        it is conjugate to (:func:`pytdcr.statics.stability.conjugate_stiffness`)."""
+        eq.kernels.jacobian_range(q, eq.kernel_model, tensions, rows, start, stop, out)
         out[: stop - start] = conjugate_stiffness(out[: stop - start])
 
     def stability_at(self, eq: Equations, q: np.ndarray) -> Stability | None:
@@ -430,7 +461,7 @@ class CompiledModel:
 
             def chunk(start: int, stop: int) -> None:
                 K = np.empty((stop - start, q.shape[1], q.shape[1]))
-                self.tangent_stiffnesses(q, eq.packed, T, rows, start, stop, K)
+                self.tangent_stiffnesses(eq, q, T, rows, start, stop, K)
                 for k, ev in enumerate(np.linalg.eigvals(K)):  # one LAPACK call a row, the GIL released
                     found[rows[start + k]] = stability_from_eigenvalues(ev)
 
@@ -461,7 +492,8 @@ class CompiledModel:
         eq = self.equations(robot, loads, options)
         q = eq.check_q(solution.q)
         out = np.full((1, 3, robot.n_tendons), np.nan)
-        tip_gradient_range(q[None, :], eq.packed, np.array([eq.packed.tension], dtype=float), 0, 1, out)
+        eq.kernels.tip_gradient_range(q[None, :], eq.kernel_model, np.array([eq.packed.tension], dtype=float), 0, 1,
+                                      out)
         return solution.tip_position, out[0]
 
     @announced("tip gradient")
@@ -477,6 +509,6 @@ class CompiledModel:
         if flat.shape[1] != eq.n_unknowns:
             raise ValueError(f"q must have {eq.n_unknowns} unknowns a row, got shape {np.shape(q)}")
         out = np.full((nb, 3, robot.n_tendons), np.nan)
-        run_in_chunks(lambda start, stop: tip_gradient_range(flat, eq.packed, tensions, start, stop, out), nb,
-                      threads)
+        run_in_chunks(lambda start, stop: eq.kernels.tip_gradient_range(flat, eq.kernel_model, tensions, start, stop,
+                                                                         out), nb, threads)
         return out

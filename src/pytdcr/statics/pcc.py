@@ -7,6 +7,13 @@ entry: it solves them (quasi-Newton with an exact Jacobian along the loading
 path, see :func:`pytdcr.statics.kernels.loading_path.solve_one`) for one tension vector
 or a batch, and differentiates an equilibrium's tip by the tensions.
 
+Both run in the compiled core, ``pytdcr._core`` (C++ built at install: ``src/cpp/pcc.hpp``,
+``loading_path.hpp``, ``stiffness.hpp``), the twin of the numba kernels of
+:mod:`pytdcr.statics.kernels.pcc` and :mod:`~pytdcr.statics.kernels.loading_path`
+(the same residual and Jacobian to the bit; the solver's dense factorisation is
+our own, so a solve agrees with numba's to round-off): nothing compiles at first
+use.
+
 Which equilibrium? A robot under large loads can have several. By default
 (``load_stepping="always"``) the solver follows the loading path: every load
 (tensions, gravity, external wrenches) is ramped from zero, where the straight
@@ -22,18 +29,24 @@ first.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
-from ..kinematics import subsegment_derivatives, tip_jacobian
+from .. import _core
+from ..kinematics import subsegment_derivatives
 from ..loads import Loads
 from ..robot import ConstantFriction, ExponentialFriction, NoFriction, Robot
 from .base import Capabilities
-from .compiled import CompiledModel, Evaluation, PackedEquations
+from .compiled import CompiledModel, Evaluation, Kernels, PackedEquations
 from .kernels import pcc as K
 from .options import SolverOptions
 
-__all__ = ["PCC", "PCCEquations", "PCCModel", "friction_params"]
+__all__ = ["CORE_KERNELS", "PCC", "PCCEquations", "PCCModel", "friction_params"]
+
+#: the compiled core's solver and stiffness kernels for the PCC family (``pytdcr._core``; C++ built at install)
+CORE_KERNELS = Kernels(_core.solve_range_pcc, _core.jacobian_range_pcc, _core.largest_residuals_pcc,
+                       _core.tip_gradient_range_pcc)
 
 
 def friction_params(robot: Robot, release: bool) -> np.ndarray:
@@ -71,6 +84,12 @@ class PCCEquations(PackedEquations):
     robot: Robot
     loads: Loads
     packed: K.Packed
+    kernels = CORE_KERNELS
+
+    @cached_property
+    def kernel_model(self) -> _core.PccModel:
+        """The packed equations as the compiled core takes them (a copy of :attr:`packed`, made once)."""
+        return _core.PccModel.from_packed(self.packed)
 
     @classmethod
     def build(cls, robot: Robot, loads: Loads, balance: int = K.BALANCE_BASE) -> PCCEquations:
@@ -110,14 +129,8 @@ class PCCEquations(PackedEquations):
 
     def evaluate(self, q: np.ndarray, load_factor: float = 1.0, jacobian: bool = False) -> Evaluation:
         """Residual, optionally the exact Jacobian, and the tendon tensions at ``q`` (3N,) or (N, 3)."""
-        q = self.check_q(q)
-        m = self.n_unknowns
-        r = np.empty(m)
-        J = np.empty((m, m)) if jacobian else np.empty((1, 1))
-        work = K.make_work(self.n_disks, self.packed.holes.shape[0])
-        K.evaluate(q, float(load_factor), self.packed, jacobian, r, J, work)
-        tensions = np.ascontiguousarray(work.T[1 : self.n_disks + 1].T)
-        return Evaluation(r, J if jacobian else None, tensions)
+        r, J, T = self.kernel_model.evaluate(self.check_q(q), float(load_factor), bool(jacobian))
+        return Evaluation(r, J, np.ascontiguousarray(T[1 : self.n_disks + 1].T))
 
     def residual(self, q: np.ndarray, load_factor: float = 1.0) -> np.ndarray:
         """Equilibrium residual [N m], shape (N, 3): row i in frame i-1.
@@ -141,15 +154,12 @@ class PCCEquations(PackedEquations):
 
     def shape(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, None]:
         """Disk positions (N+1, 3) [m] and rotations (N+1, 3, 3); the backbone is drawn from q's arcs."""
-        n = self.n_disks
-        pos = np.empty((n + 1, 3))
-        rot = np.empty((n + 1, 3, 3))
-        K.frames(np.ascontiguousarray(q, dtype=float).reshape(-1), self.packed.sub, pos, rot)
+        pos, rot = _core.frames(np.ascontiguousarray(q, dtype=float).reshape(-1), self.packed.sub)
         return pos, rot, None
 
     def tip_jacobian(self, q: np.ndarray) -> np.ndarray:
         """Exact derivative of the tip by the unknowns, shape (3, 3N) (:func:`pytdcr.kinematics.tip_jacobian`)."""
-        return tip_jacobian(self.check_q(q), self.packed.sub)
+        return self.kernel_model.tip_jacobian(self.check_q(q))
 
     def pose_jacobians(self, q: np.ndarray) -> np.ndarray:
         """Exact derivatives of every disk's pose by the unknowns, shape (N+1, 6, 3N): rows 0-2 the position

@@ -132,12 +132,12 @@ class SSCRModel(CompiledModel):
     #: measured: 400 disks 2.5 s
     seconds_per_cubed_unknown = 1.8e-10
 
-    def tangent_stiffnesses(self, q: np.ndarray, packed: SK.SSCRPacked, tensions: np.ndarray, rows: np.ndarray,
+    def tangent_stiffnesses(self, eq: SSCREquations, q: np.ndarray, tensions: np.ndarray, rows: np.ndarray,
                             start: int, stop: int, out: np.ndarray) -> None:
         """For k in ``start <= k < stop``: the tangent stiffness of the disks' poses (6N, 6N) [N m] at the
         equilibrium ``q[rows[k]]`` (B, 6N) at the tensions ``tensions[rows[k]]`` (B, nt) [N], into
         ``out[k - start]`` (:func:`pytdcr.statics.kernels.sscr.tangent_stiffness`; compiled, the GIL released)."""
-        SK.stiffness_range(q, packed, tensions, rows, start, stop, out)
+        SK.stiffness_range(q, eq.packed, tensions, rows, start, stop, out)
 
     def extra_words(self, robot: Robot, nq: int) -> float:
         """The sensitivities carried along the rod, (N + 2)(6 + n_tendons) x 6N, and the per-disk work."""
