@@ -5,9 +5,11 @@ namespace nb = nanobind;
 
 namespace pytdcr {
 void bind_kinematics(nb::module_& m);
+void bind_sscr(nb::module_& m);
 }  // namespace pytdcr
 
 NB_MODULE(_core, m) {
   m.doc() = "The compiled kernels of pytdcr, built ahead of time at install.";
   pytdcr::bind_kinematics(m);
+  pytdcr::bind_sscr(m);
 }
