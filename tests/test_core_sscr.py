@@ -102,9 +102,11 @@ def numba_evaluate(p: SK.SSCRPacked, q: np.ndarray, lam: float, want_jac: bool
 
 
 def assert_same_bits(got: np.ndarray, want: np.ndarray, what: str) -> None:
-    """Equal to the bit (NaN where NaN), with the largest difference in the message."""
+    """Equal to the bit (the sign of a zero included), with the largest difference in the message."""
+    got = np.ascontiguousarray(got, dtype=float)
+    want = np.ascontiguousarray(want, dtype=float)
     assert got.shape == want.shape, (what, got.shape, want.shape)
-    if not np.array_equal(got, want, equal_nan=True):
+    if not np.array_equal(got.view(np.int64), want.view(np.int64)):
         diff = np.nanmax(np.abs(got - want))
         pytest.fail(f"{what}: not bit-identical, max |diff| = {diff:.3e} (max |ref| = {np.nanmax(np.abs(want)):.3e})")
 

@@ -38,6 +38,7 @@
 // that result (tangent_stiffness) agrees to round-off, not to the bit.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <limits>
@@ -399,12 +400,13 @@ inline void rhs(const double* y, const double* kinv, bool ext, const double* fw,
 }
 
 // Tangent of rhs along each column of Y (18, nc), row-major; dy and uv from rhs at y; into dY (18, nc).
-inline void rhs_tangent(const double* y, const double* Y, int nc, const double* kinv, bool ext, const double* dy,
+template <int nc>
+inline void rhs_tangent(const double* y, const double* Y, const double* kinv, bool ext, const double* dy,
                         const double* uv, double* dY) {
   const double u0 = uv[0], u1 = uv[1], u2 = uv[2], v0 = uv[3], v1 = uv[4], v2 = uv[5];
   const double n0 = y[12], n1 = y[13], n2 = y[14];
   const double m0 = y[15], m1 = y[16], m2 = y[17];
-  auto Yv = [Y, nc](int a, int c) { return Y[a * nc + c]; };
+  auto Yv = [Y](int a, int c) { return Y[a * nc + c]; };
   for (int c = 0; c < nc; ++c) {
     const double dn0 = Yv(12, c), dn1 = Yv(13, c), dn2 = Yv(14, c);
     const double dm0 = Yv(15, c), dm1 = Yv(16, c), dm2 = Yv(17, c);
@@ -438,7 +440,8 @@ inline void rhs_tangent(const double* y, const double* Y, int nc, const double* 
 
 // R <- R (3 I - R^T R) / 2 (one Newton-Schulz step back onto SO(3)) on the rotation of y (18,), with its tangent
 // along the columns of Y (18, nc) when tangent.
-inline void reorthonormalize(double* y, double* Y, int nc, bool tangent) {
+template <int nc>
+inline void reorthonormalize(double* y, double* Y, bool tangent) {
   double R[3][3], S[3][3];
   for (int a = 0; a < 3; ++a)
     for (int b = 0; b < 3; ++b) R[a][b] = y[3 + 3 * a + b];
@@ -469,22 +472,20 @@ inline void reorthonormalize(double* y, double* Y, int nc, bool tangent) {
     for (int b = 0; b < 3; ++b) y[3 + 3 * a + b] = 0.5 * (R[a][0] * S[0][b] + R[a][1] * S[1][b] + R[a][2] * S[2][b]);
 }
 
-//: the most tangent directions integrate carries (the start rotation, force and moment)
-inline constexpr int kMaxCols = 9;
-
 // Integrate one subsegment of length ell [m] from the state y (18,), in place, nsub classical Runge-Kutta steps.
-// With tangent, Y (18, nc <= 9) is carried along (forward mode of the discrete scheme). The points after each
+// With tangent, Y (18, nc) is carried along (forward mode of the discrete scheme). The points after each
 // step are written to curve (rows, 3) from row ic while rows remain; returns the next free row.
+template <int nc>
 inline std::size_t integrate(double* y, double ell, long nsub, const double* kinv, bool ext, const double* fw,
-                             bool tangent, double* Y, int nc, double* curve, std::size_t rows, std::size_t ic) {
+                             bool tangent, double* Y, double* curve, std::size_t rows, std::size_t ic) {
   const double h = ell / static_cast<double>(nsub);
   double k[4][18], yt[18], uv[6];
-  double K[4][18 * kMaxCols], Yt[18 * kMaxCols];
+  double K[4][18 * nc], Yt[18 * nc];
   for (long step = 0; step < nsub; ++step) {
     for (int st = 0; st < 4; ++st) {
       const double* src = st == 0 ? y : yt;
       rhs(src, kinv, ext, fw, k[st], uv);
-      if (tangent) rhs_tangent(src, st == 0 ? Y : Yt, nc, kinv, ext, k[st], uv, K[st]);
+      if (tangent) rhs_tangent<nc>(src, st == 0 ? Y : Yt, kinv, ext, k[st], uv, K[st]);
       if (st < 3) {
         const double c = st == 2 ? h : 0.5 * h;
         for (int a = 0; a < 18; ++a) yt[a] = y[a] + c * k[st][a];
@@ -500,7 +501,7 @@ inline std::size_t integrate(double* y, double ell, long nsub, const double* kin
           const int ab = a * nc + b;
           Y[ab] += h / 6.0 * (K[0][ab] + 2.0 * K[1][ab] + 2.0 * K[2][ab] + K[3][ab]);
         }
-    reorthonormalize(y, Y, nc, tangent);
+    reorthonormalize<nc>(y, Y, tangent);
     if (ic < rows) {
       curve[3 * ic] = y[0];
       curve[3 * ic + 1] = y[1];
@@ -622,7 +623,7 @@ inline void chain(const double* q, double lam, const SscrModel& model, const dou
       }
     }
     stiffness_inverse(model, rod, i - 1, kinv);
-    integrate(y, model.sub[5 * (i - 1)], nsub, kinv, ext, fw, want_jac, Y, 9, nullptr, 0, 0);
+    integrate<9>(y, model.sub[5 * (i - 1)], nsub, kinv, ext, fw, want_jac, Y, nullptr, 0, 0);
     for (int a = 0; a < 3; ++a) {
       pos[3 * i + a] = y[a];
       work.wend[6 * i + a] = y[12 + a];
@@ -683,6 +684,13 @@ inline void sensitivities(const SscrModel& model, SscrWork& work) {
       }
     }
   }
+}
+
+// True when the n numbers at x are all finite.
+inline bool all_finite(const double* x, std::size_t n) {
+  for (std::size_t j = 0; j < n; ++j)
+    if (!std::isfinite(x[j])) return false;
+  return true;
 }
 
 inline void cross_into(double a0, double a1, double a2, double b0, double b1, double b2, double* out) {
@@ -823,12 +831,20 @@ inline void tendons(double lam, const SscrModel& model, bool want_jac, SscrWork&
           const double* Sp = S + (i - 1) * 6 * m;
           const double* Si = S + i * 6 * m;
           const double* Sn = S + (i + 1) * 6 * m;
-          for (std::size_t j = 0; j < m; ++j) {
-            double acc = rho * dTi[j];
-            for (std::size_t L = 0; L < 6; ++L)
-              acc += Ti * (dr[L] * Sp[L * m + j] + dr[6 + L] * Si[L * m + j] + dr[12 + L] * Sn[L * m + j]);
-            dTn[j] = acc;
+          // per j: acc = rho dT_i[j], then acc += T_i (...) for L = 0..5, in numba's order; the loops swapped
+          // (L outside) so that the compiler vectorizes over j. Columns j >= 6(i+1) of S_{i-1}, S_i, S_{i+1} and
+          // dT_i are exact +0, so there numba's sum is +0 whenever these factors are finite: written directly.
+          const std::size_t jmax = all_finite(dr, kLanes) && std::isfinite(rho) && std::isfinite(Ti)
+                                       ? std::min(m, 6 * (i + 1)) : m;
+          for (std::size_t j = 0; j < jmax; ++j) dTn[j] = rho * dTi[j];
+          for (std::size_t L = 0; L < 6; ++L) {
+            const double a0 = dr[L], a1 = dr[6 + L], a2 = dr[12 + L];
+            const double* s0 = Sp + L * m;
+            const double* s1 = Si + L * m;
+            const double* s2 = Sn + L * m;
+            for (std::size_t j = 0; j < jmax; ++j) dTn[j] += Ti * (a0 * s0[j] + a1 * s1[j] + a2 * s2[j]);
           }
+          for (std::size_t j = jmax; j < m; ++j) dTn[j] = 0.0;
         }
       }
     }
@@ -988,18 +1004,33 @@ inline void evaluate_rod(const double* q, double lam, const SscrModel& model, co
     const double* Si = S + i * 6 * m;
     const double* Sn = S + (i + 1) * 6 * m;
     const double* Ei = E + i * 6 * m;
-    for (std::size_t a = 0; a < 6; ++a)
-      for (std::size_t j = 0; j < m; ++j) {
-        double acc = Ei[a * m + j] - dD[a * m + j];
-        for (std::size_t L = 0; L < 6; ++L)
-          acc -= A[a][L] * Sp[L * m + j] + A[a][6 + L] * Si[L * m + j] + A[a][12 + L] * Sn[L * m + j];
-        G[a * m + j] = acc;
+    // Columns j >= 6(i+1) of E_i, dD, S_{i-1}, S_i and S_{i+1} are exact +0, so there G is +0 and J's row a is
+    // scale (R_i[0,a] 0 + R_i[1,a] 0 + R_i[2,a] 0) (a signed zero) whenever A, u and R_i are finite: written
+    // directly.
+    const std::size_t jmax = all_finite(&A[0][0], 6 * kLanes) && all_finite(u, 6) && all_finite(Ri, 9)
+                                 ? std::min(m, 6 * (i + 1)) : m;
+    // per (a, j): acc = E - dD, then acc -= (...) for L = 0..5, in numba's order; the loops swapped (L outside j)
+    // so that the compiler vectorizes over j
+    for (std::size_t a = 0; a < 6; ++a) {
+      double* Ga = G + a * m;
+      for (std::size_t j = 0; j < jmax; ++j) Ga[j] = Ei[a * m + j] - dD[a * m + j];
+      for (std::size_t L = 0; L < 6; ++L) {
+        const double a0 = A[a][L], a1 = A[a][6 + L], a2 = A[a][12 + L];
+        const double* s0 = Sp + L * m;
+        const double* s1 = Si + L * m;
+        const double* s2 = Sn + L * m;
+        for (std::size_t j = 0; j < jmax; ++j) Ga[j] -= a0 * s0[j] + a1 * s1[j] + a2 * s2[j];
       }
+    }
     for (int h = 0; h < 2; ++h) {
       const int o = 3 * h;
       const double u0 = u[o], u1 = u[o + 1], u2 = u[o + 2];
       const double scale = h == 0 ? ell : 1.0;
-      for (std::size_t j = 0; j < m; ++j) {
+      for (int a = 0; a < 3; ++a) {
+        const double zero = scale * (Ri[a] * 0.0 + Ri[3 + a] * 0.0 + Ri[6 + a] * 0.0);
+        for (std::size_t j = jmax; j < m; ++j) J[(k + o + a) * m + j] = zero;
+      }
+      for (std::size_t j = 0; j < jmax; ++j) {
         const double t0 = Si[3 * m + j], t1 = Si[4 * m + j], t2 = Si[5 * m + j];
         const double g0 = G[o * m + j] + u1 * t2 - u2 * t1;
         const double g1 = G[(o + 1) * m + j] + u2 * t0 - u0 * t2;
@@ -1078,7 +1109,7 @@ inline void record_shape(const double* q, const SscrModel& model, double* pos, d
   for (std::size_t i = 1; i <= n; ++i) {
     start_state(q, model, i, work.pos.data(), work.rot.data(), y);
     stiffness_inverse(model, rod, i - 1, kinv);
-    ic = integrate(y, model.sub[5 * (i - 1)], nsub, kinv, ext, fw, false, Y, 1, curve, rows, ic);
+    ic = integrate<1>(y, model.sub[5 * (i - 1)], nsub, kinv, ext, fw, false, Y, curve, rows, ic);
   }
   for (std::size_t j = 0; j < (n + 1) * 3; ++j) pos[j] = work.pos[j];
   for (std::size_t j = 0; j < (n + 1) * 9; ++j) rot[j] = work.rot[j];
