@@ -455,7 +455,8 @@ inline void reorthonormalize(double* y, double* Y, bool tangent) {
       for (int e = 0; e < 3; ++e)
         for (int b = 0; b < 3; ++b) {
           double acc = 0.0;
-          for (int f = 0; f < 3; ++f) acc -= Y[(3 + 3 * f + e) * nc + c] * R[f][b] + R[f][e] * Y[(3 + 3 * f + b) * nc + c];
+          for (int f = 0; f < 3; ++f)
+            acc -= Y[(3 + 3 * f + e) * nc + c] * R[f][b] + R[f][e] * Y[(3 + 3 * f + b) * nc + c];
           dS[e][b] = acc;
         }
       for (int a = 0; a < 3; ++a)
@@ -664,15 +665,21 @@ inline void sensitivities(const SscrModel& model, SscrWork& work) {
     double* Si = S + i * 6 * m;
     double* Ei = E + i * 6 * m;
     for (std::size_t a = 0; a < 6; ++a) {
+      // per j < k: acc = 0, then acc += P[a, b] S_{i-1}[b, j] for b = 0..5, in numba's order; the loops swapped
+      // (b outside) so that the compiler vectorizes over j
+      double* Sa = Si + a * m;
+      double* Ea = Ei + a * m;
       for (std::size_t j = 0; j < k; ++j) {
-        double accS = 0.0;
-        double accE = 0.0;
-        for (std::size_t b = 0; b < 6; ++b) {
-          accS += P[12 * a + b] * Sp[b * m + j];
-          accE += P[12 * (6 + a) + b] * Sp[b * m + j];
+        Sa[j] = 0.0;
+        Ea[j] = 0.0;
+      }
+      for (std::size_t b = 0; b < 6; ++b) {
+        const double ps = P[12 * a + b], pe = P[12 * (6 + a) + b];
+        const double* Sb = Sp + b * m;
+        for (std::size_t j = 0; j < k; ++j) {
+          Sa[j] += ps * Sb[j];
+          Ea[j] += pe * Sb[j];
         }
-        Si[a * m + j] = accS;
-        Ei[a * m + j] = accE;
       }
       for (std::size_t j = 0; j < 6; ++j) {
         Si[a * m + k + j] = P[12 * a + 6 + j];
@@ -1130,7 +1137,8 @@ inline void wrenches_from_poses(const double* pos, const double* rot, const Sscr
     for (int a = 0; a < 3; ++a) {
       for (int b = 0; b < 3; ++b)
         work.Rrel[9 * i + 3 * a + b] = Rp[a] * Ri[b] + Rp[3 + a] * Ri[3 + b] + Rp[6 + a] * Ri[6 + b];
-      work.drel[3 * i + a] = Rp[a] * (pos[3 * i] - pos[3 * (i - 1)]) + Rp[3 + a] * (pos[3 * i + 1] - pos[3 * (i - 1) + 1]) +
+      work.drel[3 * i + a] = Rp[a] * (pos[3 * i] - pos[3 * (i - 1)]) +
+                             Rp[3 + a] * (pos[3 * i + 1] - pos[3 * (i - 1) + 1]) +
                              Rp[6 + a] * (pos[3 * i + 2] - pos[3 * (i - 1) + 2]);
     }
   }
