@@ -95,11 +95,12 @@ def main() -> None:
         result["cases"][name] = case
         rows.append((name, case))
 
-    print(f"sscr evaluate, paper robot ({m} unknowns), median of {args.runs} x {args.repeats} calls [ms per call]")
-    print(f"{'':10s} {'C++ (in C++)':>13s} {'C++ (Python)':>13s} {'numba':>10s} {'numba / C++':>12s}")
+    print(f"sscr evaluate, paper robot ({m} unknowns), {args.runs} samples of {args.repeats} calls: median (min) "
+          f"[ms per call]")
+    print(f"{'':10s} {'C++ (in C++)':>19s} {'C++ (Python)':>19s} {'numba':>19s} {'numba / C++':>12s}")
     for name, case in rows:
-        print(f"{name:10s} {1e3 * case['cpp']['median']:13.4f} {1e3 * case['cpp_python']['median']:13.4f} "
-              f"{1e3 * case['numba']['median']:10.4f} {case['numba_over_cpp']:12.2f}")
+        cells = [f"{1e3 * case[k]['median']:.4f} ({1e3 * case[k]['min']:.4f})" for k in ("cpp", "cpp_python", "numba")]
+        print(f"{name:10s} {cells[0]:>19s} {cells[1]:>19s} {cells[2]:>19s} {case['numba_over_cpp']:12.2f}")
     print(f"bit-identical at this point: {result['bit_identical']}")
     write_result("core_sscr", result, args.json, args.out)
 
