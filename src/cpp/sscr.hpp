@@ -86,11 +86,12 @@ struct SscrWork {
   std::vector<double> dD;    // (6, m) scratch: derivative of one disk's load
   std::vector<double> G;     // (6, m) scratch of evaluate: d u / d x of one disk
   // scratch of tangent_stiffness (sized on its first use; not evaluate's)
-  std::vector<double> ts_r, ts_J, ts_B, ts_P, ts_K;
+  std::vector<double> ts_r, ts_J, ts_B, ts_P;
   std::vector<std::size_t> ts_piv;
 };
 
-inline SscrWork make_work(std::size_t n, std::size_t nt) {
+// Scratch for N = n disks and nt tendons (a name of its own: pcc.hpp's make_work(n, nt) makes a PccWork).
+inline SscrWork make_sscr_work(std::size_t n, std::size_t nt) {
   const std::size_t m = 6 * n;
   SscrWork w;
   w.n_disks = n;
@@ -118,7 +119,7 @@ inline SscrWork make_work(std::size_t n, std::size_t nt) {
 }
 
 // Scratch arrays for model (make_model_work).
-inline SscrWork make_work(const SscrModel& model) { return make_work(model.n_disks, model.n_tendons); }
+inline SscrWork make_work(const SscrModel& model) { return make_sscr_work(model.n_disks, model.n_tendons); }
 
 // out = model with other actuator tensions (nt,) [N] (out may be model itself).
 inline void with_tension(const SscrModel& model, const double* tension, SscrModel& out) {
