@@ -3,9 +3,10 @@ kernel it twins (:mod:`pytdcr.statics.kernels.sscr`): the same operations in the
 
 Bit-identical: the residual, its Jacobian, the tensions, the tip and pose Jacobians, the shape, the wrenches from
 poses, ``largest_angle``, ``with_tension`` and ``blend``. Numba's ``@`` on 3x3 matrices calls BLAS, whose FMA
-accumulation the C++ reproduces with ``std::fma`` (sscr.hpp, ``blas_dot3``). Only the tangent stiffness differs
-in the last bits: numba solves with LAPACK (``np.linalg.solve``), the C++ with its own LU (both to round-off
-times the condition of the pose sensitivities).
+accumulation the C++ reproduces with ``std::fma`` (sscr.hpp, ``blas_dot3``); where BLAS rounds otherwise (a CPU
+without FMA), the derivatives are checked to round-off instead (:func:`blas_rounds_as_the_core`). The tangent
+stiffness differs in the last bits everywhere: numba solves with LAPACK (``np.linalg.solve``), the C++ with its own
+LU (both to round-off times the condition of the pose sensitivities).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from __future__ import annotations
 import threading
 import zlib
 from dataclasses import dataclass
+from fractions import Fraction
 from functools import cache
 
 import numpy as np
@@ -112,6 +114,34 @@ def assert_same_bits(got: np.ndarray, want: np.ndarray, what: str) -> None:
         pytest.fail(f"{what}: not bit-identical, max |diff| = {diff:.3e} (max |ref| = {np.nanmax(np.abs(want)):.3e})")
 
 
+@cache
+def blas_rounds_as_the_core() -> bool:
+    """Whether numba's 3x3 ``@`` (BLAS dgemm) rounds as sscr.hpp's ``blas_dot3``: a0 b0, then two fused
+    multiply-adds (OpenBLAS on x86-64 with FMA). Exact sums of rationals give the correctly rounded fma."""
+    from numba import njit
+
+    def fma(x: float, y: float, z: float) -> float:
+        return float(Fraction(x) * Fraction(y) + Fraction(z))
+
+    product = njit(lambda a, b: a @ b.T)
+    rng = np.random.default_rng(5)
+    for _ in range(10):
+        a, b = rng.normal(size=(2, 3, 3))
+        want = [[fma(a[i, 2], b[j, 2], fma(a[i, 1], b[j, 1], a[i, 0] * b[j, 0])) for j in range(3)] for i in range(3)]
+        if not np.array_equal(product(a, b), np.array(want)):
+            return False
+    return True
+
+
+def assert_jacobian_twin(got: np.ndarray, want: np.ndarray, what: str) -> None:
+    """A derivative (it goes through numba's 3x3 ``@``): to the bit where BLAS rounds as the core's ``blas_dot3``
+    (this project's machines); elsewhere to round-off, max |diff| <= 1e-12 max(1, max |ref|)."""
+    if blas_rounds_as_the_core():
+        assert_same_bits(got, want, what)
+    else:
+        assert np.abs(got - want).max() <= 1e-12 * max(1.0, np.abs(want).max()), what
+
+
 # --------------------------------------------------------------------------------------------- bit-identical
 @pytest.mark.parametrize("case", CASES, ids=lambda c: c.name)
 def test_residual_jacobian_and_tensions_are_the_numba_kernels_to_the_bit(case: Case) -> None:
@@ -124,7 +154,7 @@ def test_residual_jacobian_and_tensions_are_the_numba_kernels_to_the_bit(case: C
             where = f"{case.name}, {kind} q, lam {lam}"
             assert np.all(np.isfinite(r)), where
             assert_same_bits(rc, r, f"residual ({where})")
-            assert_same_bits(Jc, J, f"Jacobian ({where})")
+            assert_jacobian_twin(Jc, J, f"Jacobian ({where})")
             assert_same_bits(Tc, work.T, f"tensions ({where})")
             # without the Jacobian: the same residual and tensions, no Jacobian
             rc0, Jc0, Tc0 = model.evaluate(q, lam)
@@ -149,7 +179,10 @@ def test_a_crushed_rod_gives_the_numba_kernels_nans() -> None:
         rc, Jc, Tc = model.evaluate(q, lam, True)
         assert np.isnan(r).any() and np.isnan(J).any() and np.isfinite(r[:6 * 11]).all()
         assert_same_bits(rc, r, "crushed residual")
-        assert_same_bits(Jc, J, "crushed Jacobian")
+        if blas_rounds_as_the_core():
+            assert_same_bits(Jc, J, "crushed Jacobian")
+        else:
+            np.testing.assert_array_equal(np.isnan(Jc), np.isnan(J))
         assert_same_bits(Tc, work.T, "crushed tensions")
 
 
@@ -160,12 +193,12 @@ def test_tip_and_pose_jacobians_are_the_numba_kernels_to_the_bit(case: Case) -> 
     n = eq.n_disks
     for kind, q in states(case).items():
         S = model.pose_jacobians(q)
-        assert_same_bits(S, eq.pose_jacobians(q), f"pose Jacobians ({case.name}, {kind})")
-        assert_same_bits(model.tip_jacobian(q), eq.tip_jacobian(q), f"tip Jacobian ({case.name}, {kind})")
+        assert_jacobian_twin(S, eq.pose_jacobians(q), f"pose Jacobians ({case.name}, {kind})")
+        assert_jacobian_twin(model.tip_jacobian(q), eq.tip_jacobian(q), f"tip Jacobian ({case.name}, {kind})")
         assert S.shape == (n + 1, 6, 6 * n) and not S[0].any()  # the base does not move
         # the kernel's tip_jacobian_of reads the work of the last evaluation with the Jacobian
         _, _, work = numba_evaluate(eq.packed, q, 1.0, True)
-        assert_same_bits(model.tip_jacobian(q), SK.tip_jacobian_of(q, eq.packed, work), "tip_jacobian_of")
+        assert_jacobian_twin(model.tip_jacobian(q), SK.tip_jacobian_of(q, eq.packed, work), "tip_jacobian_of")
 
 
 @pytest.mark.parametrize("case", [CASES[0], CASES[2], CASES[5]], ids=lambda c: c.name)
@@ -212,7 +245,7 @@ def test_with_tension_and_blend_are_the_numba_kernels_to_the_bit() -> None:
     r, J, work = numba_evaluate(pt, q, 1.0, True)
     rc, Jc, Tc = mt.evaluate(q, 1.0, True)
     assert_same_bits(rc, r, "residual with other tensions")
-    assert_same_bits(Jc, J, "Jacobian with other tensions")
+    assert_jacobian_twin(Jc, J, "Jacobian with other tensions")
     assert_same_bits(Tc, work.T, "tensions with other tensions")
     np.testing.assert_array_equal(a.tension, pa.tension)  # a itself unchanged
     for s in (0.0, 0.37, 1.0):
@@ -222,7 +255,7 @@ def test_with_tension_and_blend_are_the_numba_kernels_to_the_bit() -> None:
         r, J, _ = numba_evaluate(pn, q, 0.4, True)
         rc, Jc, _ = mc.evaluate(q, 0.4, True)
         assert_same_bits(rc, r, f"blended residual, s = {s}")
-        assert_same_bits(Jc, J, f"blended Jacobian, s = {s}")
+        assert_jacobian_twin(Jc, J, f"blended Jacobian, s = {s}")
     # exactly a at s = 0 and b at s = 1
     for s, end in ((0.0, a), (1.0, b)):
         assert_same_bits(a.blend(b, s).evaluate(q, 1.0)[0], end.evaluate(q, 1.0)[0], f"blend at s = {s}")
