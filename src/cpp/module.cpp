@@ -6,6 +6,7 @@ namespace nb = nanobind;
 namespace pytdcr {
 void bind_kinematics(nb::module_& m);
 void bind_pcc(nb::module_& m);
+void bind_sscr(nb::module_& m);
 void bind_loading_path(nb::module_& m);
 void bind_stiffness(nb::module_& m);
 }  // namespace pytdcr
@@ -14,6 +15,7 @@ NB_MODULE(_core, m) {
   m.doc() = "The compiled kernels of pytdcr, built ahead of time at install.";
   pytdcr::bind_kinematics(m);
   pytdcr::bind_pcc(m);
+  pytdcr::bind_sscr(m);
   pytdcr::bind_loading_path(m);
   pytdcr::bind_stiffness(m);
 }
