@@ -46,3 +46,17 @@ def test_the_frames_chain_is_the_numba_kernels_to_the_bit() -> None:
 def test_the_frames_chain_refuses_mismatched_shapes() -> None:
     with pytest.raises(ValueError, match=r"q must be \(3N,\) and sub \(N, 5\)"):
         _core.frames(np.zeros(5), np.zeros((2, 5)))
+
+
+def test_the_subsegment_derivatives_are_the_numba_kernels_to_round_off() -> None:
+    """Within 2 ulp of the unit entries: numba multiplies the 3 x 3 matrices of E = I + A K + B K^2 and its
+    derivatives through its own matrix product, whose sums are ordered otherwise than the C++ loops."""
+    from pytdcr.kinematics import subsegment_derivatives
+
+    rng = np.random.default_rng(9)
+    dR, dd = np.empty((3, 3, 3)), np.empty((3, 3))
+    for beta, gamma, eps, length in _cases(rng, 200):
+        subsegment_derivatives(beta, gamma, eps, length, dR, dd)
+        dRc, ddc = _core.subsegment_derivatives(beta, gamma, eps, length)
+        np.testing.assert_allclose(dRc, dR, rtol=0, atol=2.3e-16)  # entries of R and its derivatives are <= 1
+        np.testing.assert_allclose(ddc, dd, rtol=0, atol=2.3e-16 * max(1.0, float(np.max(np.abs(dd)))))

@@ -270,6 +270,15 @@ def _compile_profile(d: dict, view: str | None) -> str:
                    "total s"], rows)
 
 
+def _first_use(d: dict, view: str | None) -> str:
+    rows = [["install into a new environment (`pip install`, packages from pip's cache)", _num(d["install_s"]),
+             NA]] if "install_s" in d else []
+    for name, c in d["calls"].items():
+        said = "; ".join(c["compile_notices"]) or "nothing"
+        rows.append([name, _num(c["seconds"]) if c["ok"] else "failed", said])
+    return _table(["first use (a fresh process, an empty cache)", "s", "said on stderr"], rows)
+
+
 def _generic(d: dict, view: str | None) -> str:
     """A file holding its own table: ``{"table": {"columns": [...], "rows": [[...], ...]}}`` (or under ``view``)."""
     t = d["tables"][view] if view else d["table"]
@@ -281,6 +290,7 @@ RENDERERS: dict[str, Callable[[dict, str | None], str]] = {
     "batch_derivatives": _batch_derivatives, "batch_derivatives_sscr": _batch_derivatives, "inverse": _inverse,
     "cosserat": _cosserat, "volume": _volume,
     "workspace": _workspace, "designs": _designs, "accuracy": _accuracy, "compile_profile": _compile_profile,
+    "first_use": _first_use,
 }
 """File name (without ``.json``) -> its renderer; a file not listed must hold a ``table`` (or ``tables``)."""
 

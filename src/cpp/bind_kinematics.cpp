@@ -1,4 +1,4 @@
-// Python bindings of kinematics.hpp (pytdcr._core.subsegment, pytdcr._core.frames).
+// Python bindings of kinematics.hpp (pytdcr._core.subsegment, subsegment_derivatives, frames).
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/tuple.h>
@@ -33,6 +33,16 @@ void bind_kinematics(nb::module_& m) {
       nb::arg("beta"), nb::arg("gamma"), nb::arg("eps"), nb::arg("length"),
       "The rotation (3, 3) and translation (3,) [m] of frame i in frame i-1 and the backbone piece's centroid (3,)\n"
       "[m] of one subsegment of bending (beta, gamma) [1/m], twist eps [rad] and length [m].");
+  m.def(
+      "subsegment_derivatives",
+      [](double beta, double gamma, double eps, double length) {
+        Array dR = new_array({3, 3, 3}), dd = new_array({3, 3});
+        subsegment_derivatives(beta, gamma, eps, length, dR.data(), dd.data());
+        return nb::make_tuple(dR, dd);
+      },
+      nb::arg("beta"), nb::arg("gamma"), nb::arg("eps"), nb::arg("length"),
+      "The derivatives of one subsegment's transform by (beta [1/m], gamma [1/m], eps [rad]), in closed form:\n"
+      "dR (3, 3, 3), dR[a] = dR/dq_a, and dd (3, 3), dd[a] = dd/dq_a [m per unit of q_a].");
   m.def(
       "frames",
       [](In q, In sub) {

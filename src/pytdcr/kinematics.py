@@ -4,12 +4,20 @@ Frame naming: ``R`` and ``d`` of subsegment i give frame i in frame i-1
 (``x_{i-1} = R x_i + d``). ``frames`` chains them into base-frame poses.
 Everything is written through (beta, gamma) and functions of theta^2, so it is
 smooth and exact at zero curvature (no division by the curvature).
+
+The compiled functions here (``subsegment``, ``frames``, ``subsegment_derivatives``,
+``tip_jacobian``) are the numba kernels' building blocks; the Python functions
+(:func:`subsegment_transform`, :func:`forward_kinematics`, :func:`backbone_curve`)
+call their twins in the compiled core (``pytdcr._core``, ``src/cpp/kinematics.hpp``:
+the same bits), so that they compile nothing at first use.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ._core import frames as _core_frames
+from ._core import subsegment as _core_subsegment
 from .runtime import njit
 
 __all__ = ["backbone_curve", "forward_kinematics", "frames", "subsegment", "subsegment_derivatives",
@@ -106,10 +114,7 @@ def subsegment_transform(beta: float, gamma: float, eps: float, length: float) -
     length : float
         Arc length [m].
     """
-    R = np.empty((3, 3))
-    d = np.empty(3)
-    pg = np.empty(3)
-    subsegment(float(beta), float(gamma), float(eps), float(length), R, d, pg)
+    R, d, _ = _core_subsegment(float(beta), float(gamma), float(eps), float(length))
     return R, d
 
 
@@ -243,22 +248,16 @@ def forward_kinematics(q: np.ndarray, lengths: np.ndarray) -> tuple[np.ndarray, 
         raise ValueError(f"q must have shape ({n}, 3), got {q.size} values")
     sub = np.zeros((n, 5))
     sub[:, 0] = lengths
-    pos = np.empty((n + 1, 3))
-    rot = np.empty((n + 1, 3, 3))
-    frames(q, sub, pos, rot)
-    return pos, rot
+    return _core_frames(q, sub)
 
 
 def backbone_curve(q: np.ndarray, lengths: np.ndarray, points_per_subsegment: int = 8) -> np.ndarray:
     """Points along the backbone's arcs, shape (N * points_per_subsegment + 1, 3) [m]."""
     pos, rot = forward_kinematics(q, lengths)
     q = np.asarray(q, dtype=float).reshape(-1, 3)
-    R = np.empty((3, 3))
-    d = np.empty(3)
-    pg = np.empty(3)
     pts = [pos[0]]
     for i, ell in enumerate(np.asarray(lengths, dtype=float)):
         for s in np.linspace(0.0, ell, points_per_subsegment + 1)[1:]:
-            subsegment(q[i, 0], q[i, 1], 0.0, s, R, d, pg)
+            d = _core_subsegment(float(q[i, 0]), float(q[i, 1]), 0.0, float(s))[1]
             pts.append(pos[i] + rot[i] @ d)
     return np.array(pts)

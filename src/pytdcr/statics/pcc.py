@@ -34,7 +34,6 @@ from functools import cached_property
 import numpy as np
 
 from .. import _core
-from ..kinematics import subsegment_derivatives
 from ..loads import Loads
 from ..robot import ConstantFriction, ExponentialFriction, NoFriction, Robot
 from .base import Capabilities
@@ -172,11 +171,9 @@ class PCCEquations(PackedEquations):
         n = self.n_disks
         pos, rot, _ = self.shape(q)
         out = np.zeros((n + 1, 6, 3 * n))
-        dR = np.empty((3, 3, 3))
-        dd = np.empty((3, 3))
         for i in range(1, n + 1):
             k = 3 * (i - 1)
-            subsegment_derivatives(q[k], q[k + 1], q[k + 2], self.packed.sub[i - 1, 0], dR, dd)
+            dR, dd = _core.subsegment_derivatives(q[k], q[k + 1], q[k + 2], self.packed.sub[i - 1, 0])
             P = rot[i - 1]
             local = P.T @ rot[i]  # the subsegment's own rotation
             x = (pos[i:] - pos[i]) @ rot[i]  # disks i..N in frame i, (N+1-i, 3)
