@@ -18,7 +18,7 @@ MODULES = sorted(p for p in SRC.rglob("*.py"))
 #: layers, lowest first: a module may import only from its own layer or lower ones
 LAYERS = [
     {"__init__", "_version"},  # the top-level package re-exports; checked apart below
-    {"validate", "limits", "runtime", "records"},  # shared: numbers, files, result records, memory, threads
+    {"validate", "limits", "runtime", "records", "_core"},  # shared: numbers, files, records, threads; compiled core
     {"robot", "loads", "bounds", "paper", "kinematics", "contact", "results", "io"},
     {"statics"},
     {"workspace", "optimize", "compare", "accuracy", "calibrate"},
