@@ -35,8 +35,8 @@
 //
 // Where the numba kernel multiplies small matrices with '@', numba calls BLAS: blas_dot3 reproduces its FMA
 // accumulation. Where it solves with np.linalg.solve (LAPACK), this file uses linalg.hpp's LU with partial
-// pivoting: that result (tangent_stiffness) agrees to round-off, not to the bit. The tendon loads are pcc.hpp's
-// kernel (tendon_unit_load_jvp), the PCC model's to the bit.
+// pivoting: that result (tangent_stiffness) agrees to round-off, not to the bit. The tendon loads are a copy of
+// pcc.hpp's kernel (sscr_detail::tendon_unit_load_jvp: why, there).
 #pragma once
 
 #include <algorithm>
@@ -48,7 +48,6 @@
 #include <vector>
 
 #include "linalg.hpp"
-#include "pcc.hpp"
 
 namespace pytdcr {
 
@@ -180,24 +179,191 @@ inline double largest_angle(const double* dq, const SscrModel& model) {
 namespace sscr_detail {
 
 // ------------------------------------------------------------------------ the PCC tendon kernel (pcc.py's)
-// Load of one tendon of unit tension on disk i, in frame i-1, and its derivatives along nl <= kLanes lanes:
-// pcc.hpp's tendon_unit_load_jvp (R, d: the transform of subsegment i; hn: the next hole in frame i; (px, py) the
-// hole [m]; out (7,): force, moment about the origin of frame i-1, tension ratio), with dout (7, kLanes) row-major.
-// pcc's kernel writes 6 lanes a row (dout[6 u + a]) and computes each lane on its own from the same primal, so the
-// lanes are run six at a time and copied into place: the same operations as numba's sscr kernel, the same bits.
-inline void tendon_load_lanes(const double* R, const double* d, const double* hn, const double (*dR)[9],
-                              const double (*dd)[3], const double (*dh)[3], int nl, double px, double py,
-                              bool is_anchor, const double* fric, double* out, double* dout) {
-  double part[7 * 6];
-  if (nl == 0) {
-    pytdcr::tendon_unit_load_jvp(R, d, hn, dR, dd, dh, 0, px, py, is_anchor, fric, out, part);
-    return;
+// Load of one tendon of unit tension on disk i, in frame i-1, and its derivatives: pcc.tendon_unit_load_jvp, a
+// copy of pcc.hpp's (the same operations, so the same bits) with the row stride of dout a parameter.
+//
+// Why a copy: pcc.hpp's kernel writes 6 lanes a row (dout[6 u + a]); sscr has 18. Calling it three times, six
+// lanes at a time, gives the same bits but recomputes the primal (chords, friction law) thrice: measured about
+// +8 % on the Jacobian evaluation of the paper robot (_bench_evaluate_sscr, best of 7 x 300 calls on a loaded
+// 2-core machine: 356-360 us with this copy, 389 us and more through pcc.hpp's; the residual alone unchanged), the
+// solver's main cost. A stride parameter on pcc.hpp's kernel (default 6) would let both share one at no cost.
+//
+// R (3x3), d (3): transform of subsegment i; hn (3): the hole at disk i+1 in frame i (unused at the anchor);
+// (px, py): the tendon's hole in its disk's frame [m]. Writes out[0:3] the force, out[3:6] the moment about the
+// origin of frame i-1 and out[6] the tension ratio T_{i+1}/T_i across the disk (0 at the anchor). Lane a (of nl)
+// moves the transform by dR[a] (3x3), dd[a] (3) and the next hole by dh[a] (3); writes dout[stride u + a].
+inline void tendon_unit_load_jvp(const double* R, const double* d, const double* hn, const double (*dR)[9],
+                                 const double (*dd)[3], const double (*dh)[3], int nl, double px, double py,
+                                 bool is_anchor, const double* fric, double* out, double* dout, int stride) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double bx = R[0] * px + R[1] * py + d[0];
+  const double by = R[3] * px + R[4] * py + d[1];
+  const double bz = R[6] * px + R[7] * py + d[2];
+  const double v1x = px - bx;
+  const double v1y = py - by;
+  const double v1z = -bz;
+  double n1 = std::sqrt(v1x * v1x + v1y * v1y + v1z * v1z);
+  if (!(n1 > 0.0)) n1 = nan;  // two holes at one point (a subsegment folded onto itself): no tendon direction
+  const double u1x = v1x / n1;
+  const double u1y = v1y / n1;
+  const double u1z = v1z / n1;
+  const int law = static_cast<int>(fric[0]);
+  const bool fr = !is_anchor && law != 0 && fric[1] != 0.0;
+  double n2 = 0.0, u2x = 0.0, u2y = 0.0, u2z = 0.0;
+  const double zx = R[2];
+  const double zy = R[5];
+  const double zz = R[8];
+  double cs = 0.0, sn = 0.0, crx = 0.0, cry = 0.0, crz = 0.0;
+  double mu = 0.0;
+  double yx = 0.0, yy = 0.0, yz = 0.0, zy_ = 0.0, nx = 0.0, ny = 0.0, nz = 0.0, hm = 0.0;
+  double rho = 0.0;
+  bool clipped = false;
+  double xx = 0.0, xy = 0.0, xz = 0.0, zx_ = 0.0, tx = 0.0, ty = 0.0, tz = 0.0, tn = 0.0, w = 0.0;
+  double fx, fy, fz;
+  if (is_anchor) {
+    fx = u1x;
+    fy = u1y;
+    fz = u1z;
+  } else {
+    const double ex = R[0] * hn[0] + R[1] * hn[1] + R[2] * hn[2] + d[0];
+    const double ey = R[3] * hn[0] + R[4] * hn[1] + R[5] * hn[2] + d[1];
+    const double ez = R[6] * hn[0] + R[7] * hn[1] + R[8] * hn[2] + d[2];
+    const double v2x = ex - bx;
+    const double v2y = ey - by;
+    const double v2z = ez - bz;
+    n2 = std::sqrt(v2x * v2x + v2y * v2y + v2z * v2z);
+    if (!(n2 > 0.0)) n2 = nan;
+    u2x = v2x / n2;
+    u2y = v2y / n2;
+    u2z = v2z / n2;
+    yx = u1x + u2x;
+    yy = u1y + u2y;
+    yz = u1z + u2z;
+    zy_ = zx * yx + zy * yy + zz * yz;
+    if (!fr) {
+      rho = 1.0;
+      fx = yx - zx * zy_;
+      fy = yy - zy * zy_;
+      fz = yz - zz * zy_;
+    } else {
+      if (law == 1) {
+        mu = fric[1];
+      } else {
+        cs = -(u1x * u2x + u1y * u2y + u1z * u2z);
+        crx = u1y * u2z - u1z * u2y;
+        cry = u1z * u2x - u1x * u2z;
+        crz = u1x * u2y - u1y * u2x;
+        sn = std::sqrt(crx * crx + cry * cry + crz * crz);
+        mu = fric[1] * std::exp(-fric[2] * std::atan2(sn, cs));  // mu0 exp(-decay sigma)
+      }
+      nx = yx - zx * zy_;
+      ny = yy - zy * zy_;
+      nz = yz - zz * zy_;
+      hm = std::sqrt(nx * nx + ny * ny + nz * nz);
+      rho = 1.0 - fric[3] * mu * hm;
+      if (rho < 0.0) {
+        rho = 0.0;
+        clipped = true;
+      }
+      xx = u1x + rho * u2x;
+      xy = u1y + rho * u2y;
+      xz = u1z + rho * u2z;
+      zx_ = zx * xx + zy * xy + zz * xz;
+      tx = u1x - u2x;
+      ty = u1y - u2y;
+      tz = u1z - u2z;
+      tn = std::sqrt(tx * tx + ty * ty + tz * tz);
+      if (!(tn * tn > 0.0)) tn = nan;  // the tendon turned back on itself: no normal direction
+      w = (1.0 - rho) / tn;
+      fx = xx - zx * zx_ + w * tx;
+      fy = xy - zy * zx_ + w * ty;
+      fz = xz - zz * zx_ + w * tz;
+    }
   }
-  for (int a0 = 0; a0 < nl; a0 += 6) {
-    const int nc = std::min(6, nl - a0);
-    pytdcr::tendon_unit_load_jvp(R, d, hn, dR + a0, dd + a0, dh + a0, nc, px, py, is_anchor, fric, out, part);
-    for (int u = 0; u < 7; ++u)
-      for (int a = 0; a < nc; ++a) dout[u * kLanes + a0 + a] = part[6 * u + a];
+  out[0] = fx;
+  out[1] = fy;
+  out[2] = fz;
+  out[3] = by * fz - bz * fy;
+  out[4] = bz * fx - bx * fz;
+  out[5] = bx * fy - by * fx;
+  out[6] = rho;
+  for (int a = 0; a < nl; ++a) {
+    const double* A = dR[a];
+    const double dbx = A[0] * px + A[1] * py + dd[a][0];
+    const double dby = A[3] * px + A[4] * py + dd[a][1];
+    const double dbz = A[6] * px + A[7] * py + dd[a][2];
+    const double p1 = (u1x * dbx + u1y * dby + u1z * dbz);
+    const double du1x = (-dbx + u1x * p1) / n1;
+    const double du1y = (-dby + u1y * p1) / n1;
+    const double du1z = (-dbz + u1z * p1) / n1;
+    double drho = 0.0;
+    double dfx, dfy, dfz;
+    if (is_anchor) {
+      dfx = du1x;
+      dfy = du1y;
+      dfz = du1z;
+    } else {
+      double dex = A[0] * hn[0] + A[1] * hn[1] + A[2] * hn[2] + dd[a][0];
+      double dey = A[3] * hn[0] + A[4] * hn[1] + A[5] * hn[2] + dd[a][1];
+      double dez = A[6] * hn[0] + A[7] * hn[1] + A[8] * hn[2] + dd[a][2];
+      dex += R[0] * dh[a][0] + R[1] * dh[a][1] + R[2] * dh[a][2];
+      dey += R[3] * dh[a][0] + R[4] * dh[a][1] + R[5] * dh[a][2];
+      dez += R[6] * dh[a][0] + R[7] * dh[a][1] + R[8] * dh[a][2];
+      const double dvx = dex - dbx;
+      const double dvy = dey - dby;
+      const double dvz = dez - dbz;
+      const double p2 = u2x * dvx + u2y * dvy + u2z * dvz;
+      const double du2x = (dvx - u2x * p2) / n2;
+      const double du2y = (dvy - u2y * p2) / n2;
+      const double du2z = (dvz - u2z * p2) / n2;
+      const double dzx = A[2];
+      const double dzy = A[5];
+      const double dzz = A[8];
+      const double dyx = du1x + du2x;
+      const double dyy = du1y + du2y;
+      const double dyz = du1z + du2z;
+      const double dzy_ = dzx * yx + dzy * yy + dzz * yz + zx * dyx + zy * dyy + zz * dyz;
+      if (!fr) {
+        dfx = dyx - dzx * zy_ - zx * dzy_;
+        dfy = dyy - dzy * zy_ - zy * dzy_;
+        dfz = dyz - dzz * zy_ - zz * dzy_;
+      } else {
+        double dmu = 0.0;
+        if (law == 2) {
+          const double dcs = -(du1x * u2x + du1y * u2y + du1z * u2z + u1x * du2x + u1y * du2y + u1z * du2z);
+          const double dcrx = du1y * u2z - du1z * u2y + u1y * du2z - u1z * du2y;
+          const double dcry = du1z * u2x - du1x * u2z + u1z * du2x - u1x * du2z;
+          const double dcrz = du1x * u2y - du1y * u2x + u1x * du2y - u1y * du2x;
+          const double dsn = sn > 0.0 ? (crx * dcrx + cry * dcry + crz * dcrz) / sn : 0.0;
+          const double dsig = (cs * dsn - sn * dcs) / (cs * cs + sn * sn);
+          dmu = -fric[2] * mu * dsig;
+        }
+        const double dnx = dyx - dzx * zy_ - zx * dzy_;
+        const double dny = dyy - dzy * zy_ - zy * dzy_;
+        const double dnz = dyz - dzz * zy_ - zz * dzy_;
+        const double dhm = hm > 0.0 ? (nx * dnx + ny * dny + nz * dnz) / hm : 0.0;
+        drho = clipped ? 0.0 : -fric[3] * (dmu * hm + mu * dhm);
+        const double dxx = du1x + drho * u2x + rho * du2x;
+        const double dxy = du1y + drho * u2y + rho * du2y;
+        const double dxz = du1z + drho * u2z + rho * du2z;
+        const double dzx_ = dzx * xx + dzy * xy + dzz * xz + zx * dxx + zy * dxy + zz * dxz;
+        const double dtx = du1x - du2x;
+        const double dty = du1y - du2y;
+        const double dtz = du1z - du2z;
+        const double dtn = (tx * dtx + ty * dty + tz * dtz) / tn;
+        const double dw = (-drho * tn - (1.0 - rho) * dtn) / (tn * tn);
+        dfx = dxx - dzx * zx_ - zx * dzx_ + dw * tx + w * dtx;
+        dfy = dxy - dzy * zx_ - zy * dzx_ + dw * ty + w * dty;
+        dfz = dxz - dzz * zx_ - zz * dzx_ + dw * tz + w * dtz;
+      }
+    }
+    dout[0 * stride + a] = dfx;
+    dout[1 * stride + a] = dfy;
+    dout[2 * stride + a] = dfz;
+    dout[3 * stride + a] = dby * fz - dbz * fy + by * dfz - bz * dfy;
+    dout[4 * stride + a] = dbz * fx - dbx * fz + bz * dfx - bx * dfz;
+    dout[5 * stride + a] = dbx * fy - dby * fx + bx * dfy - by * dfx;
+    dout[6 * stride + a] = drho;
   }
 }
 
@@ -660,8 +826,8 @@ inline void tendons(double lam, const SscrModel& model, bool want_jac, SscrWork&
       }
       const int nl = want_jac ? kLanes : 0;
       double* dWic = dW + (i * nt + c) * dWc;
-      tendon_load_lanes(work.Rrel.data() + 9 * i, work.drel.data() + 3 * i, hn, lR, ld, lh, nl, px, py, is_anchor,
-                        model.fric.data(), out, dWic);
+      tendon_unit_load_jvp(work.Rrel.data() + 9 * i, work.drel.data() + 3 * i, hn, lR, ld, lh, nl, px, py,
+                           is_anchor, model.fric.data(), out, dWic, kLanes);
       for (int u = 0; u < 7; ++u) Wic[u] = out[u];
       const double rho = out[6];
       T[(i + 1) * nt + c] = !is_anchor ? rho * T[i * nt + c] : 0.0;
