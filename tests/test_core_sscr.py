@@ -5,8 +5,8 @@ Bit-identical: the residual, its Jacobian, the tensions, the tip and pose Jacobi
 poses, ``largest_angle``, ``with_tension`` and ``blend``. Numba's ``@`` on 3x3 matrices calls BLAS, whose FMA
 accumulation the C++ reproduces with ``std::fma`` (sscr.hpp, ``blas_dot3``); where BLAS rounds otherwise (a CPU
 without FMA), the derivatives are checked to round-off instead (:func:`blas_rounds_as_the_core`). The tangent
-stiffness differs in the last bits everywhere: numba solves with LAPACK (``np.linalg.solve``), the C++ with its own
-LU (both to round-off times the condition of the pose sensitivities).
+stiffness differs in the last bits everywhere: numba solves with LAPACK (``np.linalg.solve``), the C++ with
+linalg.hpp's LU (both to round-off times the condition of the pose sensitivities).
 """
 
 from __future__ import annotations
@@ -303,10 +303,11 @@ def test_tangent_stiffness_agrees_with_the_numba_kernel_to_round_off() -> None:
             P = ext.pose_jacobians(q)[1:].copy()
             P[:, :3, :] /= eq.packed.sub[:, 0, None, None]
             P = P.reshape(m, m)
-            # not the same operations: numba solves P^T K^T = B^T with LAPACK (np.linalg.solve), the C++ with its
-            # own LU with partial pivoting (B and P are the same bits). Two backward-stable solves differ by up to
-            # ~eps cond(P) |K|; cond(P) ~ 4e5-9e5 here, measured differences 2e-13 to 1.8e-12 of max |K| (above
-            # the 1e-12 kept for other round-off differences), 1/100 of this bound
+            # not the same operations: numba solves P^T K^T = B^T with LAPACK (np.linalg.solve), the C++ with
+            # linalg.hpp's LU with partial pivoting, row by row of K (B and P are the same bits). Two
+            # backward-stable solves differ by up to ~eps cond(P) |K|; cond(P) ~ 4e5-9e5 here, measured
+            # differences 4.9e-13 to 1.9e-12 of max |K| (above the 1e-12 kept for other round-off differences),
+            # 1/100 of this bound
             scale = max(1.0, np.abs(K).max())
             bound = np.finfo(float).eps * np.linalg.cond(P) * scale
             assert np.abs(Kc - K).max() <= bound, (case.name, kind, np.abs(Kc - K).max(), bound)

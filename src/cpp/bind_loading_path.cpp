@@ -1,5 +1,6 @@
-// Python bindings of loading_path.hpp for the PCC model (pytdcr._core.solve_range_pcc), and of linalg.hpp's LU
-// for its tests (pytdcr._core._lu_solve, _lu_inverse, _lu_slogdet: internal, not part of the package's API).
+// Python bindings of loading_path.hpp for the PCC model (pytdcr._core.solve_range_pcc) and the subsegment Cosserat
+// rod (solve_range_sscr), one template over the packed model; and of linalg.hpp's LU for its tests
+// (pytdcr._core._lu_solve, _lu_inverse, _lu_slogdet: internal, not part of the package's API).
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/tuple.h>
@@ -16,6 +17,7 @@
 #include "linalg.hpp"
 #include "loading_path.hpp"
 #include "pcc.hpp"
+#include "sscr.hpp"
 
 namespace nb = nanobind;
 
@@ -44,8 +46,8 @@ std::size_t square(const In& a, const char* name) {
   return a.shape(0);
 }
 
-void check(bool ok, const std::string& what) {
-  if (!ok) throw std::invalid_argument("solve_range_pcc: " + what);
+void check(bool ok, const std::string& function, const std::string& what) {
+  if (!ok) throw std::invalid_argument(function + ": " + what);
 }
 
 // The solver's settings from the attributes of the numba solver's Settings (a NamedTuple with the same fields).
@@ -62,34 +64,47 @@ loading_path::Settings settings_from(nb::handle s) {
   return out;
 }
 
-}  // namespace
-
-void bind_loading_path(nb::module_& m) {
+// solve_range_<suffix>: loading_path::solve_range for the packed model type Model (its Python class's
+// "model" is the name said in the docstring).
+template <class Model>
+void bind_solve_range(nb::module_& m, const std::string& suffix, const char* model) {
+  const std::string name = "solve_range_" + suffix;
+  const std::string doc =
+      "Solve, or continue, the cases start <= b < stop of a batch with the " + std::string(model) +
+      " (the GIL released): the twin\n"
+      "of pytdcr.statics.kernels.loading_path.solve_range, with the two packed models of the homotopy (the\n"
+      "core's, in place of numba's packed named tuples). q0 (B, m) start points; t_start, t_end (B, nt) tensions\n"
+      "[N]; settings with the fields of loading_path.Settings (stepping 0-2 a solve of mb at t_end from q0, 3 a\n"
+      "continuation from ma at t_start); tols (B, 2) each case's tolerance and load-step tolerance [N m]. Writes\n"
+      "rows start..stop-1 of out_q (B, m) float64, out_ok (B,) bool, out_res (B,) float64, out_it, out_steps,\n"
+      "out_path (B,) int64.";
   m.def(
-      "solve_range_pcc",
-      [](In q0, const PccModel& ma, const PccModel& mb, In t_start, In t_end, nb::handle settings, In tols,
-         std::size_t start, std::size_t stop, OutF out_q, OutB out_ok, OutF out_res, OutI out_it, OutI out_steps,
-         OutI out_path) {
+      name.c_str(),
+      [name](In q0, const Model& ma, const Model& mb, In t_start, In t_end, nb::handle settings, In tols,
+             std::size_t start, std::size_t stop, OutF out_q, OutB out_ok, OutF out_res, OutI out_it,
+             OutI out_steps, OutI out_path) {
         const loading_path::Settings s = settings_from(settings);
         const std::size_t nq = mb.n_unknowns(), nt = mb.n_tendons;
-        check(q0.ndim() == 2 && q0.shape(1) == nq, "q0 must be (B, m), m the model's unknowns");
+        check(q0.ndim() == 2 && q0.shape(1) == nq, name, "q0 must be (B, m), m the model's unknowns");
         const std::size_t B = q0.shape(0);
-        check(ma.n_unknowns() == nq && ma.n_tendons == nt, "ma and mb must be models of one robot");
-        check(mb.tension.size() == nt && ma.tension.size() == nt, "a model's tension must have n_tendons entries");
-        check(t_end.ndim() == 2 && t_end.shape(0) == B && t_end.shape(1) == nt, "t_end must be (B, n_tendons)");
-        check(t_start.ndim() == 2 && t_start.shape(0) == B && t_start.shape(1) == nt,
+        check(ma.n_unknowns() == nq && ma.n_tendons == nt, name, "ma and mb must be models of one robot");
+        check(mb.tension.size() == nt && ma.tension.size() == nt, name,
+              "a model's tension must have n_tendons entries");
+        check(t_end.ndim() == 2 && t_end.shape(0) == B && t_end.shape(1) == nt, name, "t_end must be (B, n_tendons)");
+        check(t_start.ndim() == 2 && t_start.shape(0) == B && t_start.shape(1) == nt, name,
               "t_start must be (B, n_tendons)");
-        check(tols.ndim() == 2 && tols.shape(0) == B && tols.shape(1) == 2, "tols must be (B, 2)");
-        check(out_q.ndim() == 2 && out_q.shape(0) == B && out_q.shape(1) == nq, "out_q must be (B, m)");
+        check(tols.ndim() == 2 && tols.shape(0) == B && tols.shape(1) == 2, name, "tols must be (B, 2)");
+        check(out_q.ndim() == 2 && out_q.shape(0) == B && out_q.shape(1) == nq, name, "out_q must be (B, m)");
         for (std::size_t size : {out_ok.ndim() == 1 ? out_ok.shape(0) : 0, out_res.ndim() == 1 ? out_res.shape(0) : 0,
                                  out_it.ndim() == 1 ? out_it.shape(0) : 0,
                                  out_steps.ndim() == 1 ? out_steps.shape(0) : 0,
                                  out_path.ndim() == 1 ? out_path.shape(0) : 0})
-          check(size == B, "out_ok, out_res, out_it, out_steps and out_path must be (B,)");
-        check(start <= stop && stop <= B, "need 0 <= start <= stop <= B");
-        check(s.stepping >= 0 && s.stepping <= loading_path::STEP_CONTINUE, "settings.stepping must be 0 to 3");
-        check(s.fold >= loading_path::FOLD_RELAX && s.fold <= loading_path::FOLD_STOP, "settings.fold must be 0 to 2");
-        check(s.max_iter >= 0 && s.step_iter >= 0, "settings.max_iter and step_iter must be >= 0");
+          check(size == B, name, "out_ok, out_res, out_it, out_steps and out_path must be (B,)");
+        check(start <= stop && stop <= B, name, "need 0 <= start <= stop <= B");
+        check(s.stepping >= 0 && s.stepping <= loading_path::STEP_CONTINUE, name, "settings.stepping must be 0 to 3");
+        check(s.fold >= loading_path::FOLD_RELAX && s.fold <= loading_path::FOLD_STOP, name,
+              "settings.fold must be 0 to 2");
+        check(s.max_iter >= 0 && s.step_iter >= 0, name, "settings.max_iter and step_iter must be >= 0");
         nb::gil_scoped_release release;
         loading_path::solve_range(q0.data(), ma, mb, t_start.data(), t_end.data(), nt, s, tols.data(), start, stop,
                                   out_q.data(), out_ok.data(), out_res.data(), out_it.data(), out_steps.data(),
@@ -98,13 +113,14 @@ void bind_loading_path(nb::module_& m) {
       nb::arg("q0"), nb::arg("ma"), nb::arg("mb"), nb::arg("t_start"), nb::arg("t_end"), nb::arg("settings"),
       nb::arg("tols"), nb::arg("start"), nb::arg("stop"), nb::arg("out_q").noconvert(), nb::arg("out_ok").noconvert(),
       nb::arg("out_res").noconvert(), nb::arg("out_it").noconvert(), nb::arg("out_steps").noconvert(),
-      nb::arg("out_path").noconvert(),
-      "Solve, or continue, the cases start <= b < stop of a batch with the PCC model (the GIL released): the twin\n"
-      "of pytdcr.statics.kernels.loading_path.solve_range, with the two PccModel of the homotopy in place of the\n"
-      "numba packed models. q0 (B, m) start points; t_start, t_end (B, nt) tensions [N]; settings with the fields\n"
-      "of loading_path.Settings (stepping 0-2 a solve of mb at t_end from q0, 3 a continuation from ma at t_start);\n"
-      "tols (B, 2) each case's tolerance and load-step tolerance [N m]. Writes rows start..stop-1 of out_q (B, m)\n"
-      "float64, out_ok (B,) bool, out_res (B,) float64, out_it, out_steps, out_path (B,) int64.");
+      nb::arg("out_path").noconvert(), doc.c_str());
+}
+
+}  // namespace
+
+void bind_loading_path(nb::module_& m) {
+  bind_solve_range<PccModel>(m, "pcc", "PCC model (PccModel)");
+  bind_solve_range<SscrModel>(m, "sscr", "subsegment Cosserat rod (SscrModel)");
 
   m.def(
       "_lu_solve",

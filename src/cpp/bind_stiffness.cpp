@@ -1,6 +1,7 @@
-// Python bindings of stiffness.hpp for the PCC model: pytdcr._core.jacobian_range_pcc, largest_residuals_pcc and
-// tip_gradient_range_pcc, the twins of pytdcr.statics.kernels.stiffness's functions (same arguments, the packed
-// model a PccModel), writing into the caller's arrays with the GIL released.
+// Python bindings of stiffness.hpp for the PCC model and the subsegment Cosserat rod: pytdcr._core.jacobian_range_X,
+// largest_residuals_X and tip_gradient_range_X (X = pcc, sscr), the twins of pytdcr.statics.kernels.stiffness's
+// functions (same arguments, the packed model a PccModel or an SscrModel), writing into the caller's arrays with
+// the GIL released.
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 
@@ -10,6 +11,7 @@
 #include <string>
 
 #include "pcc.hpp"
+#include "sscr.hpp"
 #include "stiffness.hpp"
 
 namespace nb = nanobind;
@@ -95,6 +97,9 @@ void bind_for(nb::module_& m, const std::string& suffix) {
 
 }  // namespace
 
-void bind_stiffness(nb::module_& m) { bind_for<PccModel>(m, "pcc"); }
+void bind_stiffness(nb::module_& m) {
+  bind_for<PccModel>(m, "pcc");
+  bind_for<SscrModel>(m, "sscr");
+}
 
 }  // namespace pytdcr

@@ -34,8 +34,9 @@
 //                    subsegment
 //
 // Where the numba kernel multiplies small matrices with '@', numba calls BLAS: blas_dot3 reproduces its FMA
-// accumulation. Where it solves with np.linalg.solve (LAPACK), this file has its own LU with partial pivoting:
-// that result (tangent_stiffness) agrees to round-off, not to the bit.
+// accumulation. Where it solves with np.linalg.solve (LAPACK), this file uses linalg.hpp's LU with partial
+// pivoting: that result (tangent_stiffness) agrees to round-off, not to the bit. The tendon loads are a copy of
+// pcc.hpp's kernel (sscr_detail::tendon_unit_load_jvp: why, there).
 #pragma once
 
 #include <algorithm>
@@ -45,6 +46,8 @@
 #include <stdexcept>
 #include <utility>
 #include <vector>
+
+#include "linalg.hpp"
 
 namespace pytdcr {
 
@@ -86,7 +89,7 @@ struct SscrWork {
   std::vector<double> dD;    // (6, m) scratch: derivative of one disk's load
   std::vector<double> G;     // (6, m) scratch of evaluate: d u / d x of one disk
   // scratch of tangent_stiffness (sized on its first use; not evaluate's)
-  std::vector<double> ts_r, ts_J, ts_B, ts_P;
+  std::vector<double> ts_r, ts_J, ts_P;
   std::vector<std::size_t> ts_piv;
 };
 
@@ -176,8 +179,14 @@ inline double largest_angle(const double* dq, const SscrModel& model) {
 namespace sscr_detail {
 
 // ------------------------------------------------------------------------ the PCC tendon kernel (pcc.py's)
-// Load of one tendon of unit tension on disk i, in frame i-1, and its derivatives: pcc.tendon_unit_load_jvp
-// (a copy of pcc.hpp's with the lane count of dout a parameter, `stride`; to be deduplicated at merge).
+// Load of one tendon of unit tension on disk i, in frame i-1, and its derivatives: pcc.tendon_unit_load_jvp, a
+// copy of pcc.hpp's (the same operations, so the same bits) with the row stride of dout a parameter.
+//
+// Why a copy: pcc.hpp's kernel writes 6 lanes a row (dout[6 u + a]); sscr has 18. Calling it three times, six
+// lanes at a time, gives the same bits but recomputes the primal (chords, friction law) thrice: measured about
+// +8 % on the Jacobian evaluation of the paper robot (_bench_evaluate_sscr, best of 7 x 300 calls on a loaded
+// 2-core machine: 356-360 us with this copy, 389 us and more through pcc.hpp's; the residual alone unchanged), the
+// solver's main cost. A stride parameter on pcc.hpp's kernel (default 6) would let both share one at no cost.
 //
 // R (3x3), d (3): transform of subsegment i; hn (3): the hole at disk i+1 in frame i (unused at the anchor);
 // (px, py): the tendon's hole in its disk's frame [m]. Writes out[0:3] the force, out[3:6] the moment about the
@@ -694,13 +703,6 @@ inline void sensitivities(const SscrModel& model, SscrWork& work) {
   }
 }
 
-// True when the n numbers at x are all finite.
-inline bool all_finite(const double* x, std::size_t n) {
-  for (std::size_t j = 0; j < n; ++j)
-    if (!std::isfinite(x[j])) return false;
-  return true;
-}
-
 inline void cross_into(double a0, double a1, double a2, double b0, double b1, double b2, double* out) {
   out[0] = a1 * b2 - a2 * b1;
   out[1] = a2 * b0 - a0 * b2;
@@ -1051,45 +1053,6 @@ inline void evaluate_rod(const double* q, double lam, const SscrModel& model, co
   }
 }
 
-// Solve A X = B in place for X (A (m, m), B (m, nrhs), row-major), by LU with partial pivoting (the row of the
-// largest magnitude, the first of equals; numba: LAPACK dgesv). Throws std::runtime_error on an exactly singular
-// pivot.
-inline void lu_solve(double* A, double* B, std::size_t m, std::size_t nrhs, std::size_t* piv) {
-  for (std::size_t k = 0; k < m; ++k) {
-    std::size_t p = k;
-    double big = std::fabs(A[k * m + k]);
-    for (std::size_t i = k + 1; i < m; ++i) {
-      const double v = std::fabs(A[i * m + k]);
-      if (v > big) {
-        big = v;
-        p = i;
-      }
-    }
-    piv[k] = p;
-    if (big == 0.0) throw std::runtime_error("tangent_stiffness: the pose sensitivities are singular");
-    if (p != k) {
-      for (std::size_t j = 0; j < m; ++j) std::swap(A[k * m + j], A[p * m + j]);
-      for (std::size_t j = 0; j < nrhs; ++j) std::swap(B[k * nrhs + j], B[p * nrhs + j]);
-    }
-    const double inv = 1.0 / A[k * m + k];
-    for (std::size_t i = k + 1; i < m; ++i) {
-      const double f = A[i * m + k] * inv;
-      A[i * m + k] = f;
-      if (f == 0.0) continue;
-      for (std::size_t j = k + 1; j < m; ++j) A[i * m + j] -= f * A[k * m + j];
-      for (std::size_t j = 0; j < nrhs; ++j) B[i * nrhs + j] -= f * B[k * nrhs + j];
-    }
-  }
-  for (std::size_t kk = m; kk-- > 0;) {
-    const double diag = A[kk * m + kk];
-    for (std::size_t j = 0; j < nrhs; ++j) {
-      double acc = B[kk * nrhs + j];
-      for (std::size_t i = kk + 1; i < m; ++i) acc -= A[kk * m + i] * B[i * nrhs + j];
-      B[kk * nrhs + j] = acc / diag;
-    }
-  }
-}
-
 }  // namespace sscr_detail
 
 // Residual r (6N,) [N m] and, if want_jac, its Jacobian J (6N, 6N) row-major; every load scaled by lam. No heap
@@ -1178,7 +1141,8 @@ inline void wrenches_from_poses(const double* pos, const double* rot, const Sscr
 // The tangent stiffness K (6N, 6N) [N m], row-major, of the disks' poses at the equilibrium q (6N,): K = B P^-1
 // with B = dr/dx, each disk's rows turned to the world (R_i r_i), and P = d pose / dx (positions divided by l_i,
 // rotation angles), the rod evaluated with its real axial and shear stiffness (EA, GA; MODEL.md, appendix B).
-// Solves P^T K^T = B^T by LU with partial pivoting (numba: LAPACK).
+// Solves P^T (row a of K)^T = (row a of B)^T, a = 0..6N-1, by linalg.hpp's LU with partial pivoting (numba: one
+// np.linalg.solve, LAPACK); throws std::runtime_error where P is exactly singular (numba: LinAlgError).
 inline void tangent_stiffness(const double* q, const SscrModel& model, SscrWork& work, double* K) {
   using namespace sscr_detail;
   const std::size_t n = model.n_disks;
@@ -1188,24 +1152,22 @@ inline void tangent_stiffness(const double* q, const SscrModel& model, SscrWork&
   rod[3] = 1.0;
   work.ts_r.resize(m);
   work.ts_J.resize(m * m);
-  work.ts_B.resize(m * m);
   work.ts_P.resize(m * m);
   work.ts_piv.resize(m);
   double* J = work.ts_J.data();
   evaluate_rod(q, 1.0, model, rod, true, work.ts_r.data(), J, work);
-  double* Bt = work.ts_B.data();  // B^T (m, m)
   double* Pt = work.ts_P.data();  // P^T (m, m)
   const double* S = work.S.data();
   for (std::size_t i = 1; i <= n; ++i) {
     const std::size_t k = 6 * (i - 1);
     const double* Ri = work.rot.data() + 9 * i;
     const double ell = model.sub[5 * (i - 1)];
-    for (int h = 0; h < 2; ++h) {
+    for (int h = 0; h < 2; ++h) {  // B into K (m, m): rows o..o+2 = R_i (rows o..o+2 of J)
       const std::size_t o = k + 3 * h;
       for (int a = 0; a < 3; ++a)
         for (std::size_t j = 0; j < m; ++j)
-          Bt[j * m + o + a] = Ri[3 * a] * J[o * m + j] + Ri[3 * a + 1] * J[(o + 1) * m + j] +
-                              Ri[3 * a + 2] * J[(o + 2) * m + j];
+          K[(o + a) * m + j] = Ri[3 * a] * J[o * m + j] + Ri[3 * a + 1] * J[(o + 1) * m + j] +
+                               Ri[3 * a + 2] * J[(o + 2) * m + j];
     }
     for (std::size_t a = 0; a < 6; ++a)
       for (std::size_t j = 0; j < m; ++j) {
@@ -1213,10 +1175,11 @@ inline void tangent_stiffness(const double* q, const SscrModel& model, SscrWork&
         Pt[j * m + k + a] = a < 3 ? s / ell : s;
       }
   }
-  // K P = B  <=>  P^T K^T = B^T
-  lu_solve(Pt, Bt, m, m, work.ts_piv.data());
-  for (std::size_t a = 0; a < m; ++a)
-    for (std::size_t j = 0; j < m; ++j) K[a * m + j] = Bt[j * m + a];
+  // K P = B  <=>  P^T K^T = B^T: one LU of P^T, then each row of B (a column of B^T) solved in place
+  double sign;
+  if (!lu_factor(Pt, m, Pt, work.ts_piv.data(), sign))
+    throw std::runtime_error("tangent_stiffness: the pose sensitivities are singular");
+  for (std::size_t a = 0; a < m; ++a) lu_solve(Pt, work.ts_piv.data(), m, K + a * m);
 }
 
 // For k in [start, stop): tangent_stiffness at the equilibrium q[rows[k]] (B, 6N) of model at the actuator

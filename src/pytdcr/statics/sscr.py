@@ -13,29 +13,45 @@ unknowns), the disks' balances as the residual, the exact Jacobian of the
 discrete scheme (forward mode through every Runge-Kutta step), and the PCC
 solver's loading path from the unloaded robot. Equations and Jacobian:
 :mod:`pytdcr.statics.kernels.sscr`.
+
+Runs in the compiled core, ``pytdcr._core`` (C++ built at install:
+``src/cpp/sscr.hpp``, ``loading_path.hpp``, ``stiffness.hpp``), the twin of the
+numba kernels of :mod:`pytdcr.statics.kernels.sscr` and
+:mod:`~pytdcr.statics.kernels.loading_path` (the same residual and Jacobian to
+the bit; the solver's and the tangent stiffness's dense factorisations are our
+own, so a solve agrees with numba's to round-off): nothing compiles at first
+use.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import ClassVar
 
 import numpy as np
 
+from .. import _core
 from ..loads import Loads
 from ..robot import Robot
 from .base import Capabilities
-from .compiled import CompiledModel, Evaluation, PackedEquations
+from .compiled import CompiledModel, Evaluation, Kernels, PackedEquations
 from .kernels import sscr as SK
 from .options import SSCROptions
 from .pcc import PCCEquations
 
-__all__ = ["SSCR", "SSCREquations", "SSCRModel", "SSCROptions"]
+__all__ = ["SSCR", "SSCR_CORE_KERNELS", "SSCREquations", "SSCRModel", "SSCROptions"]
+
+#: the compiled core's solver and stiffness kernels for the subsegment Cosserat rod (``pytdcr._core``; C++ built
+#: at install)
+SSCR_CORE_KERNELS = Kernels(_core.solve_range_sscr, _core.jacobian_range_sscr, _core.largest_residuals_sscr,
+                            _core.tip_gradient_range_sscr)
 
 
 @dataclass(frozen=True, eq=False)
 class SSCREquations(PackedEquations):
-    """The 6N disk balances of ``robot`` under ``loads`` (see :mod:`pytdcr.statics.kernels.sscr`).
+    """The 6N disk balances of ``robot`` under ``loads`` (see :mod:`pytdcr.statics.kernels.sscr`), evaluated and
+    solved in the compiled core (:attr:`kernels`, :attr:`kernel_model`).
 
     Attributes
     ----------
@@ -50,6 +66,12 @@ class SSCREquations(PackedEquations):
     robot: Robot
     loads: Loads
     packed: SK.SSCRPacked
+    kernels = SSCR_CORE_KERNELS
+
+    @cached_property
+    def kernel_model(self) -> _core.SscrModel:
+        """The packed equations as the compiled core takes them (a copy of :attr:`packed`, made once)."""
+        return _core.SscrModel.from_packed(self.packed)
 
     @classmethod
     def build(cls, robot: Robot, loads: Loads, options: SSCROptions | None = None) -> SSCREquations:
@@ -63,20 +85,10 @@ class SSCREquations(PackedEquations):
         packed = SK.SSCRPacked(p.sub, p.holes, p.anchor, p.fric, p.tension, p.grav, p.pforce, p.pmoment, rod)
         return cls(robot=robot, loads=loads, packed=packed)
 
-    def _run(self, q: np.ndarray, load_factor: float, jacobian: bool) -> tuple[np.ndarray, np.ndarray, SK.SSCRWork]:
-        q = self.check_q(q)
-        m = self.n_unknowns
-        r = np.empty(m)
-        J = np.empty((m, m)) if jacobian else np.empty((1, 1))
-        work = SK.make_model_work(self.packed)
-        SK.evaluate(q, float(load_factor), self.packed, jacobian, r, J, work)
-        return r, J, work
-
     def evaluate(self, q: np.ndarray, load_factor: float = 1.0, jacobian: bool = False) -> Evaluation:
         """Residual (6N,) [N m], optionally its exact Jacobian (6N, 6N), and the tendon tensions (nt, N) [N]."""
-        r, J, work = self._run(q, load_factor, jacobian)
-        tensions = np.ascontiguousarray(work.T[1 : self.n_disks + 1].T)
-        return Evaluation(r, J if jacobian else None, tensions)
+        r, J, T = self.kernel_model.evaluate(self.check_q(q), float(load_factor), bool(jacobian))
+        return Evaluation(r, J, np.ascontiguousarray(T[1 : self.n_disks + 1].T))
 
     def residual(self, q: np.ndarray, load_factor: float = 1.0) -> np.ndarray:
         """The disk balances, shape (N, 6): l_i times the force balance [N m], then the moment balance [N m]."""
@@ -88,28 +100,21 @@ class SSCREquations(PackedEquations):
 
     def shape(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Disk positions (N+1, 3) [m], rotations (N+1, 3, 3) and backbone points (N steps + 1, 3) [m]."""
-        n = self.n_disks
-        steps = int(self.packed.rod[4])
-        pos = np.empty((n + 1, 3))
-        rot = np.empty((n + 1, 3, 3))
-        curve = np.empty((n * steps + 1, 3))
-        SK.record_shape(np.ascontiguousarray(q, dtype=float).reshape(-1), self.packed, pos, rot, curve)
-        return pos, rot, curve
+        return self.kernel_model.record_shape(np.ascontiguousarray(q, dtype=float).reshape(-1))
 
     def tip_jacobian(self, q: np.ndarray) -> np.ndarray:
         """Exact derivative of the tip position by the unknowns, shape (3, 6N) (the chained sensitivities)."""
-        work = self._run(q, 1.0, True)[2]
-        return work.S[self.n_disks, :3, :].copy()
+        return self.kernel_model.tip_jacobian(self.check_q(q))
 
     def pose_jacobians(self, q: np.ndarray) -> np.ndarray:
         """Exact derivatives of every disk's pose by the unknowns, shape (N+1, 6, 6N): position [m per unit of
         q], then rotation (the angular change w, base frame, dR = [w]x R) (the chained sensitivities)."""
-        work = self._run(q, 1.0, True)[2]
-        return work.S[: self.n_disks + 1, :6, :].copy()
+        return self.kernel_model.pose_jacobians(self.check_q(q))
 
 
 class SSCRModel(CompiledModel):
-    """The registry's entry for the subsegment Cosserat rod (see the module docstring)."""
+    """The registry's entry for the subsegment Cosserat rod (see the module docstring): solved, differentiated and
+    tested for stability in the compiled core."""
 
     kernels = SK
     packed_type = SK.SSCRPacked
@@ -136,8 +141,9 @@ class SSCRModel(CompiledModel):
                             start: int, stop: int, out: np.ndarray) -> None:
         """For k in ``start <= k < stop``: the tangent stiffness of the disks' poses (6N, 6N) [N m] at the
         equilibrium ``q[rows[k]]`` (B, 6N) at the tensions ``tensions[rows[k]]`` (B, nt) [N], into
-        ``out[k - start]`` (:func:`pytdcr.statics.kernels.sscr.tangent_stiffness`; compiled, the GIL released)."""
-        SK.stiffness_range(q, eq.packed, tensions, rows, start, stop, out)
+        ``out[k - start]`` (the compiled core's twin of :func:`pytdcr.statics.kernels.sscr.tangent_stiffness`, the GIL
+        released)."""
+        _core.stiffness_range_sscr(q, eq.kernel_model, tensions, rows, start, stop, out)
 
     def extra_words(self, robot: Robot, nq: int) -> float:
         """The sensitivities carried along the rod, (N + 2)(6 + n_tendons) x 6N, and the per-disk work."""
