@@ -29,7 +29,7 @@ from pytdcr.statics.sscr import SSCREquations
 
 #: random tension vectors of the slow agreement tests (the fast ones take the first FAST_CASES), uniform in
 #: [0, MAX_TENSION] N
-CASES = 240
+CASES = 100
 FAST_CASES = 40
 MAX_TENSION = 20.0
 #: how far a continuation's start tensions are from its end's [N] (Euclidean)
