@@ -287,11 +287,9 @@ class CompiledModel:
     peak_matrices = 5.0
     #: one solve's time per cubed unknown [s] (measured: pcc 1,000 disks 3.0 s, 2,000 disks 20 s)
     seconds_per_cubed_unknown = 1.2e-10
-    #: a cold first use's compile time of each part [s] (2 cores, ``bench/compile_profile.py``), said while it
-    #: compiles (pcc2 shares pcc's compiled code: the same packed type). A continuation shares the solver's
-    #: compiled code: it compiles only where no solve has, and then the whole solver
-    compile_seconds: ClassVar[dict[str, float]] = {"solver": 100.0, "continuation": 100.0, "tip gradient": 12.0,
-                                                   "stability test": 3.0}
+    #: a cold first use's compile time of each part [s], said while it compiles: none for the models of the
+    #: compiled core (``pcc``, ``pcc2``, ``sscr``: built at install), whose first use compiles nothing
+    compile_seconds: ClassVar[dict[str, float]] = {}
     #: refuse an equilibrium whose backbone passes through itself (:mod:`pytdcr.contact`): the rod models;
     #: the PCC models leave it to the workspace's realisability test, where disks touch long before
     checks_self_contact = False

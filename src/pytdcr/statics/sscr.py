@@ -27,7 +27,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from typing import ClassVar
 
 import numpy as np
 
@@ -123,9 +122,6 @@ class SSCRModel(CompiledModel):
     description = ("subsegment Cosserat rod: a rod between each pair of disks, tendons as chords, friction "
                    "(the reference)")
     options_type = SSCROptions
-    #: a cold first use's compile time of each part [s] (2 cores, ``bench/compile_profile.py``)
-    compile_seconds: ClassVar[dict[str, float]] = {"solver": 110.0, "continuation": 110.0, "tip gradient": 6.0,
-                                                   "stability test": 8.0}
     capabilities = Capabilities(friction=True, point_wrenches=True, gradient="exact", stability=True,
                                 continuation=True)
     unknowns = ("q: (N, 6), per subsegment the internal force times the subsegment's length and the internal "
