@@ -19,6 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 import pytest
+from test_core_loading_path import Outputs, empty_outputs
 
 import pytdcr
 from pytdcr import _core
@@ -49,23 +50,6 @@ class Problem(NamedTuple):
     loads: pytdcr.Loads
     eq: SSCREquations
     tensions: np.ndarray  # (CASES, nt) [N]
-
-
-class Outputs(NamedTuple):
-    """The output arrays of one solve_range."""
-
-    q: np.ndarray
-    converged: np.ndarray
-    residual: np.ndarray
-    iterations: np.ndarray
-    load_steps: np.ndarray
-    path: np.ndarray
-
-
-def empty_outputs(nb: int, m: int) -> Outputs:
-    """Output arrays for nb cases of m unknowns."""
-    return Outputs(np.full((nb, m), np.nan), np.zeros(nb, dtype=np.bool_), np.full(nb, np.nan),
-                   np.zeros(nb, dtype=np.int64), np.zeros(nb, dtype=np.int64), np.full(nb, -1, dtype=np.int64))
 
 
 @cache
