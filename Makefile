@@ -23,9 +23,11 @@ $(STAMP): pyproject.toml $(KERNELS) $(CORE)
 demo: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/tdcr reproduce --robot paper --out out/reproduce
 
-# the tests but the slow validation runs (marked `slow`): the check to run while working
+# the tests but the slow validation runs (marked `slow`): the check to run while working; on every core
+# (pytest-xdist; TEST_WORKERS=0 runs them in this process)
+TEST_WORKERS ?= auto
 test: $(STAMP)
-	MPLBACKEND=Agg $(BIN)/python -m pytest -q -m "not slow"
+	MPLBACKEND=Agg $(BIN)/python -m pytest -q -m "not slow" -n $(TEST_WORKERS)
 
 # the slow validation runs alone: golden baselines of the long commands, signals, the notebook, the browser;
 # CI runs them after `make test`

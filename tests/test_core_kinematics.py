@@ -20,6 +20,7 @@ def _cases(rng: np.random.Generator, count: int) -> list[tuple[float, float, flo
     return cases
 
 
+@pytest.mark.slow
 def test_a_subsegment_is_the_numba_kernels_to_the_bit() -> None:
     rng = np.random.default_rng(7)
     R, d, pg = np.empty((3, 3)), np.empty(3), np.empty(3)
@@ -29,6 +30,7 @@ def test_a_subsegment_is_the_numba_kernels_to_the_bit() -> None:
         assert np.array_equal(Rc, R) and np.array_equal(dc, d) and np.array_equal(pgc, pg), (beta, gamma, eps)
 
 
+@pytest.mark.slow
 def test_the_frames_chain_is_the_numba_kernels_to_the_bit() -> None:
     rng = np.random.default_rng(8)
     n = 20
@@ -48,6 +50,7 @@ def test_the_frames_chain_refuses_mismatched_shapes() -> None:
         _core.frames(np.zeros(5), np.zeros((2, 5)))
 
 
+@pytest.mark.slow
 def test_the_subsegment_derivatives_are_the_numba_kernels_to_round_off() -> None:
     """Within 2 ulp of the unit entries: numba multiplies the 3 x 3 matrices of E = I + A K + B K^2 and its
     derivatives through its own matrix product, whose sums are ordered otherwise than the C++ loops."""

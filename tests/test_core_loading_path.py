@@ -216,6 +216,7 @@ def compare(loaded: bool, continuation: bool, fold: str) -> dict:
     }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fold", list(FOLDS))
 @pytest.mark.parametrize("continuation", [False, True], ids=["solve", "continuation"])
 @pytest.mark.parametrize("loaded", [True, False], ids=["paper-load", "no-load"])

@@ -78,6 +78,7 @@ CASES = [(friction, release, load, balance)
          if not (friction == "none" and release)]  # the mode does not act without friction
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("friction", "release", "load", "balance"), CASES)
 def test_evaluate_bit_identical(friction: str, release: bool, load: str, balance: int) -> None:
     rng = np.random.default_rng(zlib.crc32(repr((friction, release, load, balance)).encode()))
@@ -105,6 +106,7 @@ def test_evaluate_bit_identical(friction: str, release: bool, load: str, balance
     assert not np.array_equal(model.evaluate(q, 1.0)[0], model.evaluate(q, 0.0)[0])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("balance", [K.BALANCE_BASE, K.BALANCE_MIDPOINT])
 def test_clipped_tension_ratio_bit_identical(balance: int) -> None:
     """mu = 1 under large bends clips the tension ratio to 0 before the anchor (no tension beyond it)."""
@@ -156,6 +158,7 @@ def test_jacobian_matches_central_differences(friction: str, balance: int) -> No
     assert np.all(np.abs(J - fd).max(axis=0) <= 1e-6 * scale)
 
 
+@pytest.mark.slow
 def test_tip_jacobian_and_largest_angle() -> None:
     rng = np.random.default_rng(5)
     packed = PCCEquations.build(robot_for("paper"), loads_for("tip", rng, False)).packed
@@ -184,6 +187,7 @@ def test_tip_jacobian_and_largest_angle() -> None:
         assert np.abs(fd - J[:, j]).max() <= 1e-8
 
 
+@pytest.mark.slow
 def test_with_tension_and_blend() -> None:
     rng = np.random.default_rng(9)
     robot = robot_for("paper")

@@ -143,6 +143,7 @@ def assert_jacobian_twin(got: np.ndarray, want: np.ndarray, what: str) -> None:
 
 
 # --------------------------------------------------------------------------------------------- bit-identical
+@pytest.mark.slow
 @pytest.mark.parametrize("case", CASES, ids=lambda c: c.name)
 def test_residual_jacobian_and_tensions_are_the_numba_kernels_to_the_bit(case: Case) -> None:
     p = equations(case).packed
@@ -166,6 +167,7 @@ def test_residual_jacobian_and_tensions_are_the_numba_kernels_to_the_bit(case: C
     assert T[1, 0] == 2.0 and T[1, 5] == 1.0 and T[11, 0] == 0.0 and T[21, 5] == 0.0
 
 
+@pytest.mark.slow
 def test_a_crushed_rod_gives_the_numba_kernels_nans() -> None:
     # an axial strain below -1 in subsegment 13 (shear and extension): no equilibrium, NaN from that disk on; the
     # C++ shortcuts past the sensitivities' zero columns stand down where a factor is not finite
@@ -186,6 +188,7 @@ def test_a_crushed_rod_gives_the_numba_kernels_nans() -> None:
         assert_same_bits(Tc, work.T, "crushed tensions")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", CASES[:3] + CASES[4:5], ids=lambda c: c.name)
 def test_tip_and_pose_jacobians_are_the_numba_kernels_to_the_bit(case: Case) -> None:
     eq = equations(case)
@@ -201,6 +204,7 @@ def test_tip_and_pose_jacobians_are_the_numba_kernels_to_the_bit(case: Case) -> 
         assert_jacobian_twin(model.tip_jacobian(q), SK.tip_jacobian_of(q, eq.packed, work), "tip_jacobian_of")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", [CASES[0], CASES[2], CASES[5]], ids=lambda c: c.name)
 def test_shape_and_wrenches_from_poses_are_the_numba_kernels_to_the_bit(case: Case) -> None:
     eq = equations(case)
@@ -218,6 +222,7 @@ def test_shape_and_wrenches_from_poses_are_the_numba_kernels_to_the_bit(case: Ca
         assert_same_bits(model.wrenches_from_poses(pos, rot), qw, f"wrenches from poses ({case.name}, {kind})")
 
 
+@pytest.mark.slow
 def test_largest_angle_is_the_numba_kernels_to_the_bit() -> None:
     p = equations(CASES[0]).packed
     model = _core.SscrModel.from_packed(p)
@@ -234,6 +239,7 @@ def test_largest_angle_is_the_numba_kernels_to_the_bit() -> None:
     assert model.largest_angle(dq) == sub[0] * 0.1 / min(sub[1], sub[2])
 
 
+@pytest.mark.slow
 def test_with_tension_and_blend_are_the_numba_kernels_to_the_bit() -> None:
     pa = equations(CASES[0]).packed  # paper tip wrench, gravity
     pb = equations(Case("b", "paper", "points", SSCROptions())).packed  # other loads, same robot
@@ -279,6 +285,7 @@ def test_the_jacobian_is_the_central_difference_of_the_residual() -> None:
             assert err <= 1e-6 * np.abs(J).max(), (case.name, kind, err, np.abs(J).max())
 
 
+@pytest.mark.slow
 def test_tangent_stiffness_agrees_with_the_numba_kernel_to_round_off() -> None:
     for case in (CASES[0], CASES[1], CASES[3], CASES[5]):
         eq = equations(case)
@@ -316,6 +323,7 @@ def test_tangent_stiffness_agrees_with_the_numba_kernel_to_round_off() -> None:
             assert resid <= 1e-10 * np.abs(B).max(), (case.name, kind, resid)
 
 
+@pytest.mark.slow
 def test_stiffness_range_writes_the_callers_array_with_the_gil_released() -> None:
     eq = equations(CASES[0])
     model = _core.SscrModel.from_packed(eq.packed)

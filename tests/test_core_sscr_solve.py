@@ -171,6 +171,7 @@ def check_agreement(c: dict) -> None:
 
 
 # ------------------------------------------------------------------ fast: the default fold handling
+@pytest.mark.slow
 @pytest.mark.parametrize("continuation", [False, True], ids=["solve", "continuation"])
 def test_agrees_with_numba(continuation: bool) -> None:
     """FAST_CASES solves (or continuations from a solved state 2 N away) with the model's default fold handling
@@ -197,6 +198,7 @@ def numba_tips(q: np.ndarray) -> np.ndarray:
     return np.array([model.record_shape(row)[0][-1] for row in q])
 
 
+@pytest.mark.slow
 def test_solve_and_continue_end_to_end() -> None:
     """pytdcr.solve(..., model="sscr") (the core's now) gives numba's solver's converged flag, path and tip; a
     continuation (``start=``) gives numba's continuation from the same start."""
@@ -220,6 +222,7 @@ def test_solve_and_continue_end_to_end() -> None:
         assert np.abs(sol.tip_position - tips[k]).max() <= TIP_AGREE, k
 
 
+@pytest.mark.slow
 def test_solve_batch_end_to_end() -> None:
     """pytdcr.solve_batch(..., model="sscr") on two threads gives numba's solver's flags, paths and tips row by row,
     and its stability test runs (the core's tangent stiffness)."""
@@ -234,6 +237,7 @@ def test_solve_batch_end_to_end() -> None:
     assert all(s is not None for s in np.asarray(batch.stable)[ok])
 
 
+@pytest.mark.slow
 def test_tip_gradient_is_the_central_difference_of_solves() -> None:
     """pytdcr.tip_gradient(..., model="sscr") (the core's tip_gradient_range_sscr) is numba's
     tip_gradient_range to round-off and the central difference of warm-started solves at T +- H e_c."""

@@ -9,6 +9,7 @@ one Runge-Kutta step per subsegment on a random tension vector.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from pytdcr import paper_loads, paper_robot, solve_batch
 from pytdcr.runtime import njit
@@ -27,6 +28,7 @@ def _unit_load_py(d, hn, fric, out, dout):
 _unit_load = njit(_unit_load_py)
 
 
+@pytest.mark.slow
 def test_an_overflowed_chord_gives_nan_not_an_exception() -> None:
     out, dout = np.empty(7), np.empty((7, 1))
     paper_friction = np.array([2.0, 0.2, 0.5, 1.0])
