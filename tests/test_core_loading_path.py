@@ -271,3 +271,31 @@ def test_refuses_wrong_shapes() -> None:
         run_core(pb, settings, q0, t, t, 0, 3)
     with pytest.raises(ValueError):
         run_core(pb, settings, q0, t[:, :-1], t[:, :-1])
+
+
+@pytest.mark.parametrize("timed", [True, False])
+def test_the_profile_counts_the_work_of_the_same_solves(timed: bool) -> None:
+    """_profile_range_pcc (bench/solve_phases.py) solves as solve_range_pcc does, bit for bit, and counts each
+    case's work: at least the one Jacobian of the path's first tangent and one factorisation per Jacobian taken
+    by Newton, load steps as solve_range reports them; the phases' seconds add up to at most the case's own."""
+    pb = problem(True)
+    settings = settings_for("relax", False)
+    rows = 12
+    t = np.ascontiguousarray(pb.tensions[:rows])
+    q0 = np.zeros((rows, 3 * pb.packed.sub.shape[0]))
+    ref = run_core(pb, settings, q0, t, t)
+    model = core.PccModel.from_packed(pb.packed)
+    tols = case_tolerances(pb.robot, pb.loads, t, settings.atol)
+    q, res, counts, seconds = core._profile_range_pcc(q0, model, model, t, t, settings, tols, timed)
+    assert np.array_equal(q, ref.q)
+    assert np.array_equal(res >= 0.0, ref.converged)
+    assert np.array_equal(np.where(ref.converged, ref.residual, -ref.residual - 1.0), res)
+    assert np.array_equal(counts[:, 3], ref.load_steps) and np.array_equal(counts[:, 4], ref.path)
+    assert np.all(counts[:, 1] >= 1) and np.all(counts[:, 2] >= counts[:, 1] - 1) and np.all(counts[:, 0] >= 1)
+    if timed:
+        assert np.all(seconds[:, 3] > 0.0)
+        assert np.all(seconds[:, :3].sum(axis=1) <= seconds[:, 3])
+    else:
+        assert not np.any(seconds)
+    with pytest.raises(ValueError, match="tols must be"):
+        core._profile_range_pcc(q0, model, model, t, t, settings, tols[:-1], timed)

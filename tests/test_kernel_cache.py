@@ -167,6 +167,34 @@ def test_no_notice_without_compile_quiet_or_outside(fresh_notices: None, capsys:
     assert "compiling" not in capsys.readouterr().err
 
 
+def test_a_compile_is_said_under_its_own_threads_label(fresh_notices: None,
+                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    """A thread inside an announced call that compiles nothing lends its label to no other thread's compile (the
+    demo once said the pcc solver compiled while another thread compiled the workspace's step kernel)."""
+    import threading
+
+    inside, done = threading.Event(), threading.Event()
+
+    def idle() -> None:
+        with announce_compiling("the idle model", 60.0):
+            inside.set()
+            done.wait(30.0)
+
+    t = threading.Thread(target=idle)
+    t.start()
+    try:
+        assert inside.wait(30.0)
+        _new_function()(1.0)  # outside any call of this thread: nothing to say
+        with announce_compiling("the working model", 10.0):
+            _new_function()(1.0)
+    finally:
+        done.set()
+        t.join()
+    err = capsys.readouterr().err
+    assert "idle model" not in err
+    assert err.count("compiling") == 1 and "compiling the working model for first use" in err
+
+
 def test_quiet_flag_silences_the_notice() -> None:
     from pytdcr.cli._progress import set_quiet
 

@@ -279,6 +279,21 @@ def _first_use(d: dict, view: str | None) -> str:
     return _table(["first use (a fresh process, an empty cache)", "s", "said on stderr"], rows)
 
 
+def _solve_phases(d: dict, view: str | None) -> str:
+    rows = []
+    for name, kinds in d["models"].items():
+        for kind, r in kinds.items():
+            c, share, unit = r["median_count"], r.get("share") or {}, r.get("unit_us") or {}
+            rows.append([f"`{name}`", kind, _num(r["median_ms"]), _num(r["mean_ms"]),
+                         *(_num(c[k], 2) for k in ("residuals", "jacobians", "factorisations", "load_steps")),
+                         *(f"{100 * share[k]:.0f} %" if k in share else NA
+                           for k in ("residual", "jacobian", "factorisation", "other")),
+                         *(_num(unit.get(k)) for k in ("residual", "jacobian", "factorisation"))])
+    return _table(["model", "solve", "median ms", "mean ms", "residuals", "Jacobians", "factorisations",
+                   "load steps", "time in residuals", "in Jacobians", "in factorisations", "elsewhere",
+                   "us per residual", "per Jacobian", "per factorisation"], rows)
+
+
 def _generic(d: dict, view: str | None) -> str:
     """A file holding its own table: ``{"table": {"columns": [...], "rows": [[...], ...]}}`` (or under ``view``)."""
     t = d["tables"][view] if view else d["table"]
@@ -290,7 +305,7 @@ RENDERERS: dict[str, Callable[[dict, str | None], str]] = {
     "batch_derivatives": _batch_derivatives, "batch_derivatives_sscr": _batch_derivatives, "inverse": _inverse,
     "cosserat": _cosserat, "volume": _volume,
     "workspace": _workspace, "designs": _designs, "accuracy": _accuracy, "compile_profile": _compile_profile,
-    "first_use": _first_use,
+    "first_use": _first_use, "solve_phases": _solve_phases,
 }
 """File name (without ``.json``) -> its renderer; a file not listed must hold a ``table`` (or ``tables``)."""
 

@@ -15,6 +15,7 @@
 // round-off, not bit for bit. Every scratch array is in SolverWork, made once per solve_range.
 #pragma once
 
+#include <chrono>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -94,6 +95,26 @@ struct Homotopy {
   bool ramp;
 };
 
+// What one solve spent (solve_range's optional profile): the model's residual-only and Jacobian evaluations, the
+// dense factorisations (inverses, solves, determinants), and, when timed, the seconds in each and in all.
+struct Profile {
+  bool timed = false;
+  long residuals = 0;
+  long jacobians = 0;
+  long factorisations = 0;
+  double residual_s = 0.0;
+  double jacobian_s = 0.0;
+  double linalg_s = 0.0;
+  double total_s = 0.0;
+};
+
+using Clock = std::chrono::steady_clock;
+
+// The seconds since t0 (a Clock time).
+inline double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
 // Every scratch array of one solver (m unknowns): allocated once, reused by every case of a solve_range. Each
 // function has its own arrays (prefixed with its name), as the numba code allocates its own on entry; no two
 // activations of one function are ever live at once.
@@ -118,6 +139,7 @@ struct SolverWork {
   std::vector<double> st_r, st_J0, st_H0, st_qs, st_zero;             // snap_through
   std::vector<double> tg_r0, tg_J, tg_d;                             // _tangent
   std::vector<double> wk_qprev, wk_qs, wk_tan;                       // _walk
+  Profile prof;  // what the current case has spent so far (solve_range resets it per case)
 
   explicit SolverWork(const Model& m)
       : nq(m.n_unknowns()), model(make_work(m)), blended(m), start(m), end(m) {
@@ -155,12 +177,25 @@ struct SolverWork {
 template <class Model>
 inline void model_evaluate(const double* q, double lam, const Homotopy<Model>& h, bool want_jac, double* r,
                            double* J, SolverWork<Model>& w) {
+  const Clock::time_point t0 = w.prof.timed ? Clock::now() : Clock::time_point{};
   if (h.ramp) {  // every load scaled by lam
     evaluate(q, lam, *h.end, want_jac, r, J, w.model);
   } else {  // every load at its blend: the load factor moves along the path, not from zero
     blend(*h.start, *h.end, lam, w.blended);
     evaluate(q, 1.0, w.blended, want_jac, r, J, w.model);
   }
+  (want_jac ? w.prof.jacobians : w.prof.residuals) += 1;
+  if (w.prof.timed) (want_jac ? w.prof.jacobian_s : w.prof.residual_s) += seconds_since(t0);
+}
+
+// f(), a dense factorisation of the solver w, counted (and timed) in w's profile.
+template <class Model, class F>
+inline auto factorisation(SolverWork<Model>& w, F f) {
+  const Clock::time_point t0 = w.prof.timed ? Clock::now() : Clock::time_point{};
+  const auto out = f();
+  w.prof.factorisations += 1;
+  if (w.prof.timed) w.prof.linalg_s += seconds_since(t0);
+  return out;
 }
 
 // model_angle: largest bend or twist of a subsegment that the change dq of the unknowns makes [rad].
@@ -254,7 +289,7 @@ inline void broyden(double* H, const double* q, const double* qt, const double* 
 template <class Model>
 inline bool inverse_or_zero(const double* J, double* H, SolverWork<Model>& w) {
   const std::size_t n = w.nq;
-  if (inverse(J, n, H, w.lu.data(), w.piv.data())) return true;
+  if (factorisation(w, [&] { return inverse(J, n, H, w.lu.data(), w.piv.data()); })) return true;
   for (std::size_t i = 0; i < n * n; ++i) H[i] = 0.0;
   return false;
 }
@@ -262,7 +297,7 @@ inline bool inverse_or_zero(const double* J, double* H, SolverWork<Model>& w) {
 // x = A^-1 b (n, n) with w's linalg scratch (np.linalg.solve); false where it raises.
 template <class Model>
 inline bool solve_into(const double* A, const double* b, std::size_t n, double* x, SolverWork<Model>& w) {
-  return solve(A, b, n, x, w.lu.data(), w.piv.data());
+  return factorisation(w, [&] { return solve(A, b, n, x, w.lu.data(), w.piv.data()); });
 }
 
 // ------------------------------------------------------------------ Newton
@@ -589,7 +624,10 @@ inline double det_sign(const double* J, SolverWork<Model>& w) {
   const std::size_t n = w.nq;
   if (!finite_all(J, n * n)) return 0.0;
   double s, ld;
-  slogdet(J, n, w.lu.data(), w.piv.data(), s, ld);
+  factorisation(w, [&] {
+    slogdet(J, n, w.lu.data(), w.piv.data(), s, ld);
+    return true;
+  });
   return std::isfinite(ld) ? s : 0.0;
 }
 
@@ -862,7 +900,7 @@ std::pair<bool, double> tangent(const double* q, const double* r1, const Homotop
   double* d = w.tg_d.data();
   model_evaluate(q, 0.0, m, true, r0, J, w);
   const double sign = det_sign(J, w);
-  if (!inverse(J, nq, H, w.lu.data(), w.piv.data())) {
+  if (!factorisation(w, [&] { return inverse(J, nq, H, w.lu.data(), w.piv.data()); })) {
     for (std::size_t u = 0; u < nq; ++u) tan[u] = 0.0;
     return {false, sign};
   }
@@ -1125,13 +1163,15 @@ Outcome solve_one(const double* q0, const Homotopy<Model>& m, const Settings& se
 // solve_one does (ma and t_start unused). Continue (STEP_CONTINUE): q0[b] is an equilibrium of ma at the tensions
 // t_start[b] (B, nt) [N], followed along the straight path of the loads to mb at t_end[b]. tols (B, 2): each
 // case's tolerance and load-step tolerance [N m], in place of settings'. Writes out_q (B, m), out_ok, out_res,
-// out_it, out_steps and out_path (B,) for those cases. All arrays C-ordered.
+// out_it, out_steps and out_path (B,) for those cases. All arrays C-ordered. With profiles (B,) given, case b's
+// work is written to profiles[b], timed if profiles[start].timed.
 template <class Model>
 void solve_range(const double* q0, const Model& ma, const Model& mb, const double* t_start, const double* t_end,
                  std::size_t nt, const Settings& settings, const double* tols, std::size_t start, std::size_t stop,
                  double* out_q, bool* out_ok, double* out_res, std::int64_t* out_it, std::int64_t* out_steps,
-                 std::int64_t* out_path) {
+                 std::int64_t* out_path, Profile* profiles = nullptr) {
   SolverWork<Model> w(mb);
+  const bool timed = profiles != nullptr && start < stop && profiles[start].timed;
   const std::size_t nq = w.nq;
   const bool blending = settings.stepping == STEP_CONTINUE;
   for (std::size_t b = start; b < stop; ++b) {
@@ -1144,7 +1184,12 @@ void solve_range(const double* q0, const Model& ma, const Model& mb, const doubl
     Settings s = settings;  // _case_settings: case b's tolerance and load-step tolerance
     s.atol = tols[2 * b];
     s.step_atol = tols[2 * b + 1];
+    w.prof = Profile{};
+    w.prof.timed = timed;
+    const Clock::time_point t0 = timed ? Clock::now() : Clock::time_point{};
     const Outcome o = solve_one(q0 + b * nq, h, s, w, out_q + b * nq);
+    if (timed) w.prof.total_s = seconds_since(t0);
+    if (profiles != nullptr) profiles[b] = w.prof;
     out_ok[b] = o.converged;
     out_res[b] = o.residual;
     out_it[b] = o.iterations;

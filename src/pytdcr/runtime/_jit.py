@@ -53,7 +53,18 @@ _lock = threading.RLock()
 _chosen: list[Path | None] = []  # the folder, once chosen (a list: set once per process)
 _notice = {"on": True}
 _said: set[str] = set()
-_current: list[tuple[str, float]] = []  # what is being used, innermost last: (label, about how many seconds)
+#: per thread, what is being used, innermost last: (label, about how many seconds). numba compiles in the thread
+#: that first calls a kernel, so a compile is said under that thread's label, never under another thread's
+_local = threading.local()
+
+
+def _current() -> list[tuple[str, float]]:
+    """This thread's stack of labels."""
+    stack = getattr(_local, "stack", None)
+    if stack is None:
+        stack = _local.stack = []
+    return stack
+
 _listening = {"on": False}
 
 
@@ -152,17 +163,19 @@ def announce_compiling(label: str, seconds: float) -> Iterator[None]:
     prints ``pytdcr: compiling <label> for first use, about <seconds> s, once`` on stderr (once per label and
     process; nothing when every kernel loads from the cache)."""
     _listen()
-    _current.append((label, seconds))
+    stack = _current()
+    stack.append((label, seconds))
     try:
         yield
     finally:
-        _current.pop()
+        stack.pop()
 
 
 def _say(label: str, seconds: float) -> None:
-    if not _notice["on"] or label in _said:
-        return
-    _said.add(label)
+    with _lock:
+        if not _notice["on"] or label in _said:
+            return
+        _said.add(label)
     about = f"about {max(round(seconds, -1), 5):.0f} s" if seconds <= 120 else f"about {seconds / 60:.0f} min"
     print(f"pytdcr: compiling {label} for first use, {about}, once", file=sys.stderr, flush=True)
 
@@ -175,8 +188,9 @@ def _listen() -> None:
 
     class _Compiles(event.Listener):
         def on_start(self, ev: event.Event) -> None:
-            if _current:
-                _say(*_current[-1])
+            stack = _current()
+            if stack:
+                _say(*stack[-1])
 
         def on_end(self, ev: event.Event) -> None:
             pass
