@@ -230,14 +230,19 @@ def test_agrees_with_numba(loaded: bool, continuation: bool, fold: str) -> None:
     assert c["q beyond"] == 0, c
 
 
+def first_rows(rows: int) -> tuple[Problem, SV.Settings, np.ndarray, np.ndarray]:
+    """The loaded problem, the default settings (relax at folds), its first ``rows`` tension vectors and the
+    straight robot's unknowns for each."""
+    pb = problem(True)
+    t = np.ascontiguousarray(pb.tensions[:rows])
+    return pb, settings_for("relax", False), t, np.zeros((rows, 3 * pb.packed.sub.shape[0]))
+
+
 def test_threads_split_the_batch() -> None:
     """Two Python threads solving the two halves of a batch (the GIL released) give exactly the answer of one
     call over the whole batch; the calling thread keeps running meanwhile."""
-    pb = problem(True)
-    settings = settings_for("relax", False)
-    rows = 40
-    t = np.ascontiguousarray(pb.tensions[:rows])
-    q0 = np.zeros((rows, 3 * pb.packed.sub.shape[0]))
+    pb, settings, t, q0 = first_rows(40)
+    rows = t.shape[0]
     whole = run_core(pb, settings, q0, t, t)
     split = empty_outputs(rows, q0.shape[1])
     threads = [threading.Thread(target=run_core, args=(pb, settings, q0, t, t, a, b, split))
@@ -278,11 +283,7 @@ def test_the_profile_counts_the_work_of_the_same_solves(timed: bool) -> None:
     """_profile_range_pcc (bench/solve_phases.py) solves as solve_range_pcc does, bit for bit, and counts each
     case's work: at least the one Jacobian of the path's first tangent and one factorisation per Jacobian taken
     by Newton, load steps as solve_range reports them; the phases' seconds add up to at most the case's own."""
-    pb = problem(True)
-    settings = settings_for("relax", False)
-    rows = 12
-    t = np.ascontiguousarray(pb.tensions[:rows])
-    q0 = np.zeros((rows, 3 * pb.packed.sub.shape[0]))
+    pb, settings, t, q0 = first_rows(12)
     ref = run_core(pb, settings, q0, t, t)
     model = core.PccModel.from_packed(pb.packed)
     tols = case_tolerances(pb.robot, pb.loads, t, settings.atol)

@@ -211,27 +211,6 @@ def test_tension_step_stays_in_the_box_and_moves_the_tip_as_asked():
         assert np.linalg.norm(J @ dt - dp) <= np.linalg.norm(dp) + 1e-12  # never worse than no step
 
 
-def test_the_compiled_box_least_squares_agrees_with_scipys_bvls():
-    from scipy.optimize import lsq_linear
-
-    from pytdcr.workspace._step_kernel import box_least_squares
-
-    rng = np.random.default_rng(11)
-    for _ in range(300):
-        k = int(rng.integers(1, 9))
-        A = rng.normal(size=(3, k)) * 10 ** rng.uniform(-4, -1)
-        y = rng.normal(size=3) * 0.02
-        lo, hi = -rng.uniform(0.1, 10, k), rng.uniform(0.1, 10, k)
-        at_bound = rng.random(k)
-        lo[at_bound < 0.2], hi[at_bound > 0.8] = 0.0, 0.0  # tendons at a bound: no move past it
-        damp = 1e-3 * np.abs(A).max()
-        x = box_least_squares(A, y, damp, lo, hi)
-        M, yy = np.vstack([A, damp * np.eye(k)]), np.concatenate([y, np.zeros(k)])
-        ref = lsq_linear(M, yy, bounds=(lo, hi), method="bvls", tol=1e-14).x
-        assert np.all(x >= lo) and np.all(x <= hi)
-        np.testing.assert_allclose(x, ref, rtol=1e-7, atol=1e-9 * max(np.abs(ref).max(), 1e-3))
-
-
 def test_boundary_search_grows_the_region_with_loading_path_equilibria():
     robot, loads, b = paper_robot(), paper_loads(), paper_bounds()
     voxel = robot.length / 10

@@ -44,8 +44,7 @@ _log = logging.getLogger("pytdcr.cache")
 _PACKAGE = Path(__file__).resolve().parents[1]
 #: the sources kernels are compiled from, relative to the package (globs): the kernels themselves and every
 #: module whose functions or constants they compile in (tests/test_kernel_cache.py checks the list is whole)
-KERNEL_SOURCES = ("kinematics.py", "runtime/_flags.py", "statics/kernels/*.py", "statics/options.py",
-                  "workspace/_step_kernel.py")
+KERNEL_SOURCES = ("kinematics.py", "runtime/_flags.py", "statics/kernels/*.py", "statics/options.py")
 #: key folders kept beside the one in use (the newest by modification time)
 KEPT_KEYS = 2
 

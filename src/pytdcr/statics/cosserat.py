@@ -301,7 +301,7 @@ class CosseratModel:
     unknowns = "q: (3,), the total moment at the base [N m], base frame"
     iteration_unit = "integrations"
     #: a cold first use's compile time of each part [s] (2 cores, ``bench/compile_profile.py``)
-    compile_seconds: ClassVar[dict[str, float]] = {"solver": 4.0}
+    compile_seconds: ClassVar[dict[str, float]] = {"solver": 10.0}
 
     def resources(self, robot: Robot, options: CosseratOptions) -> Resources:
         """Peak memory and rough time of one solve: linear in the disks (three unknowns; measured 11 ms for

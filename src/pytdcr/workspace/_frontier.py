@@ -18,14 +18,13 @@ from dataclasses import MISSING, asdict, dataclass, field, fields, replace
 
 import numpy as np
 
+from .. import _core
 from ..bounds import TensionBounds
 from ..records import JsonDict, JsonObject
-from ..runtime import announce_compiling
 from ..validate import SettingsError, check_count
 from ._grid import region_from_points
 from ._plan import SOURCES
 from ._solve import RegionSamples, WarmStartCheck, _checked, _Solver
-from ._step_kernel import box_least_squares
 
 __all__ = ["FOLD_RULES", "BoundarySearch", "GrowthSettings", "SearchRound", "SearchState", "grow_region"]
 
@@ -218,14 +217,12 @@ def _faces(tip: np.ndarray, rows: np.ndarray, tried: np.ndarray, voxel: float, c
     return r, f
 
 
-#: the boundary step kernel's cold compile time [s] (2 cores), said at its first use
-_STEP_COMPILE_S = 7.0
 
 def tension_step(J: np.ndarray, t: np.ndarray, lower: np.ndarray, upper: np.ndarray, dp: np.ndarray) -> np.ndarray:
     """The tension step ``dt`` (n,) [N] with ``J dt`` closest to ``dp`` (3,) [m] and ``t + dt`` in the bounds,
     the smallest such: the least-norm solution when it stays inside, else bounded least squares with a small
     damping of the step (``J`` (3, n) [m/N] scaled by its largest entry times 1e-3;
-    ``_step_kernel.box_least_squares``)."""
+    the compiled core's ``box_least_squares``, src/cpp/box_lsq.hpp)."""
     free = upper > lower
     dt = np.zeros(t.size)
     A = J[:, free]
@@ -238,8 +235,7 @@ def tension_step(J: np.ndarray, t: np.ndarray, lower: np.ndarray, upper: np.ndar
         return dt
     damp = 1e-3 * float(np.abs(A).max())
     lo, hi = np.minimum((lower - t)[free], 0.0), np.maximum((upper - t)[free], 0.0)
-    with announce_compiling("the workspace's boundary step", _STEP_COMPILE_S):
-        x = box_least_squares(np.ascontiguousarray(A), np.ascontiguousarray(dp, dtype=float), damp, lo, hi)
+    x = _core.box_least_squares(np.ascontiguousarray(A), np.ascontiguousarray(dp, dtype=float), damp, lo, hi)
     dt[free] = np.clip(x, (lower - t)[free], (upper - t)[free])
     return dt
 
