@@ -7,17 +7,14 @@ DOCS_STAMP := $(VENV)/.docs-installed
 
 .PHONY: demo test test-slow docs lint bench clean
 
-KERNELS := $(wildcard src/pytdcr/statics/kernels/*.py) src/pytdcr/kinematics.py
-# the compiled core (pytdcr._core), built by the install: an edited C++ source re-installs
+# the compiled core (pytdcr._core), built by the install: an edited C++ source re-installs. Every model runs in
+# it, so nothing compiles at first use (numba compiles only the tests' reference kernels, when a test calls them)
 CORE := CMakeLists.txt $(wildcard src/cpp/*.cpp src/cpp/*.hpp)
 
-$(STAMP): pyproject.toml $(KERNELS) $(CORE)
+$(STAMP): pyproject.toml $(CORE)
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --upgrade pip
 	$(BIN)/python -m pip install -e '.[dev]'
-	# compile the numba kernels once, into the user cache folder (PYTDCR_CACHE_DIR or ~/.cache/pytdcr), under a
-	# key of the version and the kernels' sources: an edited kernel compiles afresh, never from a stale copy
-	$(BIN)/python -c "import pytdcr.statics; pytdcr.statics.warmup()"
 	touch $(STAMP)
 
 demo: $(STAMP)

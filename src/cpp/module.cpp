@@ -10,6 +10,7 @@ void bind_sscr(nb::module_& m);
 void bind_loading_path(nb::module_& m);
 void bind_stiffness(nb::module_& m);
 void bind_box_lsq(nb::module_& m);
+void bind_cosserat(nb::module_& m);
 }  // namespace pytdcr
 
 NB_MODULE(_core, m) {
@@ -20,4 +21,5 @@ NB_MODULE(_core, m) {
   pytdcr::bind_loading_path(m);
   pytdcr::bind_stiffness(m);
   pytdcr::bind_box_lsq(m);
+  pytdcr::bind_cosserat(m);
 }

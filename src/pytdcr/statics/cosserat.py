@@ -25,19 +25,19 @@ import math
 import time
 from dataclasses import dataclass, replace
 from functools import cached_property
-from typing import ClassVar, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from scipy.optimize import root
 
+from .. import _core
 from ..contact import contact_failure
 from ..limits import Resources
 from ..loads import Loads
 from ..results import BatchSolution, StaticSolution
 from ..robot import Robot
 from ..runtime import check_cancelled, run_in_chunks
-from .base import Capabilities, announced
-from .kernels import cosserat as CK
+from .base import Capabilities
 from .kernels.pcc import Packed
 from .options import CosseratOptions, SolvePath
 from .pcc import PCCEquations
@@ -105,16 +105,22 @@ class CosseratShooting:
     def shoot(self, m0: np.ndarray, load_factor: float = 1.0, record: bool = False) -> Shot:
         """Integrate from the base with total base moment ``m0`` (3,) [N m], every load scaled by ``load_factor``."""
         p = self.packed
-        n = p.sub.shape[0]
-        if record:
-            out = (np.empty((n + 1, 3)), np.empty((n + 1, 3, 3)), np.empty((n * self.nsub + 1, 3)))
-        else:
-            out = (np.empty((1, 3)), np.empty((1, 3, 3)), np.empty((1, 3)))
-        res = np.empty(6)
-        rod = CK.Rod(p.sub[:, 0], self.stiff, float(self.mpl), p.sub[:, 3], self.holes, p.anchor, p.tension, p.grav,
-                     p.pforce, p.pmoment, bool(self.shear_extension), int(self.nsub))
-        CK.shoot(np.ascontiguousarray(m0, dtype=float), float(load_factor), rod, record, *out, res)
-        return Shot(res[:3].copy(), res[3:].copy(), *(out if record else (None, None, None)))
+        _, res, *out = _core.cosserat_shoot(
+            np.ascontiguousarray(m0, dtype=float), float(load_factor), *self._core_rod[:6],
+            np.ascontiguousarray(p.tension, dtype=float), *self._core_rod[6:], bool(self.shear_extension),
+            int(self.nsub), record)
+        return Shot(res[:3], res[3:], *(out if record else (None, None, None)))
+
+    @cached_property
+    def _core_rod(self) -> tuple:
+        """The rod's arrays as the compiled core's ``cosserat_shoot`` takes them, but the tensions (C-ordered):
+        lengths, stiff, mass per length, disk masses, holes, anchor disks (int64); gravity, point forces and
+        moments."""
+        p = self.packed
+        c = np.ascontiguousarray
+        return (c(p.sub[:, 0], dtype=float), c(self.stiff, dtype=float), float(self.mpl), c(p.sub[:, 3], dtype=float),
+                c(self.holes, dtype=float), c(p.anchor, dtype=np.int64), c(p.grav, dtype=float),
+                c(p.pforce, dtype=float), c(p.pmoment, dtype=float))
 
     def residual(self, m0: np.ndarray, load_factor: float = 1.0) -> np.ndarray:
         """Total moment just past the tip [N m], shape (3,), for base moment ``m0`` (3,) [N m].
@@ -300,8 +306,6 @@ class CosseratModel:
     capabilities = Capabilities(friction=False, point_wrenches=True, gradient="finite differences")
     unknowns = "q: (3,), the total moment at the base [N m], base frame"
     iteration_unit = "integrations"
-    #: a cold first use's compile time of each part [s] (2 cores, ``bench/compile_profile.py``)
-    compile_seconds: ClassVar[dict[str, float]] = {"solver": 10.0}
 
     def resources(self, robot: Robot, options: CosseratOptions) -> Resources:
         """Peak memory and rough time of one solve: linear in the disks (three unknowns; measured 11 ms for
@@ -312,13 +316,11 @@ class CosseratModel:
         """Default options."""
         return CosseratOptions()
 
-    @announced("solver")
     def solve(self, robot: Robot, loads: Loads, q0: np.ndarray | None, options: CosseratOptions) -> StaticSolution:
         """One equilibrium; see :func:`pytdcr.solve`."""
         check_cancelled()
         return _solve_shooting(CosseratShooting.build(robot, loads, options), q0, options, loads)
 
-    @announced("solver")
     def solve_batch(self, robot: Robot, tensions: np.ndarray, loads: Loads, q0: np.ndarray | None,
                     options: CosseratOptions, threads: int | None = None) -> BatchSolution:
         """Every row of ``tensions`` (B, n_tendons) [N]; ``q0`` is (3,) or (B, 3)."""
@@ -342,19 +344,16 @@ class CosseratModel:
         seconds = time.perf_counter() - t0
         return BatchSolution.from_solutions(tensions, sols, seconds, self.name)
 
-    @announced("solver")
     def equilibrium_residual(self, robot: Robot, loads: Loads, q: np.ndarray, options: CosseratOptions) -> float:
         """max |tip moment residual| [N m] of ``robot`` under ``loads`` at the base moment ``q`` (3,) [N m]."""
         return float(np.max(np.abs(CosseratShooting.build(robot, loads, options).residual(q))))
 
-    @announced("tip gradient")
     def tip_gradient(self, robot: Robot, loads: Loads, solution: StaticSolution,
                      options: CosseratOptions) -> tuple[np.ndarray, np.ndarray]:
         """Tip (3,) [m] and its derivative by the tensions (3, n_tendons) [m/N], by central differences of the
         shooting map (implicit function theorem)."""
         return CosseratShooting.build(robot, loads, options).tip_gradient(solution.q)
 
-    @announced("tip gradient")
     def tip_gradients(self, robot: Robot, tensions: np.ndarray, loads: Loads, q: np.ndarray,
                       options: CosseratOptions, threads: int | None = None) -> np.ndarray:
         """Derivatives of the tip by the tensions at many equilibria ``q`` (B, 3) at ``tensions``
