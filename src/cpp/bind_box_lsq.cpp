@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "bind_common.hpp"
 #include "box_lsq.hpp"
 
 namespace nb = nanobind;
@@ -15,7 +16,7 @@ namespace pytdcr {
 
 namespace {
 using In = nb::ndarray<const double, nb::c_contig, nb::device::cpu>;
-using Array = nb::ndarray<nb::numpy, double>;
+using bind::Array;
 }  // namespace
 
 void bind_box_lsq(nb::module_& m) {
@@ -33,10 +34,8 @@ void bind_box_lsq(nb::module_& m) {
         for (std::size_t i = 0; i < k; ++i)
           if (!(lower.data()[i] <= 0.0 && 0.0 <= upper.data()[i]))
             throw std::invalid_argument(std::string(name) + "need lower <= 0 <= upper");
-        double* data = new double[k]();
-        nb::capsule owner(data, [](void* p) noexcept { delete[] static_cast<double*>(p); });
-        const std::size_t shape[1] = {k};
-        Array x(data, 1, shape, owner);
+        Array x = bind::new_array({k});
+        double* data = x.data();
         bool ok;
         {
           nb::gil_scoped_release release;

@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "bind_common.hpp"
 #include "cosserat.hpp"
 
 namespace nb = nanobind;
@@ -17,15 +18,9 @@ namespace pytdcr {
 namespace {
 using In = nb::ndarray<const double, nb::c_contig, nb::device::cpu>;
 using InI = nb::ndarray<const std::int64_t, nb::c_contig, nb::device::cpu>;
-using Array = nb::ndarray<nb::numpy, double>;
+using bind::Array;
 
-Array owned(std::initializer_list<std::size_t> shape) {
-  std::size_t size = 1;
-  for (std::size_t s : shape) size *= s;
-  double* data = new double[size]();
-  nb::capsule owner(data, [](void* p) noexcept { delete[] static_cast<double*>(p); });
-  return Array(data, shape.size(), shape.begin(), owner);
-}
+using bind::new_array;
 
 void need(bool ok, const char* what) {
   if (!ok) throw std::invalid_argument(std::string("cosserat_shoot: ") + what);
@@ -66,8 +61,8 @@ void bind_cosserat(nb::module_& m) {
         rod.ext = ext;
         rod.nsub = nsub;
         const std::size_t npts = record ? n * static_cast<std::size_t>(nsub) + 1 : 1;
-        Array res = owned({6}), pos = owned({record ? n + 1 : 1, 3}), rot = owned({record ? n + 1 : 1, 3, 3}),
-              curve = owned({npts, 3});
+        Array res = new_array({6}), pos = new_array({record ? n + 1 : 1, 3}), rot = new_array({record ? n + 1 : 1, 3, 3}),
+              curve = new_array({npts, 3});
         bool ok;
         {
           nb::gil_scoped_release release;

@@ -5,22 +5,17 @@
 
 #include <stdexcept>
 
+#include "bind_common.hpp"
 #include "kinematics.hpp"
 
 namespace nb = nanobind;
 
 namespace pytdcr {
 
-using Array = nb::ndarray<nb::numpy, double>;
+using bind::Array;
 using In = nb::ndarray<const double, nb::c_contig, nb::device::cpu>;
 
-Array new_array(std::initializer_list<std::size_t> shape) {
-  std::size_t size = 1;
-  for (std::size_t s : shape) size *= s;
-  double* data = new double[size]();
-  nb::capsule owner(data, [](void* p) noexcept { delete[] static_cast<double*>(p); });
-  return Array(data, shape.size(), shape.begin(), owner);
-}
+using bind::new_array;
 
 void bind_kinematics(nb::module_& m) {
   m.def(

@@ -15,6 +15,7 @@
 #include <tuple>
 #include <vector>
 
+#include "bind_common.hpp"
 #include "linalg.hpp"
 #include "loading_path.hpp"
 #include "pcc.hpp"
@@ -30,15 +31,9 @@ using In = nb::ndarray<const double, nb::c_contig, nb::device::cpu>;
 using OutF = nb::ndarray<double, nb::c_contig, nb::device::cpu>;
 using OutB = nb::ndarray<bool, nb::c_contig, nb::device::cpu>;
 using OutI = nb::ndarray<std::int64_t, nb::c_contig, nb::device::cpu>;
-using Array = nb::ndarray<nb::numpy, double>;
+using bind::Array;
 
-// A new numpy array of the given shape, zero-filled, owning its memory.
-Array new_float_array(std::size_t rows, std::size_t cols, bool matrix) {
-  double* data = new double[rows * cols]();
-  nb::capsule owner(data, [](void* p) noexcept { delete[] static_cast<double*>(p); });
-  const std::size_t shape[2] = {rows, cols};
-  return Array(data, matrix ? 2 : 1, shape, owner);
-}
+using bind::new_array;
 
 // The (n, n) matrix a, checked square.
 std::size_t square(const In& a, const char* name) {
@@ -144,8 +139,8 @@ void bind_solve_range(nb::module_& m, const std::string& suffix, const char* mod
                                     B, q.data(), ok.get(), res.data(), it.data(), steps.data(), path.data(),
                                     prof.data());
         }
-        Array q_out = new_float_array(B, nq, true), counts = new_float_array(B, 5, true),
-              secs = new_float_array(B, 4, true), res_out = new_float_array(B, 1, false);
+        Array q_out = new_array({B, nq}), counts = new_array({B, 5}),
+              secs = new_array({B, 4}), res_out = new_array({B});
         for (std::size_t b = 0; b < B; ++b) {
           for (std::size_t u = 0; u < nq; ++u) q_out.data()[b * nq + u] = q[b * nq + u];
           res_out.data()[b] = ok[b] ? res[b] : -res[b] - 1.0;  // converged: the residual; else -(1 + residual)
@@ -180,7 +175,7 @@ void bind_loading_path(nb::module_& m) {
         if (b.ndim() != 1 || b.shape(0) != n) throw std::invalid_argument("_lu_solve: b must be (n,)");
         std::vector<double> lu(n * n);
         std::vector<std::size_t> piv(n);
-        Array x = new_float_array(n, 1, false);
+        Array x = new_array({n});
         if (!solve(a.data(), b.data(), n, x.data(), lu.data(), piv.data())) return nb::none();
         return nb::cast(x);
       },
@@ -193,7 +188,7 @@ void bind_loading_path(nb::module_& m) {
         const std::size_t n = square(a, "_lu_inverse");
         std::vector<double> lu(n * n);
         std::vector<std::size_t> piv(n);
-        Array out = new_float_array(n, n, true);
+        Array out = new_array({n, n});
         if (!inverse(a.data(), n, out.data(), lu.data(), piv.data())) return nb::none();
         return nb::cast(out);
       },

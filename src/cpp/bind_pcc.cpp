@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "bind_common.hpp"
 #include "pcc.hpp"
 
 namespace nb = nanobind;
@@ -24,20 +25,14 @@ using Out = nb::ndarray<nb::numpy, double>;
 using In = nb::ndarray<const double, nb::c_contig, nb::device::cpu>;
 using InLong = nb::ndarray<const long, nb::c_contig, nb::device::cpu>;
 
+using bind::new_array;
+
 // A new zeroed numpy array of this shape, owning its memory.
-Out new_out(std::initializer_list<std::size_t> shape) {
-  std::size_t size = 1;
-  for (std::size_t s : shape) size *= s;
-  double* data = new double[size]();
-  nb::capsule owner(data, [](void* p) noexcept { delete[] static_cast<double*>(p); });
-  return Out(data, shape.size(), shape.begin(), owner);
-}
+Out new_out(std::initializer_list<std::size_t> shape) { return new_array(shape); }
 
 // A numpy copy of a model's array, of this shape.
 Out copy_out(const std::vector<double>& v, std::initializer_list<std::size_t> shape) {
-  Out a = new_out(shape);
-  for (std::size_t j = 0; j < v.size(); ++j) a.data()[j] = v[j];
-  return a;
+  return bind::copy_array(v.data(), shape);
 }
 
 std::string shape_of(const In& a) {

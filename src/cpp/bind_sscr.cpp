@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "bind_common.hpp"
 #include "sscr.hpp"
 
 namespace nb = nanobind;
@@ -28,20 +29,10 @@ using InInt = nb::ndarray<const std::int64_t, nb::c_contig, nb::device::cpu>;
 using Inout = nb::ndarray<double, nb::c_contig, nb::device::cpu>;
 
 // A new zeroed numpy array of this shape, owning its memory.
-Out new_out(std::initializer_list<std::size_t> shape) {
-  std::size_t size = 1;
-  for (std::size_t s : shape) size *= s;
-  double* data = new double[size]();
-  nb::capsule owner(data, [](void* p) noexcept { delete[] static_cast<double*>(p); });
-  return Out(data, shape.size(), shape.begin(), owner);
-}
+Out new_out(std::initializer_list<std::size_t> shape) { return bind::new_array(shape); }
 
-// A numpy copy of n numbers from data, of this shape.
-Out copy_out(const double* data, std::initializer_list<std::size_t> shape) {
-  Out a = new_out(shape);
-  for (std::size_t j = 0; j < a.size(); ++j) a.data()[j] = data[j];
-  return a;
-}
+// A numpy copy of the numbers at data, of this shape.
+Out copy_out(const double* data, std::initializer_list<std::size_t> shape) { return bind::copy_array(data, shape); }
 
 template <class A>
 std::string shape_of(const A& a) {
