@@ -201,7 +201,9 @@ def check_solution(model: Model, robot: Robot, loads: Loads, solution: StaticSol
 
 
 def warmup() -> float:
-    """Compile (or load from the on-disk cache) every model's kernels, in a fixed order; returns the seconds."""
+    """Run each model's calls once (solve, warm start, continuation, batch, stability, tip gradients), in a fixed
+    order; returns the seconds. Every model runs in the compiled core, so nothing compiles: what remains is the
+    first call's set-up (imports, allocations), and a benchmark calls this before it times anything."""
     from ..paper import rao_robot
 
     t0 = time.perf_counter()
