@@ -10,10 +10,10 @@ timed). Two kinds of solve per model:
   [0, 20] N), as ``solve(..., start=solution)`` does.
 
 Per model and kind: the time per solve (median, mean); per solve, the median count of residual-only evaluations,
-Jacobian evaluations (residual with its exact Jacobian), dense factorisations (inverses, solves, determinants)
-and load steps; the share of all the solves' time in each phase (residuals, Jacobians, factorisations, the rest:
-Broyden updates, predictors, bookkeeping) and each phase's median unit cost [us]. The timers cost about
-0.05 us a call; ``--untimed`` runs without them for the totals alone.
+Jacobian evaluations (residual with its exact Jacobian), dense LU factorisations (of the Jacobian, its bordered
+and damped forms) and load steps; the share of all the solves' time in each phase (residuals, Jacobians,
+factorisations, the rest: Broyden updates, predictors, bookkeeping) and each phase's median unit cost [us].
+The timers cost about 0.05 us a call; ``--untimed`` runs without them for the totals alone.
 
 Prints a table, writes ``bench/results/solve_phases.json`` (``--out`` elsewhere) and, with ``--json``, prints
 one JSON object as the last line.

@@ -11,7 +11,9 @@
 //   blend(a, b, s, out)                             out = b under the loads (1 - s) a + s b
 // and model.n_unknowns() (m). Unknowns q and residual r have the model's own layout.
 //
-// The dense linear algebra (numba's LAPACK calls) is linalg.hpp's LU: results agree with the numba solver's to
+// The dense linear algebra (numba's LAPACK calls) is linalg.hpp's LU, and the quasi-Newton inverse Jacobian is
+// kept as LU factors with Broyden's corrections in product form (InverseJacobian) where the numba code forms and
+// updates an explicit inverse: the same iteration in exact arithmetic, so results agree with the numba solver's to
 // round-off, not bit for bit. Every scratch array is in SolverWork, made once per solve_range.
 #pragma once
 
@@ -96,7 +98,8 @@ struct Homotopy {
 };
 
 // What one solve spent (solve_range's optional profile): the model's residual-only and Jacobian evaluations, the
-// dense factorisations (inverses, solves, determinants), and, when timed, the seconds in each and in all.
+// dense LU factorisations (of the Jacobian, of its bordered and damped forms), and, when timed, the seconds in
+// each and in all.
 struct Profile {
   bool timed = false;
   long residuals = 0;
@@ -115,6 +118,83 @@ inline double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
+// The inverse Jacobian H of the quasi-Newton iteration, kept as the LU factors of an exact Jacobian J and the
+// rank-one corrections of Broyden's ("good") updates since, in product form:
+//
+//     H = (I + w_k s_k^T) ... (I + w_1 s_1^T) J^-1,
+//
+// so that H r costs one forward and back substitution (2 n^2) plus 2 n per correction, and an update 2 n: no
+// explicit inverse (2 n^3, twice the factorisation) and no dense rank-one update (2 n^2 each). Where J is not
+// finite or exactly singular, H is zero (as the dense code's H = 0 when inv(J) raised), and stays zero under
+// updates (s^T H y = 0).
+struct InverseJacobian {
+  std::size_t n = 0;
+  std::vector<double> lu;         // (n, n) the factors of J
+  std::vector<std::size_t> piv;   // (n,) its row interchanges
+  double sign = 0.0;              // sign of det J (0 where J is singular or not finite)
+  bool ok = false;                // H = J^-1 (false: H = 0)
+  std::vector<double> ws, ss;     // (k, n) each: the corrections' w_j and s_j
+  std::size_t k = 0;              // corrections held
+
+  explicit InverseJacobian(std::size_t size = 0)
+      : n(size), lu(size * size, 0.0), piv(size, 0), ws(16 * size, 0.0), ss(16 * size, 0.0) {}
+
+  // H = J^-1 (J (n, n) row-major), no corrections. False (H = 0, sign 0) where J has a non-finite entry or an
+  // exactly zero pivot. sign is that of det J (its permutation's times its pivots').
+  bool factor(const double* J) {
+    k = 0;
+    ok = all_finite(J, n * n) && lu_factor(J, n, lu.data(), piv.data(), sign);
+    if (!ok) {
+      sign = 0.0;
+      return false;
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      const double d = lu[i * n + i];
+      if (!std::isfinite(d)) sign = 0.0;
+      if (d < 0.0) sign = -sign;
+    }
+    return true;
+  }
+
+  // True when H = J^-1 is usable to full precision: factored, its factors finite and every pivot's reciprocal
+  // finite (the dense inverse would have been finite).
+  bool finite() const {
+    if (!ok || !all_finite(lu.data(), n * n)) return false;
+    for (std::size_t i = 0; i < n; ++i)
+      if (!std::isfinite(1.0 / lu[i * n + i])) return false;
+    return true;
+  }
+
+  // out (n,) = H r (out may be r).
+  void apply(const double* r, double* out) const {
+    if (!ok) {
+      for (std::size_t u = 0; u < n; ++u) out[u] = 0.0;
+      return;
+    }
+    if (out != r)
+      for (std::size_t u = 0; u < n; ++u) out[u] = r[u];
+    lu_solve(lu.data(), piv.data(), n, out);
+    for (std::size_t j = 0; j < k; ++j) {
+      const double* sj = ss.data() + j * n;
+      const double* wj = ws.data() + j * n;
+      double c = 0.0;
+      for (std::size_t u = 0; u < n; ++u) c += sj[u] * out[u];
+      for (std::size_t u = 0; u < n; ++u) out[u] += c * wj[u];
+    }
+  }
+
+  // H <- (I + w s^T) H: append one correction (w, s, each (n,)).
+  void push(const double* w, const double* s) {
+    if ((k + 1) * n > ws.size()) {
+      ws.resize(2 * (k + 1) * n);
+      ss.resize(2 * (k + 1) * n);
+    }
+    std::copy(w, w + n, ws.data() + k * n);
+    std::copy(s, s + n, ss.data() + k * n);
+    k += 1;
+  }
+};
+
 // Every scratch array of one solver (m unknowns): allocated once, reused by every case of a solve_range. Each
 // function has its own arrays (prefixed with its name), as the numba code allocates its own on entry; no two
 // activations of one function are ever live at once.
@@ -128,15 +208,17 @@ struct SolverWork {
   std::vector<double> lu;  // linalg scratch (m+1, m+1)
   std::vector<std::size_t> piv;
   std::vector<double> diff;  // _change's qa - qb (m)
-  std::vector<double> H;     // solve_one's inverse Jacobian (m, m)
+  InverseJacobian H;         // solve_one's inverse Jacobian
   std::vector<double> so_r_full, so_start, so_kept, so_qs, so_r, so_J;  // solve_one
-  std::vector<double> nw_r, nw_rt, nw_J, nw_qt, nw_hr, nw_hrt, nw_hy, nw_sh, nw_s, nw_dx, nw_A, nw_g, nw_B;  // newton
+  std::vector<double> nw_r, nw_rt, nw_J, nw_qt, nw_hr, nw_hrt, nw_hy, nw_s, nw_dx, nw_A, nw_g, nw_B;  // newton
   std::vector<double> rx_r, rx_J, rx_D, rx_A, rx_dx;  // relax
   std::vector<double> ac_r, ac_r0, ac_r1, ac_dl, ac_J, ac_A, ac_b, ac_t, ac_tprev, ac_z, ac_zs, ac_dq, ac_dz;
-  std::vector<double> cr_r, cr_rt, cr_qt, cr_J, cr_H, cr_dx, cr_hrt;  // _correct
+  std::vector<double> cr_r, cr_rt, cr_qt, cr_J, cr_dx, cr_hrt;  // _correct
+  InverseJacobian cr_H;
   std::vector<double> fo_J, fo_r0, fo_r1, fo_dl, fo_qs, fo_tan;       // _follow
   std::vector<double> fl_r, fl_J, fl_A, fl_qlow, fl_qtry, fl_dx, fl_h;  // _flow
-  std::vector<double> st_r, st_J0, st_H0, st_qs, st_zero;             // snap_through
+  std::vector<double> st_r, st_J0, st_qs, st_zero;             // snap_through
+  InverseJacobian st_H0;
   std::vector<double> tg_r0, tg_J, tg_d;                             // _tangent
   std::vector<double> wk_qprev, wk_qs, wk_tan;                       // _walk
   Profile prof;  // what the current case has spent so far (solve_range resets it per case)
@@ -147,10 +229,12 @@ struct SolverWork {
     lu.assign(n1 * n1, 0.0);
     piv.assign(n1, 0);
     diff.assign(n, 0.0);
-    H.assign(n * n, 0.0);
+    H = InverseJacobian(n);
+    cr_H = InverseJacobian(n);
+    st_H0 = InverseJacobian(n);
     for (auto* v : {&so_r_full, &so_start, &so_kept, &so_qs, &so_r}) v->assign(n, 0.0);
     so_J.assign(n * n, 0.0);
-    for (auto* v : {&nw_r, &nw_rt, &nw_qt, &nw_hr, &nw_hrt, &nw_hy, &nw_sh, &nw_s, &nw_dx, &nw_g}) v->assign(n, 0.0);
+    for (auto* v : {&nw_r, &nw_rt, &nw_qt, &nw_hr, &nw_hrt, &nw_hy, &nw_s, &nw_dx, &nw_g}) v->assign(n, 0.0);
     for (auto* v : {&nw_J, &nw_A, &nw_B}) v->assign(n * n, 0.0);
     for (auto* v : {&rx_r, &rx_D, &rx_dx}) v->assign(n, 0.0);
     for (auto* v : {&rx_J, &rx_A}) v->assign(n * n, 0.0);
@@ -159,13 +243,13 @@ struct SolverWork {
     ac_A.assign(n1 * n1, 0.0);
     for (auto* v : {&ac_b, &ac_t, &ac_tprev, &ac_z, &ac_zs, &ac_dz}) v->assign(n1, 0.0);
     for (auto* v : {&cr_r, &cr_rt, &cr_qt, &cr_dx, &cr_hrt}) v->assign(n, 0.0);
-    for (auto* v : {&cr_J, &cr_H}) v->assign(n * n, 0.0);
+    cr_J.assign(n * n, 0.0);
     for (auto* v : {&fo_r0, &fo_r1, &fo_dl, &fo_qs, &fo_tan}) v->assign(n, 0.0);
     fo_J.assign(n * n, 0.0);
     for (auto* v : {&fl_r, &fl_qlow, &fl_qtry, &fl_dx, &fl_h}) v->assign(n, 0.0);
     for (auto* v : {&fl_J, &fl_A}) v->assign(n * n, 0.0);
     for (auto* v : {&st_r, &st_qs, &st_zero}) v->assign(n, 0.0);
-    for (auto* v : {&st_J0, &st_H0}) v->assign(n * n, 0.0);
+    st_J0.assign(n * n, 0.0);
     for (auto* v : {&tg_r0, &tg_d}) v->assign(n, 0.0);
     tg_J.assign(n * n, 0.0);
     for (auto* v : {&wk_qprev, &wk_qs, &wk_tan}) v->assign(n, 0.0);
@@ -246,21 +330,12 @@ inline double step_scale(const double* dx, const Homotopy<Model>& m, double max_
   return 1.0;
 }
 
-// out (rows,) = A (rows, n) x (n,).
-inline void matvec(const double* A, const double* x, std::size_t rows, std::size_t n, double* out) {
-  for (std::size_t u = 0; u < rows; ++u) {
-    double acc = 0.0;
-    const double* row = A + u * n;
-    for (std::size_t v = 0; v < n; ++v) acc += row[v] * x[v];
-    out[u] = acc;
-  }
-}
-
-// Broyden's ("good") rank-one update of the inverse Jacobian H (nq, nq) in place for the step from q to qt whose
-// residual is rt, with hr = H r at q on entry; on return hr = H rt for the updated H. hrt, hy, sh, s: scratch.
-inline void broyden(double* H, const double* q, const double* qt, const double* rt, double* hr, double* hrt,
-                    double* hy, double* sh, double* s, std::size_t nq) {
-  matvec(H, rt, nq, nq, hrt);
+// Broyden's ("good") update of the inverse Jacobian, H <- H + (s - H y) s^T H / (s^T H y), for the step s from q
+// to qt whose residual is rt (y = rt - r), with hr = H r at q on entry; on return hr = H rt for the updated H. In
+// product form: H <- (I + w s^T) H, w = (s - H y) / (s^T H y). hrt, hy, s: scratch (nq,).
+inline void broyden(InverseJacobian& H, const double* q, const double* qt, const double* rt, double* hr,
+                    double* hrt, double* hy, double* s, std::size_t nq) {
+  H.apply(rt, hrt);
   double shy = 0.0;
   for (std::size_t u = 0; u < nq; ++u) {
     s[u] = qt[u] - q[u];
@@ -271,27 +346,19 @@ inline void broyden(double* H, const double* q, const double* qt, const double* 
     for (std::size_t u = 0; u < nq; ++u) hr[u] = hrt[u];
     return;
   }
-  for (std::size_t v = 0; v < nq; ++v) sh[v] = 0.0;
+  double c = 0.0;  // s^T H rt
+  for (std::size_t u = 0; u < nq; ++u) c += s[u] * hrt[u];
   for (std::size_t u = 0; u < nq; ++u) {
-    const double su = s[u];
-    for (std::size_t v = 0; v < nq; ++v) sh[v] += su * H[u * nq + v];
+    hy[u] = (s[u] - hy[u]) / shy;  // w
+    hr[u] = hrt[u] + hy[u] * c;
   }
-  double c = 0.0;
-  for (std::size_t v = 0; v < nq; ++v) c += sh[v] * rt[v];
-  for (std::size_t u = 0; u < nq; ++u) {
-    const double wu = (s[u] - hy[u]) / shy;
-    for (std::size_t v = 0; v < nq; ++v) H[u * nq + v] += wu * sh[v];
-    hr[u] = hrt[u] + wu * c;
-  }
+  H.push(hy, s);
 }
 
-// H = J^-1 (nq, nq) from w's linalg scratch, as the numba code's try: H[:, :] = np.linalg.inv(J) except: H = 0.
+// H = J^-1 as factors (InverseJacobian::factor), counted as one factorisation in w's profile.
 template <class Model>
-inline bool inverse_or_zero(const double* J, double* H, SolverWork<Model>& w) {
-  const std::size_t n = w.nq;
-  if (factorisation(w, [&] { return inverse(J, n, H, w.lu.data(), w.piv.data()); })) return true;
-  for (std::size_t i = 0; i < n * n; ++i) H[i] = 0.0;
-  return false;
+inline bool factor_into(const double* J, InverseJacobian& H, SolverWork<Model>& w) {
+  return factorisation(w, [&] { return H.factor(J); });
 }
 
 // x = A^-1 b (n, n) with w's linalg scratch (np.linalg.solve); false where it raises.
@@ -308,7 +375,7 @@ struct Result {
   long jacobians;
 };
 
-// Quasi-Newton iteration from q (in place) at load factor lam. H (nq, nq) holds the inverse Jacobian: computed
+// Quasi-Newton iteration from q (in place) at load factor lam. H holds the inverse Jacobian: factored
 // from the exact Jacobian unless reuse (then the caller's H is the start), and left updated on return. Later
 // steps update it with Broyden's formula; the exact Jacobian is recomputed only when a step stops making good
 // progress (at most max_jac times). Steps are scaled so that no subsegment bends or twists by more than
@@ -316,7 +383,7 @@ struct Result {
 // Levenberg-Marquardt steps take over. Returns (converged, max|r|, iterations, jacobian evaluations).
 template <class Model>
 Result newton(double* q, double lam, const Homotopy<Model>& m, double atol, long max_iter, double max_dtheta,
-              SolverWork<Model>& w, double* H, bool reuse, long max_jac) {
+              SolverWork<Model>& w, InverseJacobian& H, bool reuse, long max_jac) {
   const std::size_t nq = w.nq;
   double* r = w.nw_r.data();
   double* rt = w.nw_rt.data();
@@ -325,7 +392,6 @@ Result newton(double* q, double lam, const Homotopy<Model>& m, double atol, long
   double* hr = w.nw_hr.data();  // H r for the current r (kept up to date through each Broyden update)
   double* hrt = w.nw_hrt.data();
   double* hy = w.nw_hy.data();
-  double* sh = w.nw_sh.data();
   double* s = w.nw_s.data();
   double* dx = w.nw_dx.data();
   bool have_hr = false;
@@ -339,7 +405,7 @@ Result newton(double* q, double lam, const Homotopy<Model>& m, double atol, long
     model_evaluate(q, lam, m, true, r, J, w);
     njac = 1;
     fresh = true;
-    inverse_or_zero(J, H, w);
+    factor_into(J, H, w);
   }
   double res = maxabs(r, nq);
   long it = 0;
@@ -359,7 +425,7 @@ Result newton(double* q, double lam, const Homotopy<Model>& m, double atol, long
     }
     it += 1;
     if (!have_hr) {
-      matvec(H, r, nq, nq, hr);
+      H.apply(r, hr);
       have_hr = true;
     }
     for (std::size_t u = 0; u < nq; ++u) dx[u] = -hr[u];
@@ -424,10 +490,10 @@ Result newton(double* q, double lam, const Homotopy<Model>& m, double atol, long
       njac += 1;
       fresh = true;
       have_hr = false;
-      inverse_or_zero(J, H, w);
+      factor_into(J, H, w);
       continue;
     }
-    broyden(H, q, qt, rt, hr, hrt, hy, sh, s, nq);
+    broyden(H, q, qt, rt, hr, hrt, hy, s, nq);
     for (std::size_t u = 0; u < nq; ++u) {
       q[u] = qt[u];
       r[u] = rt[u];
@@ -440,7 +506,7 @@ Result newton(double* q, double lam, const Homotopy<Model>& m, double atol, long
       njac += 1;
       fresh = true;
       have_hr = false;
-      inverse_or_zero(J, H, w);
+      factor_into(J, H, w);
     }
   }
   return {res <= atol, res, it, njac};
@@ -611,11 +677,11 @@ ArcResult arclength(double* q, double lam, const Homotopy<Model>& m, double atol
 }
 
 // ------------------------------------------------------------------ through a fold: follow, snap, follow on
-// _inverse: H = J^-1 in place; false (H zero) where J is singular, and false where the inverse is not finite.
+// _inverse: H = J^-1 as factors; false (H zero) where J is singular or not finite, and false where the inverse
+// would not be finite (InverseJacobian::finite).
 template <class Model>
-inline bool inverse_checked(const double* J, double* H, SolverWork<Model>& w) {
-  if (!inverse_or_zero(J, H, w)) return false;
-  return finite_all(H, w.nq * w.nq);
+inline bool inverse_checked(const double* J, InverseJacobian& H, SolverWork<Model>& w) {
+  return factor_into(J, H, w) && H.finite();
 }
 
 // _det_sign: the sign of det J (0 where singular or not finite).
@@ -651,7 +717,7 @@ CorrectResult correct(double* q, double lam, const Homotopy<Model>& m, double to
   double* rt = w.cr_rt.data();
   double* qt = w.cr_qt.data();
   double* J = w.cr_J.data();
-  double* H = w.cr_H.data();
+  InverseJacobian& H = w.cr_H;
   double* dx = w.cr_dx.data();
   double* hrt = w.cr_hrt.data();
   double a = 1.0;
@@ -663,14 +729,14 @@ CorrectResult correct(double* q, double lam, const Homotopy<Model>& m, double to
     const double res = maxabs(r, nq);
     if (res <= tol) return {true, res, it, njac, theta};
     if (!std::isfinite(res) || !inverse_checked(J, H, w)) return {false, res, it, njac, theta};
-    matvec(H, r, nq, nq, dx);
+    H.apply(r, dx);
     for (std::size_t u = 0; u < nq; ++u) dx[u] = -dx[u];
     const double ndx = std::sqrt(sumsq(dx, nq));
     a = std::min(std::min(1.0, 2.0 * a), step_scale(dx, m, max_dtheta));
     while (true) {
       for (std::size_t u = 0; u < nq; ++u) qt[u] = q[u] + a * dx[u];
       model_evaluate(qt, lam, m, false, rt, J, w);
-      matvec(H, rt, nq, nq, hrt);
+      H.apply(rt, hrt);
       const double th = std::sqrt(sumsq(hrt, nq)) / ndx;
       if (it == 0) {
         theta = th;
@@ -754,7 +820,7 @@ FollowResult follow(double* q, double lam, const Homotopy<Model>& m, double atol
 // local minimum. Converged only on an equilibrium whose det J has the sign sign0 of the stable start.
 template <class Model>
 Result flow(double* q, double lam, const Homotopy<Model>& m, double tol, long max_iter, double max_dtheta,
-            SolverWork<Model>& w, const double* J0, const double* H0, double sign0) {
+            SolverWork<Model>& w, const double* J0, const InverseJacobian& H0, double sign0) {
   const std::size_t nq = w.nq;
   double* r = w.fl_r.data();
   double* J = w.fl_J.data();
@@ -767,7 +833,7 @@ Result flow(double* q, double lam, const Homotopy<Model>& m, double tol, long ma
   model_evaluate(q, lam, m, true, r, J, w);
   long njac = 1;
   long iters = 0;
-  matvec(H0, r, nq, nq, hr);
+  H0.apply(r, hr);
   double z = std::sqrt(sumsq(hr, nq));
   bool falling = false;
   double dt = 1.0;
@@ -795,7 +861,7 @@ Result flow(double* q, double lam, const Homotopy<Model>& m, double tol, long ma
     model_evaluate(q, lam, m, true, r, J, w);
     njac += 1;
     res = maxabs(r, nq);
-    matvec(H0, r, nq, nq, hr);
+    H0.apply(r, hr);
     const double zn = std::sqrt(sumsq(hr, nq));
     dt = std::min(1e12, dt * std::min(4.0, 0.1 / std::max(step, 1e-300)));
     if (zn > z) {
@@ -842,7 +908,7 @@ SnapResult snap_through(double* q, double lam, const Homotopy<Model>& m, double 
   const std::size_t nq = w.nq;
   double* r = w.st_r.data();
   double* J0 = w.st_J0.data();
-  double* H0 = w.st_H0.data();
+  InverseJacobian& H0 = w.st_H0;
   double* qs = w.st_qs.data();
   double* zero = w.st_zero.data();
   for (std::size_t u = 0; u < nq; ++u) zero[u] = 0.0;
@@ -853,7 +919,7 @@ SnapResult snap_through(double* q, double lam, const Homotopy<Model>& m, double 
   bool snapped = false;
   double res = INF;
   if (!inverse_checked(J0, H0, w)) return {false, res, iters, njac, steps, snapped};
-  const double sign0 = det_sign(J0, w);
+  const double sign0 = H0.sign;
   for (long fold = 0; fold < MAX_FOLDS + 1; ++fold) {
     const FollowResult f = follow(q, lam, m, atol, step_atol, max_iter, max_dtheta, w, target);
     lam = f.lam;
@@ -893,19 +959,19 @@ SnapResult snap_through(double* q, double lam, const Homotopy<Model>& m, double 
 // singular, then tan is zero, or where tan is not finite; the sign of det J there).
 template <class Model>
 std::pair<bool, double> tangent(const double* q, const double* r1, const Homotopy<Model>& m, SolverWork<Model>& w,
-                                double* H, double* tan) {
+                                InverseJacobian& H, double* tan) {
   const std::size_t nq = w.nq;
   double* r0 = w.tg_r0.data();
   double* J = w.tg_J.data();
   double* d = w.tg_d.data();
   model_evaluate(q, 0.0, m, true, r0, J, w);
-  const double sign = det_sign(J, w);
-  if (!factorisation(w, [&] { return inverse(J, nq, H, w.lu.data(), w.piv.data()); })) {
+  if (!factor_into(J, H, w)) {  // sign 0: J singular or not finite
     for (std::size_t u = 0; u < nq; ++u) tan[u] = 0.0;
-    return {false, sign};
+    return {false, H.sign};
   }
+  const double sign = H.sign;
   for (std::size_t u = 0; u < nq; ++u) d[u] = r1[u] - r0[u];
-  matvec(H, d, nq, nq, tan);
+  H.apply(d, tan);
   for (std::size_t u = 0; u < nq; ++u) tan[u] = -tan[u];
   return {finite_all(tan, nq), sign};
 }
@@ -924,7 +990,7 @@ struct WalkResult {
 // _walk: the loading path (or a continuation, cont) from q at lam = 0 (in place) towards lam = 1, load steps
 // scaled by scale; r_full is the residual of q at lam = 1. See solve_one.
 template <class Model>
-WalkResult walk(double* q, const Homotopy<Model>& m, const Settings& settings, SolverWork<Model>& w, double* H,
+WalkResult walk(double* q, const Homotopy<Model>& m, const Settings& settings, SolverWork<Model>& w, InverseJacobian& H,
                 double scale, bool cont, const double* r_full) {
   const double atol = settings.atol, max_dtheta = settings.max_dtheta;
   const long max_iter = settings.max_iter;
@@ -1069,8 +1135,9 @@ Outcome solve_one(const double* q0, const Homotopy<Model>& m, const Settings& se
   const long max_iter = settings.max_iter, stepping = settings.stepping;
   const std::size_t nq = w.nq;
   for (std::size_t u = 0; u < nq; ++u) q[u] = q0[u];
-  double* H = w.H.data();
-  for (std::size_t i = 0; i < nq * nq; ++i) H[i] = 0.0;
+  InverseJacobian& H = w.H;
+  H.ok = false;
+  H.k = 0;
   long iters = 0;
   long nj = 0;
   const bool cont = stepping == STEP_CONTINUE;

@@ -10,9 +10,10 @@ or a batch, and differentiates an equilibrium's tip by the tensions.
 Both run in the compiled core, ``pytdcr._core`` (C++ built at install: ``src/cpp/pcc.hpp``,
 ``loading_path.hpp``, ``stiffness.hpp``), the twin of the numba kernels of
 :mod:`pytdcr.statics.kernels.pcc` and :mod:`~pytdcr.statics.kernels.loading_path`
-(the same residual and Jacobian to the bit; the solver's dense factorisation is
-our own, so a solve agrees with numba's to round-off): nothing compiles at first
-use.
+(the same residual and Jacobian to the bit; the solver's linear algebra is our
+own, LU factors with Broyden's updates in product form where numba keeps an
+explicit inverse, so a solve agrees with numba's to round-off): nothing compiles
+at first use.
 
 Which equilibrium? A robot under large loads can have several. By default
 (``load_stepping="always"``) the solver follows the loading path: every load

@@ -18,8 +18,9 @@ Runs in the compiled core, ``pytdcr._core`` (C++ built at install:
 ``src/cpp/sscr.hpp``, ``loading_path.hpp``, ``stiffness.hpp``), the twin of the
 numba kernels of :mod:`pytdcr.statics.kernels.sscr` and
 :mod:`~pytdcr.statics.kernels.loading_path` (the same residual and Jacobian to
-the bit; the solver's and the tangent stiffness's dense factorisations are our
-own, so a solve agrees with numba's to round-off): nothing compiles at first
+the bit; the solver's linear algebra is our own (LU factors with Broyden's
+updates in product form where numba keeps an explicit inverse), so a solve
+agrees with numba's to round-off): nothing compiles at first
 use.
 """
 
