@@ -10,11 +10,12 @@ unstable where the other is stable (the tangent stiffness's real eigenvalues, th
 ``F`` (``.npz``); ``--against F`` solves the same cases and compares: same equilibrium, both converged, the
 differing pairs' stability, and the time per solve (median, mean) and work per solve of both.
 
-Prints a summary, writes ``bench/results/branch_agreement_<model>.json`` (``--out`` elsewhere) with ``--against``;
+Prints a summary, writes ``bench/results/branch_agreement.json`` (``--out`` elsewhere) with ``--against``;
 ``--json`` prints it too.
 
-Usage: python bench/branch_agreement.py --model sscr --record /tmp/sscr_before.npz
-       python bench/branch_agreement.py --model sscr --against /tmp/sscr_before.npz
+Usage: python bench/branch_agreement.py [--models pcc,sscr] --record '/tmp/before_{model}.npz'
+       (then, with the changed build) python bench/branch_agreement.py --against '/tmp/before_{model}.npz'
+                                          [--change "what changed"] [--set step_scale=2 ...]
 """
 
 from __future__ import annotations
@@ -44,11 +45,16 @@ def solve(name: str, cases: int, seed: int, overrides: dict[str, float] | None =
     ``overrides``: solver settings (fields of the core's ``Settings``) in place of the model's defaults."""
     from pytdcr import _core
     from pytdcr.statics.compiled import case_tolerances
+    from pytdcr.statics.tolerance import moment_scale
 
     robot, loads, eq, settings = setup(name)
-    settings = settings._replace(**(overrides or {}))
+    overrides = dict(overrides or {})
+    step_relative = overrides.pop("step_relative", None)
+    settings = settings._replace(**overrides)
     T = np.random.default_rng(seed).uniform(0.0, 20.0, (cases, robot.n_tendons))
     tols = case_tolerances(robot, loads, T, settings.atol)
+    if step_relative is not None:  # the load steps' tolerance relative to the moment scale (tolerance.py)
+        tols[:, 1] = np.maximum(tols[:, 0], step_relative * moment_scale(robot, loads, T))
     km = eq.kernel_model
     profile = getattr(_core, f"_profile_range_{name}")
     q, res, counts, seconds = profile(np.zeros((cases, eq.n_unknowns)), km, km, T, T, settings, tols, True)
@@ -88,35 +94,24 @@ def compare(name: str, ref: dict[str, np.ndarray], new: dict[str, np.ndarray]) -
     }
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--model", default="sscr", choices=sorted(BAR))
-    ap.add_argument("--cases", type=int, default=None)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--record", default=None, metavar="NPZ")
-    ap.add_argument("--against", default=None, metavar="NPZ")
-    ap.add_argument("--set", nargs="*", default=[], metavar="FIELD=VALUE",
-                    help="with --against: solver settings to change (e.g. step_scale=2), a lever to measure")
-    ap.add_argument("--json", action="store_true")
-    add_out_argument(ap, "branch_agreement_<model>")
-    args = ap.parse_args()
-    if (args.record is None) == (args.against is None):
-        ap.error("give one of --record and --against")
-    if args.record is not None:
-        cases = args.cases or BAR[args.model][0]
-        out = solve(args.model, cases, args.seed)
-        np.savez(args.record, seed=args.seed, **out)
-        print(f"recorded {cases} {args.model} solves to {args.record}: median "
+def record(models: list[str], path: str, cases: int | None, seed: int) -> None:
+    """Write each model's answers to ``path`` (``{model}`` replaced by the model's name)."""
+    for name in models:
+        out = solve(name, cases or BAR[name][0], seed)
+        np.savez(path.format(model=name), seed=seed, **out)
+        print(f"recorded {len(out['res'])} {name} solves to {path.format(model=name)}: median "
               f"{1e3 * np.median(out['seconds']):.2f} ms, converged {int(np.sum(out['res'] >= 0))}")
-        return
-    with np.load(args.against) as f:
+
+
+def against(name: str, path: str, overrides: dict[str, float]) -> dict[str, Any]:
+    """Solve the cases recorded in ``path`` with this build and compare; prints a summary."""
+    with np.load(path) as f:
         ref = {k: f[k] for k in f.files}
-    overrides = {k: float(v) for k, v in (item.split("=", 1) for item in args.set)}
-    new = solve(args.model, len(ref["res"]), int(ref["seed"]), overrides)
+    new = solve(name, len(ref["res"]), int(ref["seed"]), overrides)
     if not np.array_equal(new["tensions"], ref["tensions"]):
-        raise SystemExit("the recorded cases are not this seed's")
-    r = compare(args.model, ref, new)
-    print(f"{args.model}: same equilibrium on {r['same_equilibrium']}/{r['cases']} = {100 * r['same_share']:.2f} % "
+        raise SystemExit(f"{path}: the recorded cases are not this seed's")
+    r = compare(name, ref, new)
+    print(f"{name}: same equilibrium on {r['same_equilibrium']}/{r['cases']} = {100 * r['same_share']:.2f} % "
           f"(bar {100 * SAME_SHARE:.0f} %); converged {r['converged_before']} -> {r['converged_after']}; "
           f"differing with one stable and one not: {r['differ_one_stable_one_not']} of {len(r['differ'])}")
     for k in ("before", "after"):
@@ -124,7 +119,32 @@ def main() -> None:
         print(f"  {k}: median {t['median_ms']:.2f} ms, mean {t['mean_ms']:.2f} ms; per solve {t['residuals']:.0f} "
               f"residuals, {t['jacobians']:.0f} Jacobians, {t['factorisations']:.0f} factorisations, "
               f"{t['load_steps']:.0f} load steps")
-    write_result(f"branch_agreement_{args.model}", {**r, "seed": int(ref["seed"]), "settings_changed": overrides},
+    return {**r, "seed": int(ref["seed"])}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--models", default="pcc,sscr", help="comma-separated, of " + ",".join(BAR))
+    ap.add_argument("--cases", type=int, default=None, help="with --record: vectors (default per model)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--record", default=None, metavar="NPZ", help="file of the answers; {model} is the model's name")
+    ap.add_argument("--against", default=None, metavar="NPZ", help="as --record, of the build to compare with")
+    ap.add_argument("--change", default="", help="with --against: what changed since the recorded build (words)")
+    ap.add_argument("--set", nargs="*", default=[], metavar="FIELD=VALUE",
+                    help="with --against: solver settings to change (a lever to measure): fields of the core's "
+                         "Settings (e.g. step_scale=2) or step_relative (the load steps' tolerance, tolerance.py)")
+    ap.add_argument("--json", action="store_true")
+    add_out_argument(ap, "branch_agreement")
+    args = ap.parse_args()
+    models = args.models.split(",")
+    if (args.record is None) == (args.against is None) or any(m not in BAR for m in models):
+        ap.error("give one of --record and --against, and models of " + ",".join(BAR))
+    if args.record is not None:
+        record(models, args.record, args.cases, args.seed)
+        return
+    overrides = {k: float(v) for k, v in (item.split("=", 1) for item in args.set)}
+    out = {name: against(name, args.against.format(model=name), overrides) for name in models}
+    write_result("branch_agreement", {"models": out, "change": args.change, "settings_changed": overrides},
                  args.json, args.out)
 
 

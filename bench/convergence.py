@@ -6,7 +6,10 @@ paper's friction law (exponential), without friction and with a constant mu = 0.
 (gravity, tip force (0.1, 0.1, -0.1) N, tip moment (-0.1, 0.1, 0.1) N m). Each row is solved on its own
 through ``solve_batch(..., threads=1)`` (kernels compiled and
 cached): the count converged, how each was reached (``path``), the median and mean time per solve [ms] and the
-mean Newton iterations. Every row reported converged is checked to be within its tolerance.
+mean Newton iterations. Every row reported converged is checked to be within its tolerance. A row whose solver
+converged to an equilibrium through which the backbone passes through itself (``path`` "self-contact": the
+models have no contact, so the library refuses it) is counted apart: the solver found the equilibrium, the robot
+cannot take it.
 
 Prints a table, writes ``bench/results/convergence.json`` and, with ``--json``, prints it as the last line.
 Times are noisy on a shared machine; the counts are not.
@@ -37,7 +40,7 @@ MODEL_LAWS = {"pcc": ("paper", "none", "constant 0.1"), "pcc2": ("paper", "none"
 def run_case(robot, T: np.ndarray, model: str) -> dict:
     """Every row of ``T`` solved alone on one thread: counts, paths, times, failing rows."""
     loads = paper_loads()
-    ms, its, paths, failed, bad = [], [], Counter(), [], 0
+    ms, its, paths, failed, contact, bad = [], [], Counter(), [], [], 0
     for i, t in enumerate(T):
         b = solve_batch(robot, t[None, :], loads, model=model, threads=1)
         ms.append(b.seconds * 1e3)
@@ -45,10 +48,13 @@ def run_case(robot, T: np.ndarray, model: str) -> dict:
         paths[str(b.path[0])] += 1
         if b.converged[0]:
             bad += not (b.residual[0] <= b.atol[0])
+        elif str(b.path[0]) == "self-contact":
+            contact.append(i)
         else:
             failed.append(i)
     a = np.asarray(ms)
-    return {"cases": len(T), "converged": len(T) - len(failed), "paths": dict(paths), "failed_rows": failed,
+    return {"cases": len(T), "converged": len(T) - len(failed) - len(contact), "paths": dict(paths),
+            "failed_rows": failed, "self_contact_rows": contact,
             "converged_out_of_tolerance": bad, "median_ms": float(np.median(a)), "mean_ms": float(a.mean()),
             "mean_iterations": float(np.mean(its))}
 
@@ -67,15 +73,16 @@ def main() -> None:
     result: dict = {"config": {"n": args.n, "n_sscr": args.n_sscr, "seed": args.seed, "cpus": os.cpu_count(),
                                "python": platform.python_version()}}
     print(f"paper robot, paper load, random tensions in [0, 20] N (seed {args.seed}), one thread, one row a call")
-    print(f"  {'model':6s} {'friction':13s} {'converged':>10s} {'median ms':>10s} {'mean ms':>8s} {'mean it':>8s}"
-          "  paths")
+    print(f"  {'model':6s} {'friction':13s} {'converged':>10s} {'contact':>8s} {'median ms':>10s} {'mean ms':>8s} "
+          f"{'mean it':>8s}  paths")
     for model in args.models.split(","):
         rows = T[: args.n_sscr if model == "sscr" else args.n]
         result[model] = {}
         for law in MODEL_LAWS[model]:
             r = run_case(paper_robot(LAWS[law]), rows, model)
             result[model][law] = r
-            print(f"  {model:6s} {law:13s} {r['converged']:5d}/{r['cases']:<4d} {r['median_ms']:10.2f} "
+            print(f"  {model:6s} {law:13s} {r['converged']:5d}/{r['cases']:<4d} {len(r['self_contact_rows']):8d} "
+                  f"{r['median_ms']:10.2f} "
                   f"{r['mean_ms']:8.2f} {r['mean_iterations']:8.1f}  {r['paths']}"
                   + (f"  ({r['converged_out_of_tolerance']} converged out of tolerance!)"
                      if r["converged_out_of_tolerance"] else ""))

@@ -111,10 +111,13 @@ def _convergence(d: dict, view: str | None) -> str:
         if model in ("config", "command", "machine"):
             continue
         for law, r in laws.items():
-            rows.append([f"`{model}`", law, _of(r["converged"], r["cases"]), _num(r["median_ms"]),
-                         _num(r["mean_ms"]), _num(r["mean_iterations"]), str(r["converged_out_of_tolerance"])])
-    return _table(["model", "friction", "converged", "median ms", "mean ms", "mean iterations",
-                   "converged out of tolerance"], rows)
+            contact = r.get("self_contact_rows")
+            rows.append([f"`{model}`", law, _of(r["converged"], r["cases"]),
+                         "not counted" if contact is None else str(len(contact)),
+                         _of(len(r["failed_rows"]), r["cases"]), _num(r["median_ms"]), _num(r["mean_ms"]),
+                         _num(r["mean_iterations"]), str(r["converged_out_of_tolerance"])])
+    return _table(["model", "friction", "converged", "converged, refused for self-contact", "did not converge",
+                   "median ms", "mean ms", "mean iterations", "converged out of tolerance"], rows)
 
 
 def _continuation(d: dict, view: str | None) -> str:
@@ -294,6 +297,24 @@ def _solve_phases(d: dict, view: str | None) -> str:
                    "us per residual", "per Jacobian", "per factorisation"], rows)
 
 
+def _branch_agreement(d: dict, view: str | None) -> str:
+    rows = []
+    for name, r in d["models"].items():
+        b, a = r["before"], r["after"]
+        differ = r["differ"]
+        rows.append([f"`{name}`", f"{_of(r['same_equilibrium'], r['cases'])} ({100 * r['same_share']:.1f} %)",
+                     f"{_num(1e3 * r['same_tip_m'])} mm", _num(1e3 * r["largest_same_tip_distance_m"]),
+                     f"{r['converged_before']:,} / {r['converged_after']:,}",
+                     f"{r['differ_one_stable_one_not']} of {len(differ)}",
+                     f"{_num(b['median_ms'])} / {_num(a['median_ms'])}", f"{_num(b['mean_ms'])} / {_num(a['mean_ms'])}",
+                     f"{_num(b['jacobians'], 2)} / {_num(a['jacobians'], 2)}",
+                     f"{_num(b['factorisations'], 2)} / {_num(a['factorisations'], 2)}"])
+    return (f"Change: {d['change']}.\n\n" if d.get("change") else "") + _table(
+        ["model", "same equilibrium", "same: tips within", "largest distance of the same, mm",
+         "converged before / after", "differing: one stable, one not", "median ms before / after",
+         "mean ms before / after", "Jacobians before / after", "factorisations before / after"], rows)
+
+
 def _generic(d: dict, view: str | None) -> str:
     """A file holding its own table: ``{"table": {"columns": [...], "rows": [[...], ...]}}`` (or under ``view``)."""
     t = d["tables"][view] if view else d["table"]
@@ -305,7 +326,7 @@ RENDERERS: dict[str, Callable[[dict, str | None], str]] = {
     "batch_derivatives": _batch_derivatives, "batch_derivatives_sscr": _batch_derivatives, "inverse": _inverse,
     "cosserat": _cosserat, "volume": _volume,
     "workspace": _workspace, "designs": _designs, "accuracy": _accuracy, "compile_profile": _compile_profile,
-    "first_use": _first_use, "solve_phases": _solve_phases,
+    "first_use": _first_use, "solve_phases": _solve_phases, "branch_agreement": _branch_agreement,
 }
 """File name (without ``.json``) -> its renderer; a file not listed must hold a ``table`` (or ``tables``)."""
 
