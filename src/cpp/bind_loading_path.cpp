@@ -183,6 +183,21 @@ void bind_loading_path(nb::module_& m) {
       "Internal (tests of linalg.hpp): x (n,) with a x = b by LU with partial pivoting; None where a or b is not\n"
       "finite or a is exactly singular (where np.linalg.solve raises).");
   m.def(
+      "_lu_solve_by_transpose",
+      [](In a, In b) -> nb::object {
+        const std::size_t n = square(a, "_lu_solve_by_transpose");
+        if (b.ndim() != 1 || b.shape(0) != n)
+          throw std::invalid_argument("_lu_solve_by_transpose: b must be (n,)");
+        std::vector<double> lu(n * n);
+        std::vector<std::size_t> piv(n);
+        Array x = new_array({n});
+        if (!solve_by_transpose(a.data(), b.data(), n, x.data(), lu.data(), piv.data())) return nb::none();
+        return nb::cast(x);
+      },
+      nb::arg("a"), nb::arg("b"),
+      "Internal (tests of linalg.hpp): x (n,) with a x = b by the LU factors of a^T (the solver's way); None where\n"
+      "a or b is not finite or a is exactly singular.");
+  m.def(
       "_lu_inverse",
       [](In a) -> nb::object {
         const std::size_t n = square(a, "_lu_inverse");

@@ -1,5 +1,6 @@
 // Dense linear algebra of the compiled solver: LU factorisation with partial pivoting (Doolittle, row-major),
-// and from it the solution of A x = b, the inverse and the sign and log of the determinant. The C++ stand-in for
+// and from it the solution of A x = b (also by the factors of A^T, which the solver uses: cheap where A is block
+// lower Hessenberg), the inverse and the sign and log of the determinant. The C++ stand-in for
 // the LAPACK calls behind numba's np.linalg.solve (gesv), np.linalg.inv (getrf + getri) and np.linalg.slogdet
 // (getrf), standard library only.
 //
@@ -88,6 +89,53 @@ inline void lu_solve(const double* lu, const std::size_t* piv, std::size_t n, do
     for (std::size_t j = i + 1; j < n; ++j) acc -= row[j] * b[j];
     b[i] = acc / row[i];
   }
+}
+
+// Solve A^T x = b in place (b becomes x, length n) from lu_factor's lu and piv of A: from P A = L U,
+// A^T = U^T L^T P, so forward substitution with U^T, back substitution with L^T (unit diagonal), then the row
+// interchanges undone, last first.
+inline void lu_solve_transposed(const double* lu, const std::size_t* piv, std::size_t n, double* b) {
+  for (std::size_t i = 0; i < n; ++i) {  // U^T v = b: column i of U is row i of U^T
+    double acc = b[i];
+    for (std::size_t j = 0; j < i; ++j) acc -= lu[j * n + i] * b[j];
+    b[i] = acc / lu[i * n + i];
+  }
+  for (std::size_t i = n; i-- > 0;) {  // L^T w = v
+    double acc = b[i];
+    for (std::size_t j = i + 1; j < n; ++j) acc -= lu[j * n + i] * b[j];
+    b[i] = acc;
+  }
+  for (std::size_t k = n; k-- > 0;) {
+    const std::size_t p = piv[k];
+    if (p != k) {
+      const double t = b[k];
+      b[k] = b[p];
+      b[p] = t;
+    }
+  }
+}
+
+// lu (n, n) = the transpose of the (n, n) row-major a (lu must not be a).
+inline void transpose_into(const double* a, std::size_t n, double* lu) {
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = 0; j < n; ++j) lu[j * n + i] = a[i * n + j];
+}
+
+// x (n) = A^-1 b for the (n, n) row-major A by the LU factors of A^T (lu_solve_transposed): false (x untouched)
+// where A or b has a non-finite entry or A is exactly singular. Where A is block lower Hessenberg (the subsegment
+// rod's Jacobian: zero above its first superdiagonal block), A^T is block upper Hessenberg, and its elimination
+// touches only the rows of the diagonal and next block in each column (lu_factor skips a zero multiplier): O(b n^2)
+// for blocks of b in place of n^3 / 3. Scratch: lu (n, n), piv (n). x may be b.
+inline bool solve_by_transpose(const double* a, const double* b, std::size_t n, double* x, double* lu,
+                               std::size_t* piv) {
+  if (!all_finite(a, n * n) || !all_finite(b, n)) return false;
+  transpose_into(a, n, lu);
+  double sign;
+  if (!lu_factor(lu, n, lu, piv, sign)) return false;
+  if (x != b)
+    for (std::size_t i = 0; i < n; ++i) x[i] = b[i];
+  lu_solve_transposed(lu, piv, n, x);
+  return true;
 }
 
 // x (n) = A^-1 b for the (n, n) row-major A, as np.linalg.solve: false (x untouched) where A or b has a

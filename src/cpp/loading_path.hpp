@@ -118,7 +118,8 @@ inline double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-// The inverse Jacobian H of the quasi-Newton iteration, kept as the LU factors of an exact Jacobian J and the
+// The inverse Jacobian H of the quasi-Newton iteration, kept as the LU factors of an exact Jacobian J (of J^T:
+// linalg.hpp's solve_by_transpose, O(b n^2) where J is block lower Hessenberg, as the subsegment rod's is) and the
 // rank-one corrections of Broyden's ("good") updates since, in product form:
 //
 //     H = (I + w_k s_k^T) ... (I + w_1 s_1^T) J^-1,
@@ -129,7 +130,7 @@ inline double seconds_since(Clock::time_point t0) {
 // updates (s^T H y = 0).
 struct InverseJacobian {
   std::size_t n = 0;
-  std::vector<double> lu;         // (n, n) the factors of J
+  std::vector<double> lu;         // (n, n) the factors of J^T
   std::vector<std::size_t> piv;   // (n,) its row interchanges
   double sign = 0.0;              // sign of det J (0 where J is singular or not finite)
   bool ok = false;                // H = J^-1 (false: H = 0)
@@ -143,7 +144,11 @@ struct InverseJacobian {
   // exactly zero pivot. sign is that of det J (its permutation's times its pivots').
   bool factor(const double* J) {
     k = 0;
-    ok = all_finite(J, n * n) && lu_factor(J, n, lu.data(), piv.data(), sign);
+    ok = all_finite(J, n * n);
+    if (ok) {
+      transpose_into(J, n, lu.data());
+      ok = lu_factor(lu.data(), n, lu.data(), piv.data(), sign);
+    }
     if (!ok) {
       sign = 0.0;
       return false;
@@ -173,7 +178,7 @@ struct InverseJacobian {
     }
     if (out != r)
       for (std::size_t u = 0; u < n; ++u) out[u] = r[u];
-    lu_solve(lu.data(), piv.data(), n, out);
+    lu_solve_transposed(lu.data(), piv.data(), n, out);
     for (std::size_t j = 0; j < k; ++j) {
       const double* sj = ss.data() + j * n;
       const double* wj = ws.data() + j * n;
@@ -361,10 +366,11 @@ inline bool factor_into(const double* J, InverseJacobian& H, SolverWork<Model>& 
   return factorisation(w, [&] { return H.factor(J); });
 }
 
-// x = A^-1 b (n, n) with w's linalg scratch (np.linalg.solve); false where it raises.
+// x = A^-1 b (n, n) with w's linalg scratch (np.linalg.solve; by the factors of A^T, solve_by_transpose); false
+// where it raises.
 template <class Model>
 inline bool solve_into(const double* A, const double* b, std::size_t n, double* x, SolverWork<Model>& w) {
-  return factorisation(w, [&] { return solve(A, b, n, x, w.lu.data(), w.piv.data()); });
+  return factorisation(w, [&] { return solve_by_transpose(A, b, n, x, w.lu.data(), w.piv.data()); });
 }
 
 // ------------------------------------------------------------------ Newton
@@ -690,8 +696,9 @@ inline double det_sign(const double* J, SolverWork<Model>& w) {
   const std::size_t n = w.nq;
   if (!finite_all(J, n * n)) return 0.0;
   double s, ld;
-  factorisation(w, [&] {
-    slogdet(J, n, w.lu.data(), w.piv.data(), s, ld);
+  factorisation(w, [&] {  // det J = det J^T, whose LU is the cheap one (solve_by_transpose)
+    transpose_into(J, n, w.lu.data());
+    slogdet(w.lu.data(), n, w.lu.data(), w.piv.data(), s, ld);
     return true;
   });
   return std::isfinite(ld) ? s : 0.0;
