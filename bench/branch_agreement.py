@@ -21,6 +21,7 @@ Usage: python bench/branch_agreement.py [--models pcc,sscr] --record '/tmp/befor
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 import numpy as np
@@ -105,8 +106,12 @@ def record(models: list[str], path: str, cases: int | None, seed: int) -> None:
 
 def against(name: str, path: str, overrides: dict[str, float]) -> dict[str, Any]:
     """Solve the cases recorded in ``path`` with this build and compare; prints a summary."""
-    with np.load(path) as f:
-        ref = {k: f[k] for k in f.files}
+    try:
+        with np.load(path) as f:
+            ref = {k: f[k] for k in f.files}
+    except OSError as e:
+        print(f"branch_agreement.py: --against: cannot read {path}: {e.strerror or e}", file=sys.stderr)
+        raise SystemExit(2) from None
     new = solve(name, len(ref["res"]), int(ref["seed"]), overrides)
     if not np.array_equal(new["tensions"], ref["tensions"]):
         raise SystemExit(f"{path}: the recorded cases are not this seed's")

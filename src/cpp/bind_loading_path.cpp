@@ -1,6 +1,6 @@
 // Python bindings of loading_path.hpp for the PCC model (pytdcr._core.solve_range_pcc) and the subsegment Cosserat
 // rod (solve_range_sscr), one template over the packed model; and of linalg.hpp's LU for its tests
-// (pytdcr._core._lu_solve, _lu_inverse, _lu_slogdet: internal, not part of the package's API).
+// (pytdcr._core._lu_solve, _lu_solve_by_transpose, _lu_slogdet: internal, not part of the package's API).
 #include <nanobind/nanobind.h>
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/tuple.h>
@@ -197,19 +197,6 @@ void bind_loading_path(nb::module_& m) {
       nb::arg("a"), nb::arg("b"),
       "Internal (tests of linalg.hpp): x (n,) with a x = b by the LU factors of a^T (the solver's way); None where\n"
       "a or b is not finite or a is exactly singular.");
-  m.def(
-      "_lu_inverse",
-      [](In a) -> nb::object {
-        const std::size_t n = square(a, "_lu_inverse");
-        std::vector<double> lu(n * n);
-        std::vector<std::size_t> piv(n);
-        Array out = new_array({n, n});
-        if (!inverse(a.data(), n, out.data(), lu.data(), piv.data())) return nb::none();
-        return nb::cast(out);
-      },
-      nb::arg("a"),
-      "Internal (tests of linalg.hpp): a^-1 (n, n) by LU with partial pivoting; None where a is not finite or\n"
-      "exactly singular (where np.linalg.inv raises).");
   m.def(
       "_lu_slogdet",
       [](In a) {

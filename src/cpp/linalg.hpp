@@ -1,12 +1,12 @@
 // Dense linear algebra of the compiled solver: LU factorisation with partial pivoting (Doolittle, row-major),
 // and from it the solution of A x = b (also by the factors of A^T, which the solver uses: cheap where A is block
-// lower Hessenberg), the inverse and the sign and log of the determinant. The C++ stand-in for
-// the LAPACK calls behind numba's np.linalg.solve (gesv), np.linalg.inv (getrf + getri) and np.linalg.slogdet
-// (getrf), standard library only.
+// lower Hessenberg) and the sign and log of the determinant. The C++ stand-in for the LAPACK calls behind numba's
+// np.linalg.solve (gesv) and np.linalg.slogdet (getrf), standard library only (the solver keeps no explicit
+// inverse: loading_path.hpp's InverseJacobian).
 //
 // Like numba's np.linalg, a matrix (or right-hand side) with an infinite or NaN entry is refused, and so is an
 // exactly singular one (a pivot that is exactly zero: LAPACK's info > 0); a nearly singular matrix is factored and
-// its inverse may then hold huge or infinite entries, as LAPACK's does. The pivot of column k is the first entry
+// its solutions may then hold huge or infinite entries, as LAPACK's do. The pivot of column k is the first entry
 // of largest magnitude on or below the diagonal (LAPACK's idamax). Results agree with LAPACK's to round-off, not
 // bit for bit (LAPACK blocks its elimination and scales by the pivot's reciprocal).
 #pragma once
@@ -147,53 +147,6 @@ inline bool solve(const double* a, const double* b, std::size_t n, double* x, do
   if (x != b)
     for (std::size_t i = 0; i < n; ++i) x[i] = b[i];
   lu_solve(lu, piv, n, x);
-  return true;
-}
-
-// out (n, n) = A^-1 for the (n, n) row-major A, as np.linalg.inv: false (out untouched) where A has a non-finite
-// entry or is exactly singular. From P A = L U: A^-1 = U^-1 L^-1 P, formed row by row (contiguous row updates):
-// out = L^-1 (lower triangular, unit diagonal), then out = U^-1 out by back substitution, then the column
-// interchanges of P in reverse order (as LAPACK's getri). Scratch: lu (n, n), piv (n). out must not be a.
-inline bool inverse(const double* a, std::size_t n, double* out, double* lu, std::size_t* piv) {
-  if (!all_finite(a, n * n)) return false;
-  double sign;
-  if (!lu_factor(a, n, lu, piv, sign)) return false;
-  // out = L^-1: row i = e_i - sum_{j<i} L[i, j] (row j), row j nonzero in columns 0..j only
-  for (std::size_t i = 0; i < n * n; ++i) out[i] = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    double* oi = out + i * n;
-    oi[i] = 1.0;
-    const double* li = lu + i * n;
-    for (std::size_t j = 0; j < i; ++j) {
-      const double l = li[j];
-      if (l == 0.0) continue;
-      const double* oj = out + j * n;
-      for (std::size_t k = 0; k <= j; ++k) oi[k] -= l * oj[k];
-    }
-  }
-  // out = U^-1 out: row i = (row i - sum_{j>i} U[i, j] (row j)) / U[i, i], from the last row up
-  for (std::size_t i = n; i-- > 0;) {
-    double* oi = out + i * n;
-    const double* ui = lu + i * n;
-    for (std::size_t j = i + 1; j < n; ++j) {
-      const double u = ui[j];
-      if (u == 0.0) continue;
-      const double* oj = out + j * n;
-      for (std::size_t k = 0; k < n; ++k) oi[k] -= u * oj[k];
-    }
-    const double d = ui[i];
-    for (std::size_t k = 0; k < n; ++k) oi[k] /= d;
-  }
-  // out = out P: the interchanges of columns, last first
-  for (std::size_t k = n; k-- > 0;) {
-    const std::size_t p = piv[k];
-    if (p == k) continue;
-    for (std::size_t i = 0; i < n; ++i) {
-      const double t = out[i * n + k];
-      out[i * n + k] = out[i * n + p];
-      out[i * n + p] = t;
-    }
-  }
   return true;
 }
 
