@@ -138,6 +138,9 @@ def polish_reach(problem: ReachProblem, tensions: np.ndarray, *, q0: np.ndarray 
     ``restarts`` times, while that still lowers the cost. Every cost is a
     static solve at a tight tolerance, cold (from the straight robot) unless
     ``warm``, in which case it starts from ``q0`` and then the last equilibrium.
+    The answer is the best point evaluated (each restart from it, and a warm
+    final solve from its equilibrium), not L-BFGS-B's last iterate: warm, the
+    cost is not a function of the tensions alone (a solve may change branch).
 
     Raises
     ------
@@ -147,7 +150,8 @@ def polish_reach(problem: ReachProblem, tensions: np.ndarray, *, q0: np.ndarray 
     t0 = time.perf_counter()
     free = problem.free
     start = problem.bounds.clip(tensions)
-    state: dict[str, Any] = {"q": None if q0 is None else np.asarray(q0, dtype=float), "n": 0}
+    state: dict[str, Any] = {"q": None if q0 is None else np.asarray(q0, dtype=float), "n": 0,
+                             "best": (np.inf, None, None)}
     lo, hi = problem.bounds.lower[free], problem.bounds.upper[free]
 
     def full(x: np.ndarray) -> np.ndarray:
@@ -161,22 +165,28 @@ def polish_reach(problem: ReachProblem, tensions: np.ndarray, *, q0: np.ndarray 
         if grad is None:
             return INFEASIBLE_COST, np.zeros_like(x)
         state["q"] = sol.q
+        if cost < state["best"][0]:  # the best point evaluated, with its equilibrium
+            state["best"] = (cost, np.array(x, dtype=float), sol.q)
         return cost, grad[free]
 
     x, best = start[free], fun(start[free])[0]
+    q_best = state["q"]
     c0, message, success = best, "no free tension", True
     if np.any(free):
         for _ in range(1 + max(0, int(restarts))):
             res = sp_minimize(fun, x, jac=True, method="L-BFGS-B", bounds=list(zip(lo, hi, strict=True)),
                               options={"maxiter": max_iter, "ftol": ftol, "gtol": gtol})
-            gain = best - float(res.fun)
+            # the best point evaluated, not L-BFGS-B's last iterate: with warm solves the cost is not a
+            # function of the tensions alone (a solve may change branch), and the last iterate may lie below it
+            gain = best - float(state["best"][0])
             if gain > 0:
-                x, best = res.x, float(res.fun)
+                best, x, q_best = state["best"]
+            state["q"] = q_best
             if res.success or gain <= 1e-12:
                 break
         message, success = str(res.message), bool(res.success)
     t = full(x)
-    final = problem.solve(t, state["q"] if warm else None, atol=TIGHT_ATOL)
+    final = problem.solve(t, q_best if warm else None, atol=TIGHT_ATOL)
     state["n"] += 1
     if not final.converged:  # pragma: no cover - the optimiser only accepts converged points
         raise SearchFailed("polish ended on a tension vector whose solve does not converge")
