@@ -1048,8 +1048,8 @@ WalkResult walk(double* q, const Homotopy<Model>& m, const Settings& settings, S
     }
     const double tol = lt >= 1.0 ? atol : std::max(atol, settings.step_atol);
     // a step whose corrector fails is halved (from a fresh Jacobian at the shorter step's predictor); correcting
-    // again from the last equilibrium without a predictor succeeded on 2 % of failed steps at 40 % of the walk's
-    // Jacobians (sscr, paper load) and is not tried
+    // again from the last equilibrium without a predictor succeeded on 2 % of the failed steps and cost a fifth
+    // of all Jacobians (sscr, paper load) and is not tried
     const Result nw = newton(qs, lt, m, tol, step_iter, max_dtheta, w, H, have_h, STEP_JACOBIANS);
     ok = nw.converged;
     res = nw.res;

@@ -1044,8 +1044,8 @@ def _walk(q, m, settings, work, H, scale, cont, r_full):
             qs[:] = q
         tol = atol if lt >= 1.0 else max(atol, settings.step_atol)
         # a step whose corrector fails is halved (from a fresh Jacobian at the shorter step's predictor); correcting
-        # again from the last equilibrium without a predictor succeeded on 2 % of failed steps at 40 % of the
-        # walk's Jacobians (sscr, paper load) and is not tried
+        # again from the last equilibrium without a predictor succeeded on 2 % of the failed steps and cost a fifth
+        # of all Jacobians (sscr, paper load) and is not tried
         ok, res, it, ne = newton(qs, lt, m, tol, step_iter, max_dtheta, work, H, have_h, _STEP_JACOBIANS)
         iters += it
         nj += ne
